@@ -1,0 +1,1 @@
+//! Loop data readers and the closed-loop benchmark simulator.

@@ -1,0 +1,239 @@
+//! He et al. (2007): static friction band `fs` and kinetic friction `fd`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    check_io, non_negative, Constraint, Equivalent, InitialState, ModelEntry, ParamSpec,
+    StictionError, StictionModel, ValveState,
+};
+
+/// He et al. (2007): the valve slips when the accumulated force `u_r + Δu` exceeds `fs`, and
+/// then lags OP by `fd`.
+///
+/// | name | default | meaning | valid range |
+/// |------|---------|---------|-------------|
+/// | `fs` | 0 | static friction band | `0 <= fs <= span(OP)` |
+/// | `fd` | 0 | kinetic friction | `0 <= fd <= fs` |
+///
+/// Equivalent Kano parameters (paper eq. 1): `S = fs + fd`, `J = fs - fd`. The two models agree
+/// at reversals and differ in slow unidirectional motion (specification §2.4).
+///
+/// Initial state: the residual force is `u_r0 = d0 * fd` (the valve last moved in direction
+/// `d0`), and `MV(0) = OP(0) - u_r0` unless a position is given. The `stuck` flag and
+/// `stuck_at` of [`InitialState`] do not apply to this model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "HeParams", into = "HeParams")]
+pub struct He {
+    fs: f64,
+    fd: f64,
+}
+
+/// Unchecked parameters of [`He`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeParams {
+    /// Static friction band.
+    pub fs: f64,
+    /// Kinetic friction.
+    pub fd: f64,
+}
+
+impl HeParams {
+    /// Set `fs`.
+    pub fn fs(mut self, fs: f64) -> Self {
+        self.fs = fs;
+        self
+    }
+    /// Set `fd`.
+    pub fn fd(mut self, fd: f64) -> Self {
+        self.fd = fd;
+        self
+    }
+    /// Validate (finite, non-negative, `fd <= fs`, i.e. `J >= 0`) and build the model.
+    pub fn check(self) -> Result<He, StictionError> {
+        non_negative("he", "fs", self.fs)?;
+        non_negative("he", "fd", self.fd)?;
+        if self.fd > self.fs {
+            return Err(StictionError::InvalidParameter {
+                model: "he",
+                name: "fd".into(),
+                value: self.fd,
+                expected: format!("0 <= fd <= fs (= {})", self.fs),
+            });
+        }
+        Ok(He {
+            fs: self.fs,
+            fd: self.fd,
+        })
+    }
+}
+
+impl TryFrom<HeParams> for He {
+    type Error = StictionError;
+    fn try_from(p: HeParams) -> Result<Self, Self::Error> {
+        p.check()
+    }
+}
+
+impl From<He> for HeParams {
+    fn from(h: He) -> Self {
+        HeParams { fs: h.fs, fd: h.fd }
+    }
+}
+
+impl He {
+    /// Start a parameter builder.
+    pub fn params() -> HeParams {
+        HeParams::default()
+    }
+    /// He's model with the parameters equivalent to Kano's (S, J): `fs = (S+J)/2`, `fd = (S-J)/2`.
+    pub fn from_sj(s: f64, j: f64) -> Result<He, StictionError> {
+        crate::Kano::params().s(s).j(j).check()?;
+        He::params().fs((s + j) / 2.0).fd((s - j) / 2.0).check()
+    }
+    /// Static friction band.
+    pub fn fs(&self) -> f64 {
+        self.fs
+    }
+    /// Kinetic friction.
+    pub fn fd(&self) -> f64 {
+        self.fd
+    }
+
+    fn start_state(&self, op0: f64, init: &InitialState) -> Result<HeState, StictionError> {
+        init.validate()?;
+        if !op0.is_finite() {
+            return Err(StictionError::NonFiniteInput {
+                index: 0,
+                value: op0,
+            });
+        }
+        let u_r = init.direction.sign() * self.fd;
+        Ok(HeState {
+            fs: self.fs,
+            fd: self.fd,
+            u_r,
+            u_prev: op0,
+            mv_prev: init.position.unwrap_or(op0 - u_r),
+            stuck: true,
+        })
+    }
+}
+
+/// Simulation state of He's model.
+#[derive(Debug, Clone, Copy)]
+struct HeState {
+    fs: f64,
+    fd: f64,
+    u_r: f64,
+    u_prev: f64,
+    mv_prev: f64,
+    stuck: bool,
+}
+
+impl HeState {
+    #[inline(always)]
+    fn advance(&mut self, u: f64) -> f64 {
+        let cum = self.u_r + (u - self.u_prev);
+        let mv = if cum.abs() > self.fs {
+            let sign = if cum > 0.0 { 1.0 } else { -1.0 };
+            self.u_r = sign * self.fd;
+            self.stuck = false;
+            u - sign * self.fd
+        } else {
+            self.u_r = cum;
+            self.stuck = true;
+            self.mv_prev
+        };
+        self.u_prev = u;
+        self.mv_prev = mv;
+        mv
+    }
+}
+
+impl ValveState for HeState {
+    fn step(&mut self, op: f64) -> f64 {
+        self.advance(op)
+    }
+    fn position(&self) -> f64 {
+        self.mv_prev
+    }
+    fn is_stuck(&self) -> bool {
+        self.stuck
+    }
+}
+
+#[typetag::serde(name = "he")]
+impl StictionModel for He {
+    fn name(&self) -> &'static str {
+        "he"
+    }
+    fn param_values(&self) -> Vec<f64> {
+        vec![self.fs, self.fd]
+    }
+    fn equivalent(&self) -> Equivalent {
+        Equivalent {
+            s: self.fs + self.fd,
+            j: self.fs - self.fd,
+        }
+    }
+    fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
+        Ok(Box::new(self.start_state(op0, init)?))
+    }
+    fn simulate_into(
+        &self,
+        op: &[f64],
+        init: &InitialState,
+        mv: &mut [f64],
+    ) -> Result<(), StictionError> {
+        check_io(op, mv)?;
+        let Some(&op0) = op.first() else {
+            return Ok(());
+        };
+        let mut state = self.start_state(op0, init)?;
+        mv[0] = state.mv_prev;
+        for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
+            *m = state.advance(u);
+        }
+        Ok(())
+    }
+    fn box_clone(&self) -> Box<dyn StictionModel> {
+        Box::new(*self)
+    }
+}
+
+const HE_PARAMS: [ParamSpec; 2] = [
+    ParamSpec {
+        name: "fs",
+        meaning: "static friction band (= (S+J)/2)",
+        default: 0.0,
+        max_span_fraction: 1.0,
+    },
+    ParamSpec {
+        name: "fd",
+        meaning: "kinetic friction (= (S-J)/2)",
+        default: 0.0,
+        max_span_fraction: 0.5,
+    },
+];
+
+fn build_he(values: &[f64]) -> Result<Box<dyn StictionModel>, StictionError> {
+    match values {
+        [fs, fd] => Ok(Box::new(He::params().fs(*fs).fd(*fd).check()?)),
+        _ => Err(StictionError::WrongParameterCount {
+            model: "he",
+            expected: 2,
+            got: values.len(),
+        }),
+    }
+}
+
+inventory::submit! {
+    ModelEntry {
+        name: "he",
+        description: "He et al. (2007): static friction fs and kinetic friction fd; S = fs+fd, J = fs-fd",
+        params: &HE_PARAMS,
+        constraints: &[Constraint::AtMost { param: "fd", bound: "fs" }],
+        build: build_he,
+    }
+}

@@ -1,0 +1,243 @@
+//! Initial valve states and the paper's three initialization strategies In.1, In.2, In.3.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{check_finite, StictionError, StictionModel};
+
+/// Direction of the valve's most recent motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Direction {
+    /// MV increasing (`d = +1`).
+    Up,
+    /// MV decreasing (`d = -1`).
+    Down,
+}
+
+/// The valve's state at sample 0 (Kano's auxiliary variables `d`, `stp`, `u_s` and `MV(0)`).
+///
+/// | field | Kano variable | default | meaning |
+/// |-------|---------------|---------|---------|
+/// | `direction` | `d0` | down | direction of the last motion |
+/// | `stuck` | `stp0` | true | at rest (`stp0 = 1`) or moving (`stp0 = 0`) |
+/// | `stuck_at` | `u_s0` | `OP(0)` | OP value where the valve stopped (used only when stuck) |
+/// | `position` | `MV(0)` | consistent | `u_s0 - d0 (S-J)/2` when stuck, `OP(0) - d0 (S-J)/2` when moving |
+///
+/// The default is the specification's `CodeDefault` preset: the valve is at rest at `OP(0)`
+/// after moving down, so the first upward motion needs an OP rise `> S` and the first downward
+/// one `> J`. With `stuck = true` the Kano update is exactly the specification's `KANO_INIT`
+/// (`du_prev = 0`). A *moving* start (`stuck = false`) is ours: the previous OP increment is
+/// taken to have the sign of `direction`, so the valve keeps moving while OP keeps going that
+/// way. (With the specification's `du_prev = 0` a moving start would stop at sample 1 and be
+/// indistinguishable from a stuck one, whereas the paper's Fig. 4 shows four distinct
+/// sequences for the four `(stp, d)` combinations.)
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InitialState {
+    /// Direction of the last motion (`d0`).
+    pub direction: Direction,
+    /// At rest (`stp0 = 1`) or moving.
+    pub stuck: bool,
+    /// Where the valve stopped, in OP units (`u_s0`); `None` = `OP(0)`.
+    pub stuck_at: Option<f64>,
+    /// Valve position at sample 0 (`MV(0)`); `None` = the consistent value.
+    pub position: Option<f64>,
+}
+
+impl Default for InitialState {
+    fn default() -> Self {
+        InitialState {
+            direction: Direction::Down,
+            stuck: true,
+            stuck_at: None,
+            position: None,
+        }
+    }
+}
+
+impl InitialState {
+    /// At rest after moving up (the specification's golden-vector start, preset `Up`).
+    pub fn up() -> Self {
+        InitialState {
+            direction: Direction::Up,
+            ..Self::default()
+        }
+    }
+    /// At rest after moving down (preset `CodeDefault`, the default).
+    pub fn down() -> Self {
+        Self::default()
+    }
+    /// The four `(stp, d)` combinations used by In.2 and In.3: stuck/moving × up/down.
+    pub fn four_variants() -> [InitialState; 4] {
+        let mk = |direction, stuck| InitialState {
+            direction,
+            stuck,
+            stuck_at: None,
+            position: None,
+        };
+        [
+            mk(Direction::Down, true),
+            mk(Direction::Up, true),
+            mk(Direction::Down, false),
+            mk(Direction::Up, false),
+        ]
+    }
+    /// Reject non-finite explicit values.
+    pub fn validate(&self) -> Result<(), StictionError> {
+        for (name, v) in [("stuck_at", self.stuck_at), ("position", self.position)] {
+            if let Some(v) = v {
+                if !v.is_finite() {
+                    return Err(StictionError::InvalidInit(format!(
+                        "{name} = {v} must be a finite number"
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How the model's unknown initial state is handled (paper §2.4).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "strategy", deny_unknown_fields)]
+pub enum Initialization {
+    /// In.1: one arbitrary initial state, the same for every parameter set.
+    #[serde(rename = "In.1")]
+    In1(InitialState),
+    /// In.2: the average of the four `(stp, d)` sequences, used after a stationary time fixed a
+    /// priori as a fraction of the record (the paper uses one tenth).
+    #[serde(rename = "In.2")]
+    In2 {
+        /// Fraction of the record discarded, in `[0, 1)`.
+        stationary_fraction: f64,
+    },
+    /// In.3 (default): the stationary time is the first sample after which the four
+    /// sequences coincide; only MV from there on is used. Falls back to In.2 with a tenth of
+    /// the record when they never coincide.
+    #[serde(rename = "In.3")]
+    In3,
+}
+
+impl Default for Initialization {
+    fn default() -> Self {
+        Initialization::In3
+    }
+}
+
+impl Initialization {
+    /// The paper's In.2 with a stationary time of one tenth of the record.
+    pub const IN2_DEFAULT_FRACTION: f64 = 0.1;
+
+    /// Parse `In.1`, `In.2`, `In.3` (case-insensitive, the dot optional); In.1 uses the default
+    /// [`InitialState`].
+    pub fn parse(s: &str) -> Option<Initialization> {
+        match s.to_ascii_lowercase().replace('.', "").as_str() {
+            "in1" => Some(Initialization::In1(InitialState::default())),
+            "in2" => Some(Initialization::In2 {
+                stationary_fraction: Self::IN2_DEFAULT_FRACTION,
+            }),
+            "in3" => Some(Initialization::In3),
+            _ => None,
+        }
+    }
+
+    /// The paper's label: `In.1`, `In.2` or `In.3`.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Initialization::In1(_) => "In.1",
+            Initialization::In2 { .. } => "In.2",
+            Initialization::In3 => "In.3",
+        }
+    }
+}
+
+/// MV for a whole OP record under an initialization strategy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValveRun {
+    /// The valve position for every sample. Before `valid_from` it is, for In.2 and In.3, the
+    /// average of the four sequences (which then still differ).
+    pub mv: Vec<f64>,
+    /// First sample whose MV does not depend on the unknown initial state (0 for In.1).
+    pub valid_from: usize,
+    /// In.3 only: the four sequences never coincided and In.2 was used instead.
+    pub fell_back: bool,
+}
+
+/// Run `model` over `op` under `init`.
+///
+/// For In.3 two sequences coincide at a sample when they differ by at most
+/// `1e-12 · max(1, |MV|)`; in practice they are bit-identical once both valves move in the
+/// same direction, because MV is then a function of OP alone.
+pub fn run_valve(
+    model: &dyn StictionModel,
+    op: &[f64],
+    init: &Initialization,
+) -> Result<ValveRun, StictionError> {
+    check_finite(op)?;
+    let n = op.len();
+    match init {
+        Initialization::In1(state) => Ok(ValveRun {
+            mv: model.simulate(op, state)?,
+            valid_from: 0,
+            fell_back: false,
+        }),
+        Initialization::In2 {
+            stationary_fraction,
+        } => {
+            if !(0.0..1.0).contains(stationary_fraction) {
+                return Err(StictionError::InvalidInit(format!(
+                    "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
+                )));
+            }
+            let runs = four_runs(model, op)?;
+            Ok(ValveRun {
+                mv: average(&runs, n),
+                valid_from: (stationary_fraction * n as f64).ceil() as usize,
+                fell_back: false,
+            })
+        }
+        Initialization::In3 => {
+            let runs = four_runs(model, op)?;
+            let mut valid_from = 0;
+            for k in (0..n).rev() {
+                let first = runs[0][k];
+                let tol = 1e-12 * first.abs().max(1.0);
+                if runs[1..].iter().any(|r| (r[k] - first).abs() > tol) {
+                    valid_from = k + 1;
+                    break;
+                }
+            }
+            let fell_back = n > 0 && valid_from == n;
+            let valid_from = if fell_back {
+                (Initialization::IN2_DEFAULT_FRACTION * n as f64).ceil() as usize
+            } else {
+                valid_from
+            };
+            Ok(ValveRun {
+                mv: average(&runs, n),
+                valid_from,
+                fell_back,
+            })
+        }
+    }
+}
+
+fn four_runs(model: &dyn StictionModel, op: &[f64]) -> Result<Vec<Vec<f64>>, StictionError> {
+    InitialState::four_variants()
+        .iter()
+        .map(|s| model.simulate(op, s))
+        .collect()
+}
+
+fn average(runs: &[Vec<f64>], n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|k| {
+            let first = runs[0][k];
+            if runs[1..].iter().all(|r| r[k] == first) {
+                first
+            } else {
+                runs.iter().map(|r| r[k]).sum::<f64>() / runs.len() as f64
+            }
+        })
+        .collect()
+}

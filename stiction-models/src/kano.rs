@@ -1,0 +1,314 @@
+//! Kano's two-parameter stiction model (S, J) and the shared Kano-type core that the
+//! asymmetric variant reuses.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    check_io, non_negative, Constraint, Direction, Equivalent, InitialState, ModelEntry, ParamSpec,
+    StictionError, StictionModel, ValveState,
+};
+
+/// Kano et al. (2004): deadband plus stickband `S` and slip jump `J`, in OP units.
+///
+/// | name | default | meaning | valid range |
+/// |------|---------|---------|-------------|
+/// | `S`  | 0 | deadband + stickband: OP excursion needed to reverse a stopped valve | `0 <= S <= span(OP)` |
+/// | `J`  | 0 | slip jump; also the OP excursion that restarts a stopped valve in the same direction | `0 <= J <= S` |
+///
+/// The update rule is the one of the algorithm specification (§1.3): a moving valve lags OP by
+/// `d (S - J)/2`; it stops when OP reverses or stays flat, and restarts when OP has moved
+/// strictly more than `S` (reversal) or `J` (same direction) from where it stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "KanoParams", into = "KanoParams")]
+pub struct Kano {
+    s: f64,
+    j: f64,
+}
+
+/// Unchecked parameters of [`Kano`]; [`KanoParams::check`] builds the model.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KanoParams {
+    /// Deadband plus stickband.
+    #[serde(rename = "S")]
+    pub s: f64,
+    /// Slip jump.
+    #[serde(rename = "J")]
+    pub j: f64,
+}
+
+impl KanoParams {
+    /// Set `S`.
+    pub fn s(mut self, s: f64) -> Self {
+        self.s = s;
+        self
+    }
+    /// Set `J`.
+    pub fn j(mut self, j: f64) -> Self {
+        self.j = j;
+        self
+    }
+    /// Validate (finite, non-negative, `J <= S`) and build the model.
+    pub fn check(self) -> Result<Kano, StictionError> {
+        non_negative("kano", "S", self.s)?;
+        non_negative("kano", "J", self.j)?;
+        if self.j > self.s {
+            return Err(StictionError::InvalidParameter {
+                model: "kano",
+                name: "J".into(),
+                value: self.j,
+                expected: format!("0 <= J <= S (= {})", self.s),
+            });
+        }
+        Ok(Kano {
+            s: self.s,
+            j: self.j,
+        })
+    }
+}
+
+impl TryFrom<KanoParams> for Kano {
+    type Error = StictionError;
+    fn try_from(p: KanoParams) -> Result<Self, Self::Error> {
+        p.check()
+    }
+}
+
+impl From<Kano> for KanoParams {
+    fn from(k: Kano) -> Self {
+        KanoParams { s: k.s, j: k.j }
+    }
+}
+
+impl Kano {
+    /// Start a parameter builder (`Kano::params().s(4.0).j(1.0).check()?`).
+    pub fn params() -> KanoParams {
+        KanoParams::default()
+    }
+    /// Deadband plus stickband.
+    pub fn s(&self) -> f64 {
+        self.s
+    }
+    /// Slip jump.
+    pub fn j(&self) -> f64 {
+        self.j
+    }
+    fn core(&self) -> KanoCore {
+        KanoCore::symmetric(self.s, self.j)
+    }
+}
+
+#[typetag::serde(name = "kano")]
+impl StictionModel for Kano {
+    fn name(&self) -> &'static str {
+        "kano"
+    }
+    fn param_values(&self) -> Vec<f64> {
+        vec![self.s, self.j]
+    }
+    fn equivalent(&self) -> Equivalent {
+        Equivalent {
+            s: self.s,
+            j: self.j,
+        }
+    }
+    fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
+        Ok(Box::new(self.core().start(op0, init)?))
+    }
+    fn simulate_into(
+        &self,
+        op: &[f64],
+        init: &InitialState,
+        mv: &mut [f64],
+    ) -> Result<(), StictionError> {
+        self.core().simulate_into(op, init, mv)
+    }
+    fn box_clone(&self) -> Box<dyn StictionModel> {
+        Box::new(*self)
+    }
+}
+
+const KANO_PARAMS: [ParamSpec; 2] = [
+    ParamSpec {
+        name: "S",
+        meaning: "deadband + stickband (OP excursion to reverse a stopped valve)",
+        default: 0.0,
+        max_span_fraction: 1.0,
+    },
+    ParamSpec {
+        name: "J",
+        meaning: "slip jump (also the OP excursion to restart in the same direction)",
+        default: 0.0,
+        max_span_fraction: 1.0,
+    },
+];
+
+fn build_kano(values: &[f64]) -> Result<Box<dyn StictionModel>, StictionError> {
+    match values {
+        [s, j] => Ok(Box::new(Kano::params().s(*s).j(*j).check()?)),
+        _ => Err(StictionError::WrongParameterCount {
+            model: "kano",
+            expected: 2,
+            got: values.len(),
+        }),
+    }
+}
+
+inventory::submit! {
+    ModelEntry {
+        name: "kano",
+        description: "Kano et al. (2004): deadband+stickband S and slip jump J; the paper's default",
+        params: &KANO_PARAMS,
+        constraints: &[Constraint::AtMost { param: "J", bound: "S" }],
+        build: build_kano,
+    }
+}
+
+/// The Kano-type update rule with per-direction thresholds.
+///
+/// The symmetric model has `rev_from_up = rev_from_dn = S`, `j_up = j_dn = J` and
+/// `offset = (S - J)/2`; the asymmetric one has `offset = D/2`, `rev_from_up = D + J_dn`
+/// (reversing into a downward motion), `rev_from_dn = D + J_up`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct KanoCore {
+    /// Lag of a moving valve behind OP (`MV = u - d * offset`).
+    pub offset: f64,
+    /// OP excursion needed to reverse when the last motion was upward (`d = +1`).
+    pub rev_from_up: f64,
+    /// OP excursion needed to reverse when the last motion was downward (`d = -1`).
+    pub rev_from_dn: f64,
+    /// OP excursion needed to restart upward after stopping while moving up.
+    pub j_up: f64,
+    /// OP excursion needed to restart downward after stopping while moving down.
+    pub j_dn: f64,
+}
+
+impl KanoCore {
+    pub(crate) fn symmetric(s: f64, j: f64) -> Self {
+        KanoCore {
+            offset: (s - j) / 2.0,
+            rev_from_up: s,
+            rev_from_dn: s,
+            j_up: j,
+            j_dn: j,
+        }
+    }
+
+    pub(crate) fn start(&self, op0: f64, init: &InitialState) -> Result<KanoState, StictionError> {
+        init.validate()?;
+        if !op0.is_finite() {
+            return Err(StictionError::NonFiniteInput {
+                index: 0,
+                value: op0,
+            });
+        }
+        let d = init.direction.sign();
+        let u_s = init.stuck_at.unwrap_or(op0);
+        let mv0 = init.position.unwrap_or(if init.stuck {
+            u_s - d * self.offset
+        } else {
+            op0 - d * self.offset
+        });
+        Ok(KanoState {
+            core: *self,
+            u_prev: op0,
+            // A moving valve was following an OP moving in its direction; a stuck one has no
+            // previous increment (the specification's KANO_INIT sets it to 0).
+            du_prev: if init.stuck { 0.0 } else { d },
+            u_s,
+            stuck: init.stuck,
+            d,
+            mv_prev: mv0,
+        })
+    }
+
+    pub(crate) fn simulate_into(
+        &self,
+        op: &[f64],
+        init: &InitialState,
+        mv: &mut [f64],
+    ) -> Result<(), StictionError> {
+        check_io(op, mv)?;
+        let Some(&op0) = op.first() else {
+            return Ok(());
+        };
+        let mut state = self.start(op0, init)?;
+        mv[0] = state.mv_prev;
+        for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
+            *m = state.advance(u);
+        }
+        Ok(())
+    }
+}
+
+/// Simulation state of a Kano-type valve: `u_prev`, `du_prev`, `u_s`, `stp`, `d`, `mv_prev`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct KanoState {
+    core: KanoCore,
+    u_prev: f64,
+    du_prev: f64,
+    u_s: f64,
+    stuck: bool,
+    d: f64,
+    mv_prev: f64,
+}
+
+impl KanoState {
+    #[inline(always)]
+    fn advance(&mut self, u: f64) -> f64 {
+        let c = &self.core;
+        let du = u - self.u_prev;
+        // (a) the valve stops when the input reverses or stays flat.
+        if !self.stuck && du * self.du_prev <= 0.0 {
+            self.u_s = self.u_prev;
+            self.stuck = true;
+        }
+        // (b) output.
+        let mv = if !self.stuck {
+            u - self.d * c.offset
+        } else {
+            let (rev, same) = if self.d > 0.0 {
+                (c.rev_from_up, c.j_up)
+            } else {
+                (c.rev_from_dn, c.j_dn)
+            };
+            let excursion = self.d * (u - self.u_s);
+            if -excursion > rev {
+                self.d = -self.d;
+                self.stuck = false;
+                u - self.d * c.offset
+            } else if excursion > same {
+                self.stuck = false;
+                u - self.d * c.offset
+            } else {
+                self.mv_prev
+            }
+        };
+        self.du_prev = du;
+        self.u_prev = u;
+        self.mv_prev = mv;
+        mv
+    }
+}
+
+impl ValveState for KanoState {
+    fn step(&mut self, op: f64) -> f64 {
+        self.advance(op)
+    }
+    fn position(&self) -> f64 {
+        self.mv_prev
+    }
+    fn is_stuck(&self) -> bool {
+        self.stuck
+    }
+}
+
+impl Direction {
+    /// `+1.0` for up, `-1.0` for down.
+    pub fn sign(self) -> f64 {
+        match self {
+            Direction::Up => 1.0,
+            Direction::Down => -1.0,
+        }
+    }
+}

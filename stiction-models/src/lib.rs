@@ -1,0 +1,236 @@
+//! Data-driven valve stiction models behind one plugin trait.
+//!
+//! A stiction model maps the controller output `OP` (the commanded valve position, % of span)
+//! to the actual valve position `MV`. The built-in models are
+//! [`Kano`] (S, J), [`He`] (fs, fd) and [`KanoAsym`] (D, J_up, J_dn); a third party adds its
+//! own by implementing [`StictionModel`] and submitting a [`ModelEntry`] with `inventory`.
+//!
+//! ```
+//! use stiction_models::{Kano, InitialState, StictionModel};
+//! let valve = Kano::params().s(4.0).j(1.0).check()?;
+//! let op = [50.0, 50.5, 51.0, 52.0, 54.0];
+//! let mv = valve.simulate(&op, &InitialState::up())?;
+//! assert_eq!(mv, vec![48.5, 48.5, 48.5, 50.5, 52.5]);
+//! # Ok::<(), stiction_models::StictionError>(())
+//! ```
+//!
+//! Conventions (see `ARCHITECTURE.md`): all parameters are in OP units; threshold tests are
+//! strict (`>`); OP is not clipped by the models (clip before calling, [`clip`]); non-finite
+//! OP is rejected with the index of the first bad sample.
+
+mod he;
+mod init;
+mod kano;
+mod kano_asym;
+mod registry;
+
+pub use he::{He, HeParams};
+pub use init::{run_valve, Direction, InitialState, Initialization, ValveRun};
+pub use kano::{Kano, KanoParams};
+pub use kano_asym::{KanoAsym, KanoAsymParams};
+pub use registry::{find_model, registry, Constraint, ModelEntry, ParamSpec};
+
+/// Re-exported so that plugin crates use the same `inventory` as the registry.
+pub use inventory;
+/// Re-exported so that plugin crates use the same `typetag` as the trait.
+pub use typetag;
+
+use std::fmt;
+
+/// Errors of the stiction models. Every variant carries the offending values.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum StictionError {
+    /// A parameter is not finite, negative, or violates a constraint such as `J <= S`.
+    #[error("{model}: parameter {name} = {value} is out of range: expected {expected}")]
+    InvalidParameter {
+        /// Registered model name.
+        model: &'static str,
+        /// Parameter name.
+        name: String,
+        /// The rejected value.
+        value: f64,
+        /// The valid range, in words.
+        expected: String,
+    },
+    /// A parameter name that the model does not have.
+    #[error("{model}: unknown parameter {name:?}; the model's parameters are {known}")]
+    UnknownParameter {
+        /// Registered model name.
+        model: &'static str,
+        /// The unknown name.
+        name: String,
+        /// Comma-separated list of valid names.
+        known: String,
+    },
+    /// A model name that is not registered.
+    #[error("unknown stiction model {name:?}; registered models are {known}")]
+    UnknownModel {
+        /// The unknown name.
+        name: String,
+        /// Comma-separated list of registered names.
+        known: String,
+    },
+    /// A parameter vector of the wrong length was given to a registry builder.
+    #[error("{model}: expected {expected} parameter values, got {got}")]
+    WrongParameterCount {
+        /// Registered model name.
+        model: &'static str,
+        /// Number of parameters of the model.
+        expected: usize,
+        /// Number given.
+        got: usize,
+    },
+    /// An OP sample is NaN or infinite.
+    #[error("OP sample {index} is not finite ({value})")]
+    NonFiniteInput {
+        /// Index of the first bad sample.
+        index: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// Output buffer and input have different lengths.
+    #[error("length mismatch: OP has {op} samples, the output buffer {out}")]
+    LengthMismatch {
+        /// OP length.
+        op: usize,
+        /// Output length.
+        out: usize,
+    },
+    /// An initialization setting is invalid.
+    #[error("invalid initialization: {0}")]
+    InvalidInit(String),
+}
+
+/// The state of a valve while it is being simulated sample by sample.
+///
+/// Obtained from [`StictionModel::start`], which also fixes `MV(0)`; each call of
+/// [`ValveState::step`] consumes `OP(k)` (finite, checked by the caller) for `k >= 1` and
+/// returns `MV(k)`.
+pub trait ValveState: Send {
+    /// Advance one sample with the (finite) controller output `op`; returns the valve position.
+    fn step(&mut self, op: f64) -> f64;
+    /// The current valve position (MV of the last sample).
+    fn position(&self) -> f64;
+    /// Whether the valve is currently at rest (stuck).
+    fn is_stuck(&self) -> bool;
+}
+
+/// Stiction parameters in the common (S, J) language of the paper, in OP units.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Equivalent {
+    /// Deadband plus stickband.
+    #[serde(rename = "S")]
+    pub s: f64,
+    /// Slip jump.
+    #[serde(rename = "J")]
+    pub j: f64,
+}
+
+/// A data-driven valve stiction model: OP in, MV out.
+///
+/// Object safe and serialisable through `typetag` (`{"kind": "kano", "S": 4, "J": 1}`); every
+/// implementation must also be registered with an [`inventory::submit!`] of a [`ModelEntry`]
+/// whose `name` equals the typetag name, so that it can be listed and built from a parameter
+/// vector by a generic grid search.
+#[typetag::serde(tag = "kind")]
+pub trait StictionModel: Send + Sync + fmt::Debug {
+    /// Registered name (equal to the typetag tag).
+    fn name(&self) -> &'static str;
+
+    /// The model's own parameter values, in the order of its [`ModelEntry::params`].
+    fn param_values(&self) -> Vec<f64>;
+
+    /// Derived quantities worth reporting besides the parameters (e.g. `S_up`, `S_dn`).
+    fn derived_values(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+
+    /// The equivalent Kano (S, J) of this model, in OP units.
+    fn equivalent(&self) -> Equivalent;
+
+    /// Start a simulation: the valve state at sample 0 given `OP(0)` and the initial state.
+    /// `MV(0)` is the returned state's [`ValveState::position`].
+    fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError>;
+
+    /// Simulate MV for the whole OP record into `mv` (same length as `op`).
+    ///
+    /// The default implementation steps a boxed [`ValveState`]; built-in models override it
+    /// with a monomorphic loop.
+    fn simulate_into(
+        &self,
+        op: &[f64],
+        init: &InitialState,
+        mv: &mut [f64],
+    ) -> Result<(), StictionError> {
+        check_io(op, mv)?;
+        let Some(&op0) = op.first() else {
+            return Ok(());
+        };
+        let mut state = self.start(op0, init)?;
+        mv[0] = state.position();
+        for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
+            *m = state.step(u);
+        }
+        Ok(())
+    }
+
+    /// Simulate MV for the whole OP record.
+    fn simulate(&self, op: &[f64], init: &InitialState) -> Result<Vec<f64>, StictionError> {
+        let mut mv = vec![0.0; op.len()];
+        self.simulate_into(op, init, &mut mv)?;
+        Ok(mv)
+    }
+
+    /// A boxed copy.
+    fn box_clone(&self) -> Box<dyn StictionModel>;
+}
+
+impl Clone for Box<dyn StictionModel> {
+    fn clone(&self) -> Self {
+        self.box_clone()
+    }
+}
+
+/// Check that `op` is finite and `mv` has its length.
+pub fn check_io(op: &[f64], mv: &[f64]) -> Result<(), StictionError> {
+    if op.len() != mv.len() {
+        return Err(StictionError::LengthMismatch {
+            op: op.len(),
+            out: mv.len(),
+        });
+    }
+    check_finite(op)
+}
+
+/// Reject NaN and infinite OP samples, naming the first.
+pub fn check_finite(op: &[f64]) -> Result<(), StictionError> {
+    match op.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(StictionError::NonFiniteInput {
+            index,
+            value: op[index],
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Clip OP in place to `[lo, hi]`, as the public implementations do for OP in % of span.
+pub fn clip(op: &mut [f64], lo: f64, hi: f64) {
+    for v in op {
+        *v = v.clamp(lo, hi);
+    }
+}
+
+/// Validate one parameter: finite and `>= 0`.
+pub(crate) fn non_negative(model: &'static str, name: &str, value: f64) -> Result<(), StictionError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(StictionError::InvalidParameter {
+            model,
+            name: name.to_string(),
+            value,
+            expected: format!("a finite number >= 0 (OP units, at most the OP span)"),
+        })
+    }
+}
