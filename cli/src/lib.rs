@@ -1,6 +1,149 @@
-//! The `stiction` command line.
+//! The `stiction` command line: quantify control-valve stiction from logged loop data.
+//!
+//! The binary's `main` only calls [`run`]. A third party who adds stiction models in its own
+//! crate builds its own binary with the same three lines plus `use my_models as _;`, so that
+//! the linker keeps the crate and its `inventory` registrations (see
+//! `examples/custom-model`). Tests call [`run_from`] with in-memory streams.
+//!
+//! This is the only crate that reads argv, prints, and uses `anyhow`. Exit status: 0 success;
+//! 1 bad data or a failed computation; 2 bad usage (see the CLI contract).
+
+use std::ffi::OsString;
+use std::io::{Read, Write};
 use std::process::ExitCode;
-/// Run with the process arguments.
+
+use clap::{Parser, Subcommand};
+
+mod commands;
+mod io;
+
+pub use io::Streams;
+
+/// Quantify control-valve stiction from the data the plant already logs (SP, PV, OP).
+#[derive(Debug, Parser)]
+#[command(
+    name = "stiction",
+    version,
+    about = "Quantify control-valve stiction from logged loop data (SP, PV, OP)",
+    long_about = "Quantify control-valve stiction from logged loop data (SP, PV, OP).\n\n\
+        A stiction model (Kano, He, ...) turns the controller output OP into an estimated valve \
+        position MV; a linear model maps MV to the process variable PV.",
+    after_help = "Examples:\n  \
+        stiction models\n  \
+        stiction simulate --valve kano --param S=9 --param J=3 -o loop.csv\n  \
+        stiction valve loop.csv --model kano --param S=9 --param J=3"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// List the registered stiction models and linear identifiers with their parameters.
+    #[command(after_help = "Examples:\n  stiction models\n  stiction models --json")]
+    Models(commands::models::Args),
+    /// Run a stiction model over the OP column of a CSV file; writes CSV `OP,MV`.
+    #[command(after_help = commands::valve::AFTER_HELP)]
+    Valve(commands::valve::Args),
+    /// Simulate the paper's closed-loop benchmark (PI loop, sticky valve); writes CSV `t,SP,PV,OP,MV`.
+    #[command(after_help = commands::simulate::AFTER_HELP)]
+    Simulate(commands::simulate::Args),
+}
+
+/// A failure with its exit status: 1 bad data or failed computation, 2 bad usage.
+#[derive(Debug)]
+pub(crate) enum Failure {
+    /// Bad data or a failed computation (exit 1).
+    Data(anyhow::Error),
+    /// Bad usage: invalid flags or parameter values (exit 2).
+    Usage(anyhow::Error),
+}
+
+impl Failure {
+    fn code(&self) -> i32 {
+        match self {
+            Failure::Data(_) => 1,
+            Failure::Usage(_) => 2,
+        }
+    }
+    fn error(&self) -> &anyhow::Error {
+        match self {
+            Failure::Data(e) | Failure::Usage(e) => e,
+        }
+    }
+}
+
+pub(crate) type CmdResult = Result<(), Failure>;
+
+/// Shorthand: wrap any error as bad data (exit 1).
+pub(crate) fn data<E: Into<anyhow::Error>>(e: E) -> Failure {
+    Failure::Data(e.into())
+}
+
+/// Shorthand: wrap any error as bad usage (exit 2).
+pub(crate) fn usage<E: Into<anyhow::Error>>(e: E) -> Failure {
+    Failure::Usage(e.into())
+}
+
+/// Run with the process's arguments and standard streams; returns the exit status.
 pub fn run() -> ExitCode {
-    ExitCode::SUCCESS
+    let stdin = std::io::stdin();
+    let stdout = std::io::stdout();
+    let stderr = std::io::stderr();
+    let mut streams = Streams {
+        stdin: &mut stdin.lock(),
+        stdout: &mut stdout.lock(),
+        stderr: &mut stderr.lock(),
+    };
+    let code = run_from(std::env::args_os(), &mut streams);
+    ExitCode::from(code as u8)
+}
+
+/// Run with explicit arguments (the first is the program name) and streams; returns the exit
+/// status (0, 1 or 2). Never panics on user input.
+pub fn run_from<I, T>(args: I, streams: &mut Streams<'_>) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let rendered = e.render().to_string();
+            let sink: &mut dyn Write = if code == 0 {
+                streams.stdout
+            } else {
+                streams.stderr
+            };
+            let _ = write!(sink, "{rendered}");
+            return code;
+        }
+    };
+    let result = match cli.command {
+        Command::Models(a) => commands::models::run(a, streams),
+        Command::Valve(a) => commands::valve::run(a, streams),
+        Command::Simulate(a) => commands::simulate::run(a, streams),
+    };
+    match result {
+        Ok(()) => {
+            let _ = streams.stdout.flush();
+            0
+        }
+        Err(f) => {
+            let _ = streams.stdout.flush();
+            // One line: the chain of causes joined with ": ".
+            let msg = format!("{:#}", f.error()).replace('\n', " ");
+            let _ = writeln!(streams.stderr, "error: {msg}");
+            f.code()
+        }
+    }
+}
+
+/// Read all of `r` (for `FILE` = `-`).
+pub(crate) fn read_all(r: &mut dyn Read) -> std::io::Result<Vec<u8>> {
+    let mut buf = Vec::new();
+    r.read_to_end(&mut buf)?;
+    Ok(buf)
 }

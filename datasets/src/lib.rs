@@ -1,1 +1,90 @@
 //! Loop data readers and the closed-loop benchmark simulator.
+//!
+//! * [`read_csv`] / [`read_csv_path`] read one registration of a control loop (PV, OP and
+//!   optionally SP, MV and time) from CSV into [`LoopData`], with explicit policies for empty
+//!   and NaN cells ([`GapPolicy`]) and one-line errors naming file, row and column
+//!   ([`DataError`]).
+//! * [`simulate`] is the closed-loop benchmark of the reference paper (§3.1, eqs. 10-12): an
+//!   ARMAX plant under a velocity-form PI controller with a sticky valve taken from any
+//!   registered [`stiction_models::StictionModel`], configured by a serialisable
+//!   [`simulate::Scenario`].
+//!
+//! ```
+//! use datasets::{read_csv, ReadOptions};
+//! let csv = "t,PV,OP\n0,1.0,50\n1,1.5,51\n2,1.2,50.5\n";
+//! let data = read_csv(csv.as_bytes(), "loop.csv", &ReadOptions::default())?;
+//! assert_eq!(data.op, vec![50.0, 51.0, 50.5]);
+//! assert_eq!(data.pv.as_deref(), Some(&[1.0, 1.5, 1.2][..]));
+//! # Ok::<(), datasets::DataError>(())
+//! ```
+#![deny(missing_docs)]
+
+mod error;
+mod read;
+pub mod simulate;
+
+pub use error::DataError;
+pub use read::{read_csv, read_csv_path, GapPolicy, ReadOptions};
+
+/// One registration of a control loop, as read from a file or produced by the simulator.
+///
+/// All present series have the same length ([`LoopData::len`]). OP is always present; PV is
+/// present whenever the reader was asked to require it ([`ReadOptions::require_pv`], the
+/// default), otherwise it is present when the file has it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopData {
+    /// Where the data came from (file name, `-` for stdin, or `simulation`); used in messages.
+    pub source: String,
+    /// Time in seconds from the first sample, when the file has a time column.
+    pub t: Option<Vec<f64>>,
+    /// Set point, when available.
+    pub sp: Option<Vec<f64>>,
+    /// Process variable (controlled variable).
+    pub pv: Option<Vec<f64>>,
+    /// Controller output (valve command), % of span.
+    pub op: Vec<f64>,
+    /// Measured valve position, when available.
+    pub mv: Option<Vec<f64>>,
+    /// What was done to the data on the way in (gap filling, dropped rows, ignored columns).
+    pub notes: Vec<String>,
+}
+
+impl LoopData {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.op.len()
+    }
+
+    /// Whether there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.op.is_empty()
+    }
+
+    /// PV, or [`DataError::MissingColumn`] when the data has none.
+    pub fn require_pv(&self) -> Result<&[f64], DataError> {
+        self.pv.as_deref().ok_or_else(|| DataError::MissingColumn {
+            file: self.source.clone(),
+            column: "PV".into(),
+            found: self.columns(),
+        })
+    }
+
+    /// Names of the series present, in the order t, SP, PV, OP, MV.
+    pub fn columns(&self) -> Vec<String> {
+        let mut v = Vec::new();
+        if self.t.is_some() {
+            v.push("t".to_string());
+        }
+        if self.sp.is_some() {
+            v.push("SP".to_string());
+        }
+        if self.pv.is_some() {
+            v.push("PV".to_string());
+        }
+        v.push("OP".to_string());
+        if self.mv.is_some() {
+            v.push("MV".to_string());
+        }
+        v
+    }
+}

@@ -54,7 +54,12 @@ fn he(bencher: divan::Bencher) {
 
 #[divan::bench]
 fn kano_asym(bencher: divan::Bencher) {
-    let m = KanoAsym::params().d(3.0).j_up(0.5).j_dn(1.5).check().expect("valid");
+    let m = KanoAsym::params()
+        .d(3.0)
+        .j_up(0.5)
+        .j_dn(1.5)
+        .check()
+        .expect("valid");
     run(&m, bencher);
 }
 

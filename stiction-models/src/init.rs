@@ -98,7 +98,7 @@ impl InitialState {
 }
 
 /// How the model's unknown initial state is handled (paper §2.4).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(tag = "strategy", deny_unknown_fields)]
 pub enum Initialization {
     /// In.1: one arbitrary initial state, the same for every parameter set.
@@ -115,13 +115,8 @@ pub enum Initialization {
     /// sequences coincide; only MV from there on is used. Falls back to In.2 with a tenth of
     /// the record when they never coincide.
     #[serde(rename = "In.3")]
+    #[default]
     In3,
-}
-
-impl Default for Initialization {
-    fn default() -> Self {
-        Initialization::In3
-    }
 }
 
 impl Initialization {

@@ -28,7 +28,7 @@ pub use he::{He, HeParams};
 pub use init::{run_valve, Direction, InitialState, Initialization, ValveRun};
 pub use kano::{Kano, KanoParams};
 pub use kano_asym::{KanoAsym, KanoAsymParams};
-pub use registry::{find_model, registry, Constraint, ModelEntry, ParamSpec};
+pub use registry::{find_model, registry, BuildFn, Constraint, ModelEntry, ParamSpec};
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.
 pub use inventory;
@@ -222,7 +222,11 @@ pub fn clip(op: &mut [f64], lo: f64, hi: f64) {
 }
 
 /// Validate one parameter: finite and `>= 0`.
-pub(crate) fn non_negative(model: &'static str, name: &str, value: f64) -> Result<(), StictionError> {
+pub(crate) fn non_negative(
+    model: &'static str,
+    name: &str,
+    value: f64,
+) -> Result<(), StictionError> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {
@@ -230,7 +234,7 @@ pub(crate) fn non_negative(model: &'static str, name: &str, value: f64) -> Resul
             model,
             name: name.to_string(),
             value,
-            expected: format!("a finite number >= 0 (OP units, at most the OP span)"),
+            expected: "a finite number >= 0 (OP units)".to_string(),
         })
     }
 }

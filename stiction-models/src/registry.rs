@@ -62,6 +62,9 @@ impl Constraint {
     }
 }
 
+/// Builds a checked model from a parameter vector (in the order of [`ModelEntry::params`]).
+pub type BuildFn = fn(&[f64]) -> Result<Box<dyn StictionModel>, StictionError>;
+
 /// A registered stiction model: what `stiction models` lists and what a grid search builds.
 #[derive(Debug)]
 pub struct ModelEntry {
@@ -74,7 +77,7 @@ pub struct ModelEntry {
     /// Constraints between parameters.
     pub constraints: &'static [Constraint],
     /// Build a checked model from a parameter vector.
-    pub build: fn(&[f64]) -> Result<Box<dyn StictionModel>, StictionError>,
+    pub build: BuildFn,
 }
 
 inventory::collect!(ModelEntry);
@@ -82,7 +85,10 @@ inventory::collect!(ModelEntry);
 impl ModelEntry {
     /// Build from `NAME=value` pairs (names case-sensitive first, then case-insensitive);
     /// missing parameters take their default.
-    pub fn build_named(&self, pairs: &[(String, f64)]) -> Result<Box<dyn StictionModel>, StictionError> {
+    pub fn build_named(
+        &self,
+        pairs: &[(String, f64)],
+    ) -> Result<Box<dyn StictionModel>, StictionError> {
         let mut values: Vec<f64> = self.params.iter().map(|p| p.default).collect();
         for (name, value) in pairs {
             let idx = self

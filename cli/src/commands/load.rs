@@ -1,0 +1,71 @@
+//! Reading a loop registration from `FILE` (or `-`) with the shared data flags.
+
+use std::path::{Path, PathBuf};
+
+use datasets::{read_csv, GapPolicy, LoopData, ReadOptions};
+
+use crate::{data, read_all, Failure, Streams};
+
+/// Column remaps and the gap policy, shared by every command that reads data.
+#[derive(Debug, Clone, clap::Args)]
+pub struct DataFlags {
+    /// Name of the PV column (default `PV`, case-insensitive).
+    #[arg(long, value_name = "NAME")]
+    pv: Option<String>,
+    /// Name of the OP column (default `OP`).
+    #[arg(long, value_name = "NAME")]
+    op: Option<String>,
+    /// Name of the SP column (default `SP`).
+    #[arg(long, value_name = "NAME")]
+    sp: Option<String>,
+    /// Name of the measured valve-position column (default `MV`).
+    #[arg(long, value_name = "NAME")]
+    mv: Option<String>,
+    /// Name of the time column (default `t` or `time`).
+    #[arg(long, value_name = "NAME")]
+    time: Option<String>,
+    /// Fill empty/NaN cells: `hold` carries the last valid value forward.
+    #[arg(long, value_name = "hold", value_parser = ["hold"], conflicts_with = "drop_gaps")]
+    fill: Option<String>,
+    /// Use the longest run of rows without empty/NaN cells.
+    #[arg(long)]
+    drop_gaps: bool,
+}
+
+/// Read `file` (`-` = stdin) into loop data; notes about what was done go to stderr.
+pub(crate) fn load(
+    file: &Path,
+    flags: &DataFlags,
+    require_pv: bool,
+    min_rows: usize,
+    s: &mut Streams<'_>,
+) -> Result<LoopData, Failure> {
+    let opts = ReadOptions {
+        pv: flags.pv.clone(),
+        op: flags.op.clone(),
+        sp: flags.sp.clone(),
+        mv: flags.mv.clone(),
+        time: flags.time.clone(),
+        require_pv,
+        gaps: if flags.fill.is_some() {
+            GapPolicy::FillHold
+        } else if flags.drop_gaps {
+            GapPolicy::DropGaps
+        } else {
+            GapPolicy::Refuse
+        },
+        min_rows,
+    };
+    let loop_data = if file.as_os_str() == "-" {
+        let bytes = read_all(s.stdin)
+            .map_err(|e| data(anyhow::anyhow!("-: cannot read standard input: {e}")))?;
+        read_csv(bytes.as_slice(), "-", &opts)
+    } else {
+        datasets::read_csv_path(PathBuf::from(file), &opts)
+    }
+    .map_err(data)?;
+    for note in &loop_data.notes {
+        let _ = writeln!(s.stderr, "note: {}: {note}", loop_data.source);
+    }
+    Ok(loop_data)
+}

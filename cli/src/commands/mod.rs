@@ -1,0 +1,119 @@
+//! One module per subcommand, plus the argument helpers they share.
+
+pub mod load;
+pub mod models;
+pub mod simulate;
+pub mod valve;
+
+use anyhow::{anyhow, Context};
+use stiction_models::{find_model, Direction, InitialState, StictionModel};
+
+use crate::{usage, Failure};
+
+/// Parse `K=V` (for `--param`).
+pub(crate) fn parse_param(s: &str) -> Result<(String, f64), String> {
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE (e.g. S=4), got {s:?}"))?;
+    let k = k.trim();
+    if k.is_empty() {
+        return Err(format!("missing parameter name in {s:?}"));
+    }
+    let value: f64 = v
+        .trim()
+        .parse()
+        .map_err(|_| format!("parameter {k}: {:?} is not a number", v.trim()))?;
+    Ok((k.to_string(), value))
+}
+
+/// Build a registered stiction model from its name and `K=V` pairs (bad usage on failure).
+pub(crate) fn build_model(
+    name: &str,
+    params: &[(String, f64)],
+) -> Result<Box<dyn StictionModel>, Failure> {
+    let entry = find_model(name).map_err(usage)?;
+    entry.build_named(params).map_err(usage)
+}
+
+/// The initial valve state from the `--start`, `--us0`, `--mv0` flags.
+pub(crate) fn initial_state(
+    start: StartFlag,
+    us0: Option<f64>,
+    mv0: Option<f64>,
+) -> Result<InitialState, Failure> {
+    let (direction, stuck) = match start {
+        StartFlag::Down => (Direction::Down, true),
+        StartFlag::Up => (Direction::Up, true),
+        StartFlag::MovingDown => (Direction::Down, false),
+        StartFlag::MovingUp => (Direction::Up, false),
+    };
+    let st = InitialState {
+        direction,
+        stuck,
+        stuck_at: us0,
+        position: mv0,
+    };
+    st.validate().map_err(usage)?;
+    Ok(st)
+}
+
+/// The valve's state at the first sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum StartFlag {
+    /// At rest after moving down (d0 = -1, stp0 = 1): the default.
+    Down,
+    /// At rest after moving up (d0 = +1, stp0 = 1).
+    Up,
+    /// Moving down (d0 = -1, stp0 = 0).
+    MovingDown,
+    /// Moving up (d0 = +1, stp0 = 0).
+    MovingUp,
+}
+
+/// Parse `LO,HI` (for `--clip`).
+pub(crate) fn parse_clip(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(',')
+        .ok_or_else(|| format!("expected LO,HI (e.g. 0,100), got {s:?}"))?;
+    let lo: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("{a:?} is not a number"))?;
+    let hi: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("{b:?} is not a number"))?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(format!("expected finite LO < HI, got {lo},{hi}"));
+    }
+    Ok((lo, hi))
+}
+
+/// Open `path` for writing, or stdout for `None`/`-`.
+pub(crate) fn with_output<F>(
+    path: Option<&std::path::Path>,
+    stdout: &mut dyn std::io::Write,
+    f: F,
+) -> Result<(), Failure>
+where
+    F: FnOnce(&mut dyn std::io::Write) -> anyhow::Result<()>,
+{
+    match path {
+        Some(p) if p.as_os_str() != "-" => {
+            let file = std::fs::File::create(p)
+                .with_context(|| format!("cannot create {}", p.display()))
+                .map_err(crate::data)?;
+            let mut w = std::io::BufWriter::new(file);
+            f(&mut w).map_err(crate::data)?;
+            std::io::Write::flush(&mut w)
+                .with_context(|| format!("cannot write {}", p.display()))
+                .map_err(crate::data)
+        }
+        _ => f(stdout).map_err(crate::data),
+    }
+}
+
+/// Error for a value that the user gave but is meaningless.
+pub(crate) fn bad_usage(msg: impl std::fmt::Display) -> Failure {
+    usage(anyhow!("{msg}"))
+}

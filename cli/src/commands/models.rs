@@ -1,0 +1,57 @@
+//! `stiction models`: what is registered.
+
+use anyhow::Context;
+use serde_json::json;
+use stiction_models::registry;
+
+use crate::{data, CmdResult, Streams};
+
+/// Arguments of `stiction models`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Print one JSON document instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
+    let stiction = registry();
+    if args.json {
+        let doc = json!({
+            "stiction": stiction.iter().map(|e| json!({
+                "name": e.name,
+                "description": e.description,
+                "params": e.params.iter().map(|p| json!({
+                    "name": p.name,
+                    "meaning": p.meaning,
+                    "default": p.default,
+                    "max_span_fraction": p.max_span_fraction,
+                })).collect::<Vec<_>>(),
+                "constraints": e.constraints.iter().map(|c| c.describe()).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+        });
+        serde_json::to_writer_pretty(&mut *s.stdout, &doc)
+            .context("writing JSON")
+            .map_err(data)?;
+        writeln!(s.stdout).map_err(data)?;
+        return Ok(());
+    }
+    let out = &mut *s.stdout;
+    writeln!(
+        out,
+        "Stiction models (OP -> MV); parameters in OP units (% of valve span):"
+    )
+    .map_err(data)?;
+    for e in &stiction {
+        let params: Vec<&str> = e.params.iter().map(|p| p.name).collect();
+        let constraints: Vec<String> = e.constraints.iter().map(|c| c.describe()).collect();
+        let constraints = if constraints.is_empty() {
+            String::new()
+        } else {
+            format!("  [{}]", constraints.join("; "))
+        };
+        writeln!(out, "  {:<11} {}{constraints}", e.name, params.join(", ")).map_err(data)?;
+        writeln!(out, "  {:<11} {}", "", e.description).map_err(data)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,98 @@
+//! `stiction valve`: run a stiction model over a recorded OP.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use stiction_models::{clip, run_valve, Initialization};
+
+use super::{build_model, initial_state, parse_clip, parse_param, with_output, StartFlag};
+use crate::commands::load::{load, DataFlags};
+use crate::{data, CmdResult, Streams};
+
+pub(crate) const AFTER_HELP: &str = "\
+The default initialization is In.1 with the valve at rest at OP(0) after moving down
+(d0 = -1, stp0 = 1, u_s0 = OP(0), MV(0) = u_s0 + (S-J)/2); with --start up, MV(0) = u_s0 - (S-J)/2.
+In.2 / In.3 run the four (stp, d) starts and write their average; the sample from which MV no
+longer depends on the start is reported on stderr. OP is not clipped unless --clip is given.
+
+Examples:
+  stiction valve loop.csv --model kano --param S=4 --param J=1
+  stiction valve loop.csv --model he --param fs=2.5 --param fd=1.5 --start up -o mv.csv
+  stiction valve loop.csv --model kano-asym --param D=3 --param J_up=0.5 --param J_dn=2
+  cat loop.csv | stiction valve - --model kano --param S=9 --param J=3 --init In.3";
+
+/// Arguments of `stiction valve`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// CSV file with an OP column (`-` for standard input).
+    file: PathBuf,
+    /// Registered stiction model (see `stiction models`).
+    #[arg(long, value_name = "NAME")]
+    model: String,
+    /// A model parameter, NAME=VALUE in OP units (repeatable); missing ones default to 0.
+    #[arg(long = "param", value_name = "K=V", value_parser = parse_param)]
+    params: Vec<(String, f64)>,
+    /// Initialization strategy of the paper: In.1 (one fixed start), In.2, In.3.
+    #[arg(long, default_value = "In.1", value_parser = parse_init)]
+    init: Initialization,
+    /// In.1 start: the valve's state at the first sample.
+    #[arg(long, value_enum, default_value = "down")]
+    start: StartFlag,
+    /// In.1 start: OP value where the valve stopped (u_s0); default OP(0).
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    us0: Option<f64>,
+    /// In.1 start: valve position at the first sample (MV(0)); default: consistent with the start.
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    mv0: Option<f64>,
+    /// Clip OP to [LO, HI] before the model (as public implementations do for OP in %).
+    #[arg(long, value_name = "LO,HI", value_parser = parse_clip, allow_hyphen_values = true)]
+    clip: Option<(f64, f64)>,
+    #[command(flatten)]
+    data: DataFlags,
+    /// Output file (default: standard output).
+    #[arg(short, long, value_name = "OUT.csv")]
+    output: Option<PathBuf>,
+}
+
+pub(crate) fn parse_init(s: &str) -> Result<Initialization, String> {
+    Initialization::parse(s).ok_or_else(|| format!("expected In.1, In.2 or In.3, got {s:?}"))
+}
+
+pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
+    let model = build_model(&args.model, &args.params)?;
+    let init = match args.init {
+        Initialization::In1(_) => {
+            Initialization::In1(initial_state(args.start, args.us0, args.mv0)?)
+        }
+        other => other,
+    };
+    let loop_data = load(&args.file, &args.data, false, 1, s)?;
+    let mut op = loop_data.op.clone();
+    if let Some((lo, hi)) = args.clip {
+        clip(&mut op, lo, hi);
+    }
+    let run = run_valve(model.as_ref(), &op, &init).map_err(data)?;
+    if !matches!(init, Initialization::In1(_)) {
+        let how = if run.fell_back {
+            "the four starts never coincide (In.3 fell back to In.2);".to_string()
+        } else {
+            String::new()
+        };
+        writeln!(
+            s.stderr,
+            "note: {} {how} MV does not depend on the start from sample {} on (0-based); before it, MV is the average of the four starts",
+            init.label(),
+            run.valid_from
+        )
+        .map_err(data)?;
+    }
+    with_output(args.output.as_deref(), s.stdout, |w| {
+        let mut out = csv::Writer::from_writer(w);
+        out.write_record(["OP", "MV"])?;
+        for (o, m) in loop_data.op.iter().zip(&run.mv) {
+            out.write_record([o.to_string(), m.to_string()])?;
+        }
+        out.flush().context("writing CSV")?;
+        Ok(())
+    })
+}

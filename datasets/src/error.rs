@@ -1,0 +1,221 @@
+//! The crate's error type.
+
+use stiction_models::StictionError;
+
+/// Everything that can go wrong while reading loop data or simulating a loop.
+///
+/// Every variant carries the offending values; [`Display`](std::fmt::Display) is one line that
+/// names the file, the row (the line number as a user sees it in the file: the header is line
+/// 1, the first data row line 2) and the column where they apply, e.g.
+/// `loop.csv: row 17, column PV: "abc" is not a number`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DataError {
+    /// The file could not be read.
+    #[error("{file}: {error}")]
+    Io {
+        /// File name (or `-` for stdin).
+        file: String,
+        /// The underlying error.
+        #[source]
+        error: std::io::Error,
+    },
+    /// The input has no header row (it is empty or only blank).
+    #[error("{file}: empty file (no header row)")]
+    Empty {
+        /// File name.
+        file: String,
+    },
+    /// The input is not valid UTF-8.
+    #[error("{file}: row {row}: invalid UTF-8 at byte {byte}")]
+    InvalidUtf8 {
+        /// File name.
+        file: String,
+        /// Line number of the first invalid byte (header = 1).
+        row: u64,
+        /// Byte offset of the first invalid byte from the start of the input.
+        byte: usize,
+    },
+    /// The CSV parser failed (for example an unterminated quote).
+    #[error("{file}: row {row}: {message}")]
+    Csv {
+        /// File name.
+        file: String,
+        /// Line number where the parser stopped (header = 1).
+        row: u64,
+        /// The parser's message.
+        message: String,
+    },
+    /// A required (or explicitly requested) column is not in the header.
+    #[error("{file}: no column {column} in the header (found: {})", found.join(", "))]
+    MissingColumn {
+        /// File name.
+        file: String,
+        /// The column that was looked for (its role and the name(s) tried).
+        column: String,
+        /// The header as found in the file.
+        found: Vec<String>,
+    },
+    /// A data row has a different number of cells than the header.
+    #[error("{file}: row {row}: {got} cells, the header has {expected}")]
+    RaggedRow {
+        /// File name.
+        file: String,
+        /// Line number (header = 1).
+        row: u64,
+        /// Number of header cells.
+        expected: usize,
+        /// Number of cells in the row.
+        got: usize,
+    },
+    /// A cell of a used column is not a number.
+    #[error("{file}: row {row}, column {column}: {text:?} is not a number")]
+    NotANumber {
+        /// File name.
+        file: String,
+        /// Line number (header = 1).
+        row: u64,
+        /// Column name as written in the header.
+        column: String,
+        /// The cell text.
+        text: String,
+    },
+    /// A cell of a used column is an infinite number (`inf`, `1e999`).
+    #[error("{file}: row {row}, column {column}: {text:?} is not a finite number")]
+    NotFinite {
+        /// File name.
+        file: String,
+        /// Line number (header = 1).
+        row: u64,
+        /// Column name as written in the header.
+        column: String,
+        /// The cell text.
+        text: String,
+    },
+    /// A time cell is neither a number of seconds nor a supported timestamp.
+    #[error(
+        "{file}: row {row}, column {column}: {text:?} is not a time (seconds, or a timestamp \
+         YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm] or YYYY-MM-DD HH:MM:SS[.fff], one kind per column)"
+    )]
+    BadTime {
+        /// File name.
+        file: String,
+        /// Line number (header = 1).
+        row: u64,
+        /// Column name as written in the header.
+        column: String,
+        /// The cell text.
+        text: String,
+    },
+    /// Empty or NaN cells were found and the gap policy is [`GapPolicy::Refuse`](crate::GapPolicy::Refuse).
+    #[error(
+        "{file}: {count} empty or NaN cell(s) in the used columns, the first at row {row}, \
+         column {column}; fill them (hold the last value) or drop them (keep the longest clean \
+         segment) explicitly"
+    )]
+    Gaps {
+        /// File name.
+        file: String,
+        /// Number of empty/NaN cells in the used columns.
+        count: usize,
+        /// Line number of the first one (header = 1).
+        row: u64,
+        /// Its column.
+        column: String,
+    },
+    /// Gap policy [`GapPolicy::FillHold`](crate::GapPolicy::FillHold) and a column starts with
+    /// gaps, so there is no earlier value to hold.
+    #[error(
+        "{file}: row {row}, column {column}: the column starts with {count} empty or NaN \
+         cell(s), there is no earlier value to hold; drop the gaps instead"
+    )]
+    LeadingGap {
+        /// File name.
+        file: String,
+        /// Line number of the first row (header = 1).
+        row: u64,
+        /// Column name.
+        column: String,
+        /// Number of leading gaps.
+        count: usize,
+    },
+    /// A required column has no value at all.
+    #[error("{file}: column {column}: every cell is empty or NaN")]
+    AllGaps {
+        /// File name.
+        file: String,
+        /// Column name.
+        column: String,
+    },
+    /// Fewer data rows than needed.
+    #[error("{file}: too few data rows: {needed} needed, {got} available")]
+    TooFewRows {
+        /// File name.
+        file: String,
+        /// Minimum number of rows.
+        needed: usize,
+        /// Number of rows available (after gap handling).
+        got: usize,
+    },
+    /// OP or PV does not vary: nothing can be identified.
+    #[error("{file}: column {column}: constant ({value:?}) over all {rows} rows")]
+    Constant {
+        /// File name.
+        file: String,
+        /// Column name.
+        column: String,
+        /// The constant value.
+        value: f64,
+        /// Number of rows.
+        rows: usize,
+    },
+    /// A plant definition is invalid (leading coefficients, non-finite values, ...).
+    #[error("invalid plant: {reason}")]
+    InvalidPlant {
+        /// What is wrong.
+        reason: String,
+    },
+    /// A scenario setting is out of range.
+    #[error("scenario: {name} = {value} is out of range: expected {expected}")]
+    InvalidParameter {
+        /// Setting name (JSON path, e.g. `controller.kc`).
+        name: String,
+        /// The rejected value.
+        value: f64,
+        /// The valid range, in words.
+        expected: String,
+    },
+    /// The closed loop without stiction is not stable for this plant and tuning.
+    #[error(
+        "closed loop unstable with Kc = {kc}, KI = {ki}, delay {delay}: largest closed-loop \
+         root modulus {max_modulus:.6} >= 1"
+    )]
+    Unstable {
+        /// Proportional gain.
+        kc: f64,
+        /// Integral gain.
+        ki: f64,
+        /// Extra dead time (samples).
+        delay: usize,
+        /// Largest modulus of the closed-loop characteristic roots.
+        max_modulus: f64,
+    },
+    /// The simulation produced a non-finite value (the loop diverged).
+    #[error("simulation diverged: {signal} is not finite at sample {sample}")]
+    Diverged {
+        /// Signal name (`PV`, `OP`, `MV`).
+        signal: &'static str,
+        /// Sample index (including the warm-up).
+        sample: usize,
+    },
+    /// A scenario (JSON) could not be parsed or is invalid.
+    #[error("scenario: {message}")]
+    Config {
+        /// The parser's message (includes the stiction model's own message for bad valve
+        /// parameters).
+        message: String,
+    },
+    /// The valve model rejected its input or initial state.
+    #[error(transparent)]
+    Stiction(#[from] StictionError),
+}

@@ -1,0 +1,719 @@
+//! The closed-loop benchmark of the reference paper (§3.1, eqs. 10-12; spec §6).
+//!
+//! An ARMAX [`Plant`] in deviation variables, a velocity-form PI controller, a sticky valve from
+//! any registered [`StictionModel`], a random-walk set point and optional external
+//! disturbances, all configured by a serialisable [`Scenario`]:
+//!
+//! ```
+//! use datasets::simulate::Scenario;
+//! let scenario = Scenario::from_json(r#"{
+//!     "plant": "paper",
+//!     "valve": {"kind": "kano", "S": 9, "J": 3},
+//!     "disturbances": [{"kind": "paper", "a": 0.25}],
+//!     "samples": 600, "warmup": 100
+//! }"#)?;
+//! let sim = scenario.simulate()?;
+//! assert_eq!(sim.op.len(), 600);
+//! // The valve model reproduces MV from OP exactly (the kept record starts from `valve_init`).
+//! assert_eq!(scenario.valve.simulate(&sim.op, &scenario.valve_init)?, sim.mv);
+//! # Ok::<(), datasets::DataError>(())
+//! ```
+//!
+//! # Per-sample order (spec §6.2)
+//! For `k = 0 .. warmup + samples - 1`:
+//! 1. draw the random numbers of sample `k` (see [RNG](#random-numbers));
+//! 2. `SP(k) = SP(k-1) + w(k)` (eq. 12 random walk plus scheduled [`SetpointStep`]s),
+//!    `SP(-1) = pv_bias`;
+//! 3. `y(k) = -Σ a_i y(k-i) + Σ b_i u(k-delay-i) + e(k) + Σ c_i e(k-i) [+ η(k)]` with
+//!    `u = MV - op_bias` and terms with negative index 0;
+//! 4. `PV(k) = pv_bias + y(k) [+ η(k)]`;
+//! 5. `err(k) = SP(k) - PV(k)`;
+//! 6. `OP(k) = OP(k-1) + Kc (err(k) - err(k-1)) + KI err(k)`, `OP(-1) = op_bias`,
+//!    `err(-1) = 0`, then clipping (see [`Scenario::op_limits`]);
+//! 7. `MV(k) = valve.step(OP(k))`; at `k = 0` and again at `k = warmup` the valve is
+//!    (re)started from [`Scenario::valve_init`] at `OP(k)`.
+//!
+//! # Where the disturbance enters
+//! The paper's eq. (10) puts `η_k` *inside* the difference equation,
+//! `A(q) y = B(q) u + C(q) e + η`, so the plant's own dynamics filter it (`y = (B u + C e + η) / A`); this is the default,
+//! [`DisturbanceEntry::Equation`]. The specification's §6.2 adds it to the output instead
+//! (`PV = pv_bias + y + η`), available as [`DisturbanceEntry::Output`]. Where the two
+//! disagree the paper wins, hence the default.
+//!
+//! # Why the valve restarts at the first kept sample
+//! The kept record is exactly what the stiction model produces from its own OP column with the
+//! scenario's initial state: `valve.simulate(&sim.op, &scenario.valve_init) == sim.mv`, bit
+//! for bit (a must-hold of the project: `stiction valve` on a simulated file gives back its
+//! MV). The warm-up still settles the plant, the controller, the noise filter and the set point;
+//! the restart perturbs the valve as the start at `k = 0` does (with the default initial state
+//! the valve is at rest at `OP + (S - J)/2`), and a linear valve (`S = J = 0`) is not
+//! perturbed at all.
+//!
+//! # Random numbers
+//! One `ChaCha8Rng::seed_from_u64(seed)` stream. At every sample `k` (warm-up included), in
+//! this order and whether or not they are used: `R1 ~ U[0,1)` and `R2 ~ U[0,1)` of eq. (12),
+//! then `z ~ N(0,1)` with `e(k) = noise_sigma · z`, then for each
+//! [`Disturbance::RandomSteps`] in list order a `U[0,1)` switch and a `N(0,1)` size. The
+//! same seed therefore gives the same output on every machine (ChaCha is portable), and
+//! changing a probability or σ does not shift the other streams (common random numbers).
+//! The sines use the platform's `f64::sin`.
+
+mod plant;
+
+pub use plant::{Plant, PlantPreset};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+use stiction_models::{InitialState, Kano, StictionModel, ValveState};
+
+use crate::{DataError, LoopData};
+
+/// The plant of a scenario: a preset name or explicit polynomials.
+///
+/// JSON: `"paper"`, `"slow"`, or `{"a": [...], "b": [...], "c": [...], "delay": 0}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum PlantSpec {
+    /// A named plant.
+    Preset(PlantPreset),
+    /// Explicit polynomials.
+    Explicit(Plant),
+}
+
+impl Default for PlantSpec {
+    fn default() -> Self {
+        PlantSpec::Preset(PlantPreset::Paper)
+    }
+}
+
+impl PlantSpec {
+    /// The plant.
+    pub fn plant(&self) -> Plant {
+        match self {
+            PlantSpec::Preset(p) => p.plant(),
+            PlantSpec::Explicit(p) => p.clone(),
+        }
+    }
+}
+
+/// Velocity-form PI controller `C(q) = Kc + KI / (1 - q^-1)`.
+///
+/// | field | default | meaning |
+/// |-------|---------|---------|
+/// | `kc` | 0.5 | proportional gain (paper: nominal 0.5, aggressive 1.2, sluggish 0.2) |
+/// | `ki` | 0.5 | integral gain (same values) |
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Controller {
+    /// Proportional gain.
+    pub kc: f64,
+    /// Integral gain.
+    pub ki: f64,
+}
+
+impl Default for Controller {
+    fn default() -> Self {
+        Controller { kc: 0.5, ki: 0.5 }
+    }
+}
+
+/// A scheduled set-point step.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SetpointStep {
+    /// Sample of the kept record at which SP jumps (0 = first kept sample).
+    pub at: usize,
+    /// Size of the jump (PV units).
+    pub size: f64,
+}
+
+/// The set point: eq. (12) random walk plus scheduled steps, starting at `pv_bias`.
+///
+/// | field | default | meaning | valid |
+/// |-------|---------|---------|-------|
+/// | `step` | 2 | Δ: a switch moves SP by `Δ (R2 - 0.5)` | finite |
+/// | `switch_probability` | 0.05 | δ_sw: probability of a switch per sample | `[0, 1]` |
+/// | `steps` | `[]` | scheduled steps in kept-record samples | finite sizes |
+///
+/// `switch_probability = 0` (or `step = 0`) gives a constant set point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Setpoint {
+    /// Δ of eq. (12).
+    pub step: f64,
+    /// δ_sw of eq. (12).
+    pub switch_probability: f64,
+    /// Scheduled steps.
+    pub steps: Vec<SetpointStep>,
+}
+
+impl Default for Setpoint {
+    fn default() -> Self {
+        Setpoint {
+            step: 2.0,
+            switch_probability: 0.05,
+            steps: Vec::new(),
+        }
+    }
+}
+
+impl Setpoint {
+    /// A constant set point (no random walk, no steps).
+    pub fn constant() -> Setpoint {
+        Setpoint {
+            step: 0.0,
+            switch_probability: 0.0,
+            steps: Vec::new(),
+        }
+    }
+}
+
+/// An external disturbance η. Time `k` is the sample index of the kept record (negative during
+/// the warm-up), so `k = 0` is the first output row.
+///
+/// JSON: `{"kind": "paper", "a": 0.25}`, `{"kind": "sine", "amplitude": 1, "frequency": 0.05,
+/// "phase": 0}`, `{"kind": "drift", "slope": 0.001}`, `{"kind": "step", "at": 1000, "size": 2}`,
+/// `{"kind": "random-steps", "probability": 0.01, "sigma": 1}`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Disturbance {
+    /// Eq. (11): `a (sin(0.03 k) + 0.5 sin(0.07 k))`, `a >= 0`.
+    Paper {
+        /// Amplitude `a`.
+        a: f64,
+    },
+    /// `amplitude · sin(frequency · k + phase)`, frequency in rad/sample.
+    Sine {
+        /// Amplitude.
+        amplitude: f64,
+        /// Angular frequency, rad/sample.
+        frequency: f64,
+        /// Phase, rad (default 0).
+        #[serde(default)]
+        phase: f64,
+    },
+    /// `slope · k` (zero at the first kept sample).
+    Drift {
+        /// Slope per sample.
+        slope: f64,
+    },
+    /// `size` from kept sample `at` on.
+    Step {
+        /// First kept sample with the step.
+        at: usize,
+        /// Step size.
+        size: f64,
+    },
+    /// A level that jumps by `N(0, sigma²)` with probability `probability` at every sample
+    /// (warm-up included), starting at 0.
+    RandomSteps {
+        /// Jump probability per sample, `[0, 1]`.
+        probability: f64,
+        /// Standard deviation of a jump, `>= 0`.
+        sigma: f64,
+    },
+}
+
+/// Where η enters the loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DisturbanceEntry {
+    /// Inside the difference equation, as in the paper's eq. (10) (default).
+    #[default]
+    Equation,
+    /// Added to the plant output (`PV = pv_bias + y + η`), as in spec §6.2.
+    Output,
+}
+
+/// A closed-loop benchmark simulation.
+///
+/// | field | default | meaning | valid |
+/// |-------|---------|---------|-------|
+/// | `plant` | `"paper"` | [`PlantSpec`] | see [`Plant`] |
+/// | `controller` | `{kc: 0.5, ki: 0.5}` | [`Controller`] | finite, stable closed loop (B3) |
+/// | `setpoint` | Δ = 2, δ = 0.05 | [`Setpoint`] | |
+/// | `valve` | `{"kind": "kano", "S": 0, "J": 0}` (linear valve) | any registered stiction model | the model's own checks |
+/// | `valve_init` | at rest after moving down | [`InitialState`] at `k = 0` and at the first kept sample | |
+/// | `disturbances` | `[]` | [`Disturbance`]s, summed | finite; probabilities in `[0, 1]` |
+/// | `disturbance_entry` | `"equation"` | [`DisturbanceEntry`] | |
+/// | `noise_sigma` | 0.1 | σ_e of the white noise `e` | `>= 0` |
+/// | `samples` | 3000 | samples kept | `>= 1`, `samples + warmup <= 5e7` |
+/// | `warmup` | 500 | samples simulated first and discarded | |
+/// | `seed` | 1 | RNG seed | |
+/// | `op_bias` | 50 | OP (and MV) operating point, % | finite |
+/// | `pv_bias` | 50 | PV (and initial SP) operating point | finite |
+/// | `op_limits` | none | `[lo, hi]` OP clipping with conditional integration | `lo < hi` |
+/// | `sample_time` | 1 | seconds per sample, for the `t` column | `> 0` |
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Scenario {
+    /// The plant.
+    pub plant: PlantSpec,
+    /// PI gains.
+    pub controller: Controller,
+    /// Set point.
+    pub setpoint: Setpoint,
+    /// The valve: any registered stiction model (`{"kind": "kano", "S": 9, "J": 3}`).
+    pub valve: Box<dyn StictionModel>,
+    /// The valve's initial state.
+    pub valve_init: InitialState,
+    /// External disturbances η (summed).
+    pub disturbances: Vec<Disturbance>,
+    /// Where η enters.
+    pub disturbance_entry: DisturbanceEntry,
+    /// σ_e of the white noise.
+    pub noise_sigma: f64,
+    /// Number of samples kept.
+    pub samples: usize,
+    /// Number of samples simulated and discarded first.
+    pub warmup: usize,
+    /// RNG seed.
+    pub seed: u64,
+    /// OP operating point (%): `OP(-1)` and the MV at which the plant's deviation `u` is 0.
+    pub op_bias: f64,
+    /// PV operating point: `PV = pv_bias + y`; also the initial set point.
+    pub pv_bias: f64,
+    /// Optional OP clipping `[lo, hi]`: OP is clamped, and while OP sits at a limit the
+    /// integral term is dropped when it pushes further out (conditional integration).
+    pub op_limits: Option<[f64; 2]>,
+    /// Seconds per sample.
+    pub sample_time: f64,
+}
+
+impl Default for Scenario {
+    fn default() -> Self {
+        Scenario {
+            plant: PlantSpec::default(),
+            controller: Controller::default(),
+            setpoint: Setpoint::default(),
+            valve: Box::new(
+                Kano::params()
+                    .check()
+                    .expect("S = J = 0 is a valid Kano valve"),
+            ),
+            valve_init: InitialState::default(),
+            disturbances: Vec::new(),
+            disturbance_entry: DisturbanceEntry::default(),
+            noise_sigma: 0.1,
+            samples: 3000,
+            warmup: 500,
+            seed: 1,
+            op_bias: 50.0,
+            pv_bias: 50.0,
+            op_limits: None,
+            sample_time: 1.0,
+        }
+    }
+}
+
+/// The output of [`Scenario::simulate`]: the kept samples and what produced them.
+#[derive(Debug, Clone, Serialize)]
+pub struct SimulatedLoop {
+    /// Time, `k · sample_time` for kept sample `k`.
+    pub t: Vec<f64>,
+    /// Set point.
+    pub sp: Vec<f64>,
+    /// Process variable.
+    pub pv: Vec<f64>,
+    /// Controller output.
+    pub op: Vec<f64>,
+    /// Valve position (ground truth).
+    pub mv: Vec<f64>,
+    /// The disturbance η actually injected.
+    pub disturbance: Vec<f64>,
+    /// The white noise `e`.
+    pub noise: Vec<f64>,
+    /// The scenario that produced this record.
+    pub scenario: Scenario,
+}
+
+/// Upper bound on `samples + warmup` (memory: about 100 bytes per sample).
+const MAX_SAMPLES: usize = 50_000_000;
+
+fn param(name: &str, value: f64, ok: bool, expected: &str) -> Result<(), DataError> {
+    if ok && value.is_finite() {
+        Ok(())
+    } else {
+        Err(DataError::InvalidParameter {
+            name: name.to_string(),
+            value,
+            expected: expected.to_string(),
+        })
+    }
+}
+
+impl Scenario {
+    /// Parse a scenario from JSON (unknown fields are rejected; missing ones take their
+    /// defaults) and [validate](Scenario::validate) it.
+    pub fn from_json(json: &str) -> Result<Scenario, DataError> {
+        let s: Scenario = serde_json::from_str(json).map_err(|e| DataError::Config {
+            message: e.to_string(),
+        })?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// The scenario as pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+    }
+
+    /// Check every setting (the valve's own parameters are checked when it is built).
+    pub fn validate(&self) -> Result<(), DataError> {
+        self.plant.plant().validate()?;
+        let c = &self.controller;
+        param("controller.kc", c.kc, true, "a finite number")?;
+        param("controller.ki", c.ki, true, "a finite number")?;
+        let sp = &self.setpoint;
+        param("setpoint.step", sp.step, true, "a finite number")?;
+        let p = sp.switch_probability;
+        param(
+            "setpoint.switch_probability",
+            p,
+            (0.0..=1.0).contains(&p),
+            "0 <= p <= 1",
+        )?;
+        for s in &sp.steps {
+            param("setpoint.steps.size", s.size, true, "a finite number")?;
+        }
+        for d in &self.disturbances {
+            match *d {
+                Disturbance::Paper { a } => param("disturbances.a", a, a >= 0.0, "a >= 0")?,
+                Disturbance::Sine {
+                    amplitude,
+                    frequency,
+                    phase,
+                } => {
+                    param("disturbances.amplitude", amplitude, true, "a finite number")?;
+                    param("disturbances.frequency", frequency, true, "a finite number")?;
+                    param("disturbances.phase", phase, true, "a finite number")?;
+                }
+                Disturbance::Drift { slope } => {
+                    param("disturbances.slope", slope, true, "a finite number")?
+                }
+                Disturbance::Step { size, .. } => {
+                    param("disturbances.size", size, true, "a finite number")?
+                }
+                Disturbance::RandomSteps { probability, sigma } => {
+                    let ok = (0.0..=1.0).contains(&probability);
+                    param("disturbances.probability", probability, ok, "0 <= p <= 1")?;
+                    param("disturbances.sigma", sigma, sigma >= 0.0, "sigma >= 0")?;
+                }
+            }
+        }
+        let s = self.noise_sigma;
+        param("noise_sigma", s, s >= 0.0, "sigma >= 0")?;
+        param(
+            "samples",
+            self.samples as f64,
+            self.samples >= 1,
+            "at least 1",
+        )?;
+        let total = self.samples.saturating_add(self.warmup);
+        param(
+            "samples + warmup",
+            total as f64,
+            total <= MAX_SAMPLES,
+            "at most 50000000 samples in all",
+        )?;
+        param("op_bias", self.op_bias, true, "a finite number")?;
+        param("pv_bias", self.pv_bias, true, "a finite number")?;
+        let ts = self.sample_time;
+        param("sample_time", ts, ts > 0.0, "a positive number of seconds")?;
+        if let Some([lo, hi]) = self.op_limits {
+            param("op_limits[0]", lo, lo < hi, "lo < hi, both finite")?;
+            param("op_limits[1]", hi, true, "lo < hi, both finite")?;
+        }
+        self.valve_init.validate()?;
+        Ok(())
+    }
+
+    /// Run the simulation (validates first, then checks closed-loop stability, B3).
+    pub fn simulate(&self) -> Result<SimulatedLoop, DataError> {
+        self.validate()?;
+        let plant = self.plant.plant();
+        let Controller { kc, ki } = self.controller;
+        plant.check_stability(kc, ki)?;
+
+        let total = self.warmup + self.samples;
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+        let mut y = vec![0.0; total];
+        let mut u = vec![0.0; total];
+        let mut e = vec![0.0; total];
+        let mut out = SimulatedLoop {
+            t: (0..self.samples)
+                .map(|k| k as f64 * self.sample_time)
+                .collect(),
+            sp: Vec::with_capacity(self.samples),
+            pv: Vec::with_capacity(self.samples),
+            op: Vec::with_capacity(self.samples),
+            mv: Vec::with_capacity(self.samples),
+            disturbance: Vec::with_capacity(self.samples),
+            noise: Vec::with_capacity(self.samples),
+            scenario: self.clone(),
+        };
+        let mut levels = vec![0.0; self.disturbances.len()];
+        let (mut sp_prev, mut op_prev, mut err_prev) = (self.pv_bias, self.op_bias, 0.0);
+        let mut valve: Option<Box<dyn ValveState>> = None;
+        let delta = self.setpoint.step;
+        let threshold = 1.0 - self.setpoint.switch_probability;
+
+        for k in 0..total {
+            let kr = k as i64 - self.warmup as i64; // index in the kept record
+                                                    // 1. random numbers, fixed order
+            let r1: f64 = rng.random();
+            let r2: f64 = rng.random();
+            let z: f64 = rng.sample(StandardNormal);
+            for (level, d) in levels.iter_mut().zip(&self.disturbances) {
+                let switch: f64 = rng.random();
+                let size: f64 = rng.sample(StandardNormal);
+                if let Disturbance::RandomSteps { probability, sigma } = *d {
+                    if switch < probability {
+                        *level += sigma * size;
+                    }
+                }
+            }
+            // 2. set point
+            let mut sp = sp_prev;
+            if r1 > threshold {
+                sp += delta * (r2 - 0.5);
+            }
+            for s in &self.setpoint.steps {
+                if kr == s.at as i64 {
+                    sp += s.size;
+                }
+            }
+            // 3. plant
+            e[k] = self.noise_sigma * z;
+            let eta: f64 = self
+                .disturbances
+                .iter()
+                .zip(&levels)
+                .map(|(d, level)| d.value(kr, *level))
+                .sum();
+            let mut yk = e[k];
+            for (i, ai) in plant.a.iter().enumerate().skip(1) {
+                if let Some(j) = k.checked_sub(i) {
+                    yk -= ai * y[j];
+                }
+            }
+            for (i, bi) in plant.b.iter().enumerate() {
+                if let Some(j) = k.checked_sub(i + plant.delay) {
+                    yk += bi * u[j];
+                }
+            }
+            for (i, ci) in plant.c.iter().enumerate().skip(1) {
+                if let Some(j) = k.checked_sub(i) {
+                    yk += ci * e[j];
+                }
+            }
+            let pv = match self.disturbance_entry {
+                DisturbanceEntry::Equation => {
+                    yk += eta;
+                    self.pv_bias + yk
+                }
+                DisturbanceEntry::Output => self.pv_bias + yk + eta,
+            };
+            y[k] = yk;
+            if !pv.is_finite() {
+                return Err(DataError::Diverged {
+                    signal: "PV",
+                    sample: k,
+                });
+            }
+            // 4. controller
+            let err = sp - pv;
+            let integral = ki * err;
+            let mut op = op_prev + kc * (err - err_prev) + integral;
+            if let Some([lo, hi]) = self.op_limits {
+                // Conditional integration: while OP sits at a limit, the integral term may not
+                // push it further out (it may still pull it back in).
+                if (op_prev >= hi && integral > 0.0) || (op_prev <= lo && integral < 0.0) {
+                    op -= integral;
+                }
+                op = op.clamp(lo, hi);
+            }
+            if !op.is_finite() {
+                return Err(DataError::Diverged {
+                    signal: "OP",
+                    sample: k,
+                });
+            }
+            // 5. valve
+            let mv = match valve.as_mut() {
+                Some(state) if k != self.warmup => state.step(op),
+                _ => {
+                    let state = self.valve.start(op, &self.valve_init)?;
+                    let mv = state.position();
+                    valve = Some(state);
+                    mv
+                }
+            };
+            if !mv.is_finite() {
+                return Err(DataError::Diverged {
+                    signal: "MV",
+                    sample: k,
+                });
+            }
+            u[k] = mv - self.op_bias;
+            if kr >= 0 {
+                out.sp.push(sp);
+                out.pv.push(pv);
+                out.op.push(op);
+                out.mv.push(mv);
+                out.disturbance.push(eta);
+                out.noise.push(e[k]);
+            }
+            sp_prev = sp;
+            op_prev = op;
+            err_prev = err;
+        }
+        Ok(out)
+    }
+}
+
+impl Disturbance {
+    /// η contribution at kept-record sample `k`; `level` is the state of a random-steps term.
+    fn value(&self, k: i64, level: f64) -> f64 {
+        let kf = k as f64;
+        match *self {
+            Disturbance::Paper { a } => a * ((0.03 * kf).sin() + 0.5 * (0.07 * kf).sin()),
+            Disturbance::Sine {
+                amplitude,
+                frequency,
+                phase,
+            } => amplitude * (frequency * kf + phase).sin(),
+            Disturbance::Drift { slope } => slope * kf,
+            Disturbance::Step { at, size } => {
+                if k >= at as i64 {
+                    size
+                } else {
+                    0.0
+                }
+            }
+            Disturbance::RandomSteps { .. } => level,
+        }
+    }
+}
+
+impl SimulatedLoop {
+    /// Number of kept samples.
+    pub fn len(&self) -> usize {
+        self.op.len()
+    }
+
+    /// Whether no sample was kept.
+    pub fn is_empty(&self) -> bool {
+        self.op.is_empty()
+    }
+
+    /// Fraction of samples `k >= 1` at which the valve did not move (`MV(k) = MV(k-1)`).
+    pub fn stuck_fraction(&self) -> f64 {
+        if self.mv.len() < 2 {
+            return 0.0;
+        }
+        let stuck = self.mv.windows(2).filter(|w| w[1] == w[0]).count();
+        stuck as f64 / (self.mv.len() - 1) as f64
+    }
+
+    /// Write CSV with the header `t,SP,PV,OP,MV` (numbers in Rust's shortest round-trip
+    /// format, so reading the file back gives the same values).
+    pub fn write_csv(&self, mut w: impl std::io::Write) -> std::io::Result<()> {
+        writeln!(w, "t,SP,PV,OP,MV")?;
+        for k in 0..self.len() {
+            writeln!(
+                w,
+                "{},{},{},{},{}",
+                self.t[k], self.sp[k], self.pv[k], self.op[k], self.mv[k]
+            )?;
+        }
+        w.flush()
+    }
+
+    /// The record as [`LoopData`] (with MV measured), source `simulation`.
+    pub fn to_loop_data(&self) -> LoopData {
+        LoopData {
+            source: "simulation".into(),
+            t: Some(self.t.clone()),
+            sp: Some(self.sp.clone()),
+            pv: Some(self.pv.clone()),
+            op: self.op.clone(),
+            mv: Some(self.mv.clone()),
+            notes: vec![format!(
+                "simulated: seed {}, {} samples after a warm-up of {}",
+                self.scenario.seed, self.scenario.samples, self.scenario.warmup
+            )],
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_scenario_runs_around_the_operating_point() {
+        let s = Scenario {
+            samples: 500,
+            warmup: 100,
+            ..Scenario::default()
+        };
+        let sim = s.simulate().unwrap();
+        assert_eq!(sim.len(), 500);
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        assert!((mean(&sim.op) - 50.0).abs() < 10.0);
+        assert!((mean(&sim.pv) - 50.0).abs() < 10.0);
+        assert_eq!(sim.t[3], 3.0);
+    }
+
+    #[test]
+    fn op_clipping_holds_limits() {
+        let s = Scenario {
+            samples: 400,
+            warmup: 0,
+            setpoint: Setpoint {
+                steps: vec![SetpointStep { at: 50, size: 80.0 }],
+                ..Setpoint::constant()
+            },
+            op_limits: Some([0.0, 100.0]),
+            ..Scenario::default()
+        };
+        let sim = s.simulate().unwrap();
+        assert!(sim.op.iter().all(|&v| (0.0..=100.0).contains(&v)));
+        assert!(sim.op.contains(&100.0));
+    }
+
+    #[test]
+    fn output_entry_adds_eta_to_pv() {
+        let base = Scenario {
+            samples: 300,
+            warmup: 0,
+            noise_sigma: 0.0,
+            setpoint: Setpoint::constant(),
+            disturbances: vec![Disturbance::Step { at: 0, size: 1.0 }],
+            disturbance_entry: DisturbanceEntry::Output,
+            ..Scenario::default()
+        };
+        let sim = base.simulate().unwrap();
+        // First sample: no MV history, no noise: PV = pv_bias + η exactly.
+        assert_eq!(sim.pv[0], 51.0);
+        let eq = Scenario {
+            disturbance_entry: DisturbanceEntry::Equation,
+            ..base
+        }
+        .simulate()
+        .unwrap();
+        assert_eq!(eq.pv[0], 51.0);
+        // One sample later the equation form has propagated η through A(q): 1 + 0.5215.
+        let a1 = 0.5215;
+        assert!(
+            (eq.pv[1] - sim.pv[1] - a1).abs() < 1e-9,
+            "{} {}",
+            eq.pv[1],
+            sim.pv[1]
+        );
+    }
+}

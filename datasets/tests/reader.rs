@@ -1,0 +1,352 @@
+//! The CSV reader: every error with its exact message, delimiters, time stamps, remapping,
+//! gap policies, the plant data in `../shared` (skipped when absent) and a no-panic property.
+
+#![allow(clippy::unwrap_used)]
+
+use datasets::{read_csv, read_csv_path, DataError, GapPolicy, ReadOptions};
+use proptest::prelude::*;
+
+fn read(text: &str) -> Result<datasets::LoopData, DataError> {
+    read_csv(text.as_bytes(), "loop.csv", &ReadOptions::default())
+}
+
+fn read_with(text: &str, opts: &ReadOptions) -> Result<datasets::LoopData, DataError> {
+    read_csv(text.as_bytes(), "loop.csv", opts)
+}
+
+fn message(r: Result<datasets::LoopData, DataError>) -> String {
+    r.expect_err("expected an error").to_string()
+}
+
+#[test]
+fn reads_a_plain_file() {
+    let d = read("t,SP,PV,OP,MV,MODE\n0,1,2,3,4,1\n10,1,2.5,3.5,4,1\n20,1,2,3,4.5,1\n").unwrap();
+    assert_eq!(d.source, "loop.csv");
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 10.0, 20.0][..]));
+    assert_eq!(d.sp.as_deref(), Some(&[1.0, 1.0, 1.0][..]));
+    assert_eq!(d.pv.as_deref(), Some(&[2.0, 2.5, 2.0][..]));
+    assert_eq!(d.op, vec![3.0, 3.5, 3.0]);
+    assert_eq!(d.mv.as_deref(), Some(&[4.0, 4.0, 4.5][..]));
+    assert_eq!(d.notes, vec!["ignored column(s): MODE"]);
+    assert_eq!(d.len(), 3);
+}
+
+#[test]
+fn column_names_are_case_insensitive_and_time_is_relative() {
+    let d = read("Time,pv,Op\n100,1,2\n101,2,3\n102.5,1,2\n").unwrap();
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 1.0, 2.5][..]));
+    assert_eq!(d.op, vec![2.0, 3.0, 2.0]);
+    assert!(d.notes.is_empty());
+}
+
+#[test]
+fn delimiters_comma_semicolon_tab() {
+    for text in [
+        "PV,OP\n1,2\n2,3\n1.5,2\n",
+        "PV;OP\n1;2\n2;3\n1.5;2\n",
+        "PV\tOP\n1\t2\n2\t3\n1.5\t2\n",
+        "\u{feff}PV , OP\r\n1, 2\r\n2 ,3\r\n1.5,2\r\n",
+    ] {
+        let d = read(text).unwrap();
+        assert_eq!(d.pv.as_deref(), Some(&[1.0, 2.0, 1.5][..]), "{text:?}");
+        assert_eq!(d.op, vec![2.0, 3.0, 2.0]);
+    }
+    // `;` files may use a decimal comma.
+    let d = read("PV;OP\n1,5;2\n2;3,25\n1;2\n").unwrap();
+    assert_eq!(d.pv.as_deref(), Some(&[1.5, 2.0, 1.0][..]));
+    assert_eq!(d.op, vec![2.0, 3.25, 2.0]);
+    assert_eq!(d.notes, vec!["read 2 cell(s) with a decimal comma"]);
+}
+
+#[test]
+fn timestamps_become_seconds_from_the_first_sample() {
+    let d = read(
+        "time,PV,OP\n2024-10-17T21:55:00Z,1,2\n2024-10-17T21:55:10.5Z,2,3\n\
+         2024-10-17T23:55:20+02:00,1,2\n",
+    )
+    .unwrap();
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 10.5, 20.0][..]));
+    let d = read(
+        "t,PV,OP\n2024-10-17 21:55:00,1,2\n2024-10-17 21:55:10,2,3\n2024-10-18 21:55:00.25,1,2\n",
+    )
+    .unwrap();
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 10.0, 86400.25][..]));
+    let d = read(
+        "t,PV,OP\n2024-10-17T21:55:00,1,2\n2024-10-17T21:56:00,2,3\n2024-10-17T21:57:00,1,2\n",
+    )
+    .unwrap();
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 60.0, 120.0][..]));
+}
+
+#[test]
+fn columns_can_be_remapped() {
+    let opts = ReadOptions {
+        pv: Some("FLOW".into()),
+        op: Some("out".into()),
+        sp: Some("target".into()),
+        mv: Some("Pos".into()),
+        time: Some("stamp".into()),
+        ..ReadOptions::default()
+    };
+    let d = read_with(
+        "stamp,Flow,OUT,Target,pos,PV\n5,1,2,0,3,9\n6,2,3,0,3,9\n7,1,2,0,4,9\n",
+        &opts,
+    )
+    .unwrap();
+    assert_eq!(d.pv.as_deref(), Some(&[1.0, 2.0, 1.0][..]));
+    assert_eq!(d.op, vec![2.0, 3.0, 2.0]);
+    assert_eq!(d.mv.as_deref(), Some(&[3.0, 3.0, 4.0][..]));
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 1.0, 2.0][..]));
+    assert_eq!(d.notes, vec!["ignored column(s): PV"]);
+    // An explicitly named optional column must exist.
+    let opts = ReadOptions {
+        sp: Some("target".into()),
+        ..ReadOptions::default()
+    };
+    assert_eq!(
+        message(read_with("PV,OP\n1,2\n2,3\n1,2\n", &opts)),
+        r#"loop.csv: no column SP ("target") in the header (found: PV, OP)"#
+    );
+}
+
+#[test]
+fn pv_is_optional_when_the_caller_says_so() {
+    let opts = ReadOptions {
+        require_pv: false,
+        ..ReadOptions::default()
+    };
+    let d = read_with("OP\n1\n2\n3\n", &opts).unwrap();
+    assert_eq!(d.pv, None);
+    assert_eq!(d.op, vec![1.0, 2.0, 3.0]);
+    assert_eq!(
+        message(d.require_pv().map(|_| d.clone())),
+        r#"loop.csv: no column PV in the header (found: OP)"#
+    );
+}
+
+#[test]
+fn error_messages() {
+    let cases: Vec<(&[u8], &str)> = vec![
+        (b"", "loop.csv: empty file (no header row)"),
+        (b"\n \n", "loop.csv: empty file (no header row)"),
+        (b"PV,OP\n1,\xff\n", "loop.csv: row 2: invalid UTF-8 at byte 8"),
+        (
+            b"a,OP\n1,2\n",
+            r#"loop.csv: no column PV ("pv") in the header (found: a, OP)"#,
+        ),
+        (
+            b"PV,b\n1,2\n",
+            r#"loop.csv: no column OP ("op") in the header (found: PV, b)"#,
+        ),
+        (b"PV,OP\n1,2\n3\n", "loop.csv: row 3: 1 cells, the header has 2"),
+        (b"PV,OP\n1,2\n3,4,5\n", "loop.csv: row 3: 3 cells, the header has 2"),
+        (
+            b"PV,OP\n1,2\n2,3\nabc,4\n",
+            r#"loop.csv: row 4, column PV: "abc" is not a number"#,
+        ),
+        (
+            b"PV,OP\n1,2\n2,inf\n",
+            r#"loop.csv: row 3, column OP: "inf" is not a finite number"#,
+        ),
+        (
+            b"t,PV,OP\n0,1,2\nnoon,2,3\n",
+            "loop.csv: row 3, column t: \"noon\" is not a time (seconds, or a timestamp \
+             YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm] or YYYY-MM-DD HH:MM:SS[.fff], one kind per column)",
+        ),
+        (
+            b"t,PV,OP\n0,1,2\n2024-01-01T00:00:00,2,3\n",
+            "loop.csv: row 3, column t: \"2024-01-01T00:00:00\" is not a time (seconds, or a \
+             timestamp YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm] or YYYY-MM-DD HH:MM:SS[.fff], one \
+             kind per column)",
+        ),
+        (
+            b"PV,OP\n1,2\n2,\nNaN,3\n1,nan\n2,3\n",
+            "loop.csv: 3 empty or NaN cell(s) in the used columns, the first at row 3, column OP; \
+             fill them (hold the last value) or drop them (keep the longest clean segment) \
+             explicitly",
+        ),
+        (b"PV,OP\n,2\nnan,3\n", "loop.csv: column PV: every cell is empty or NaN"),
+        (b"PV,OP\n1,2\n2,3\n", "loop.csv: too few data rows: 3 needed, 2 available"),
+        (b"PV,OP\n", "loop.csv: too few data rows: 3 needed, 0 available"),
+        (b"PV,OP\n1,2\n2,2\n3,2\n", "loop.csv: column OP: constant (2.0) over all 3 rows"),
+        (b"PV,OP\n1,2\n1,3\n1,2\n", "loop.csv: column PV: constant (1.0) over all 3 rows"),
+    ];
+    for (input, want) in cases {
+        let got = read_csv(input, "loop.csv", &ReadOptions::default())
+            .map(|d| format!("unexpected success: {d:?}"))
+            .unwrap_or_else(|e| e.to_string());
+        assert_eq!(got, want, "input {:?}", String::from_utf8_lossy(input));
+        assert!(!got.contains('\n'));
+    }
+    let fill = ReadOptions {
+        gaps: GapPolicy::FillHold,
+        ..ReadOptions::default()
+    };
+    assert_eq!(
+        message(read_with(
+            "PV,OP\n1,2\n2,3\n3,2\n",
+            &ReadOptions {
+                min_rows: 10,
+                ..fill.clone()
+            }
+        )),
+        "loop.csv: too few data rows: 10 needed, 3 available"
+    );
+    assert_eq!(
+        message(read_with("PV,OP\n1,\n2,\n3,2\n4,3\n", &fill)),
+        "loop.csv: row 2, column OP: the column starts with 2 empty or NaN cell(s), there is no \
+         earlier value to hold; drop the gaps instead"
+    );
+    let e = read_csv_path("/nonexistent/dir/loop.csv", &ReadOptions::default()).unwrap_err();
+    assert!(matches!(e, DataError::Io { .. }));
+    assert!(
+        e.to_string().starts_with("/nonexistent/dir/loop.csv: "),
+        "{e}"
+    );
+}
+
+#[test]
+fn gaps_fill_hold() {
+    let opts = ReadOptions {
+        gaps: GapPolicy::FillHold,
+        ..ReadOptions::default()
+    };
+    let d = read_with("t,PV,OP,SP\n0,1,2,\n1,,3,\n,NaN,4,\n3,2,,\n4,3,5,\n", &opts).unwrap();
+    assert_eq!(d.pv.as_deref(), Some(&[1.0, 1.0, 1.0, 2.0, 3.0][..]));
+    assert_eq!(d.op, vec![2.0, 3.0, 4.0, 4.0, 5.0]);
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 1.0, 2.0, 3.0, 4.0][..]));
+    assert_eq!(d.sp, None);
+    assert_eq!(
+        d.notes,
+        vec![
+            "column SP ignored: every cell is empty or NaN",
+            "filled 1 gap(s) in column t by linear interpolation of time",
+            "filled 2 gap(s) in column PV by holding the last value",
+            "filled 1 gap(s) in column OP by holding the last value",
+        ]
+    );
+}
+
+#[test]
+fn gaps_dropped_keeps_the_longest_clean_segment() {
+    let opts = ReadOptions {
+        gaps: GapPolicy::DropGaps,
+        ..ReadOptions::default()
+    };
+    let text = "t,PV,OP\n0,1,2\n1,2,3\n2,,4\n3,2,5\n4,3,6\n5,4,5\n6,3,nan\n7,1,1\n";
+    let d = read_with(text, &opts).unwrap();
+    assert_eq!(d.pv.as_deref(), Some(&[2.0, 3.0, 4.0][..]));
+    assert_eq!(d.op, vec![5.0, 6.0, 5.0]);
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 1.0, 2.0][..]));
+    assert_eq!(
+        d.notes,
+        vec![
+            "dropped gaps: kept rows 5-7 (3 of 8 data rows), the longest segment without empty \
+             or NaN cells (2 gap cell(s) in total)"
+        ]
+    );
+    // Gaps in an ignored column do not count.
+    let d = read("PV,OP,X\n1,2,\n2,3,\n1,2,\n").unwrap();
+    assert_eq!(d.len(), 3);
+    // Too short a clean segment.
+    assert_eq!(
+        message(read_with("PV,OP\n1,2\n,3\n2,3\n", &opts)),
+        "loop.csv: too few data rows: 3 needed, 1 available"
+    );
+}
+
+/// The real plant registrations in `../shared/data/plant` (skipped when absent): every file
+/// reads (FIC10112 is known bad data: a clear error is fine, a panic is not).
+#[test]
+fn plant_data_reads() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/plant");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        println!("skipped: {} not found", dir.display());
+        return;
+    };
+    let mut ok = 0;
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if !name.ends_with(".csv") || name == "labels.csv" {
+            continue;
+        }
+        match read_csv_path(&path, &ReadOptions::default()) {
+            Ok(d) => {
+                assert_eq!(d.len(), 751, "{name}");
+                assert_eq!(d.t.as_ref().map(|t| t[1]), Some(10.0), "{name}");
+                assert!(d.sp.is_some());
+                ok += 1;
+            }
+            Err(e) => {
+                assert!(name.contains("FIC10112"), "{name}: {e}");
+                println!("{name}: {e}");
+            }
+        }
+    }
+    assert!(ok >= 40, "{ok} files read");
+}
+
+fn cell() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just(String::new()),
+        Just("nan".to_string()),
+        Just("NaN".to_string()),
+        Just("inf".to_string()),
+        Just("\"".to_string()),
+        Just("2024-01-01T00:00:00Z".to_string()),
+        any::<f64>().prop_map(|v| v.to_string()),
+        (-100i32..100).prop_map(|v| v.to_string()),
+        "[a-zA-Z0-9 .,;:\\-+eE\"]{0,8}",
+    ]
+}
+
+fn header_name() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("PV".to_string()),
+        Just("op".to_string()),
+        Just("SP".to_string()),
+        Just("MV".to_string()),
+        Just("t".to_string()),
+        Just("time".to_string()),
+        "[a-z]{0,3}",
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    #[test]
+    fn never_panics_on_random_bytes(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
+        let _ = read_csv(&bytes[..], "fuzz.csv", &ReadOptions::default());
+    }
+
+    #[test]
+    fn never_panics_on_random_tables(
+        header in proptest::collection::vec(header_name(), 1..6),
+        rows in proptest::collection::vec(proptest::collection::vec(cell(), 0..7), 0..12),
+        delim in prop_oneof![Just(','), Just(';'), Just('\t')],
+        gaps in prop_oneof![Just(GapPolicy::Refuse), Just(GapPolicy::FillHold), Just(GapPolicy::DropGaps)],
+        require_pv in any::<bool>(),
+        min_rows in 0usize..5,
+    ) {
+        let mut text = header.join(&delim.to_string());
+        for r in &rows {
+            text.push('\n');
+            text.push_str(&r.join(&delim.to_string()));
+        }
+        let opts = ReadOptions { gaps, require_pv, min_rows, ..ReadOptions::default() };
+        match read_csv(text.as_bytes(), "fuzz.csv", &opts) {
+            Ok(d) => {
+                let n = d.len();
+                prop_assert!(n >= min_rows.max(1));
+                prop_assert!(d.op.iter().all(|v| v.is_finite()));
+                for s in [&d.t, &d.sp, &d.pv, &d.mv].into_iter().flatten() {
+                    prop_assert_eq!(s.len(), n);
+                    prop_assert!(s.iter().all(|v| v.is_finite()));
+                }
+            }
+            Err(e) => prop_assert!(!e.to_string().contains('\n')),
+        }
+    }
+}
