@@ -131,6 +131,7 @@ where
             let _ = streams.stdout.flush();
             0
         }
+        Err(f) if is_broken_pipe(f.error()) => 0,
         Err(f) => {
             let _ = streams.stdout.flush();
             // One line: the chain of causes joined with ": ".
@@ -139,6 +140,19 @@ where
             f.code()
         }
     }
+}
+
+/// A closed stdout (`stiction ... | head`) ends the run quietly, as other Unix tools do.
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        let io = c.downcast_ref::<std::io::Error>().or_else(|| {
+            c.downcast_ref::<csv::Error>().and_then(|e| match e.kind() {
+                csv::ErrorKind::Io(io) => Some(io),
+                _ => None,
+            })
+        });
+        io.is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// Read all of `r` (for `FILE` = `-`).

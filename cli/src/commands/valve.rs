@@ -74,13 +74,13 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let run = run_valve(model.as_ref(), &op, &init).map_err(data)?;
     if !matches!(init, Initialization::In1(_)) {
         let how = if run.fell_back {
-            "the four starts never coincide (In.3 fell back to In.2);".to_string()
+            " the four starts never coincide (fell back to In.2);"
         } else {
-            String::new()
+            ""
         };
         writeln!(
             s.stderr,
-            "note: {} {how} MV does not depend on the start from sample {} on (0-based); before it, MV is the average of the four starts",
+            "note: {}:{how} MV does not depend on the valve's initial state from sample {} on (0-based); before it, MV is the average of the four starts",
             init.label(),
             run.valid_from
         )
