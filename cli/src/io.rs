@@ -10,4 +10,6 @@ pub struct Streams<'a> {
     pub stdout: &'a mut dyn Write,
     /// Standard error: errors, notes and progress.
     pub stderr: &'a mut dyn Write,
+    /// Show progress bars on the real standard error (only when it is a terminal).
+    pub progress: bool,
 }

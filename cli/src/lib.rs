@@ -16,6 +16,7 @@ use clap::{Parser, Subcommand};
 
 mod commands;
 mod io;
+mod progress;
 
 pub use io::Streams;
 
@@ -46,6 +47,12 @@ enum Command {
     /// Run a stiction model over the OP column of a CSV file; writes CSV `OP,MV`.
     #[command(after_help = commands::valve::AFTER_HELP)]
     Valve(commands::valve::Args),
+    /// Quantify stiction: grid search of a stiction model with a linear model (paper §2.3).
+    #[command(after_help = commands::quantify::QUANTIFY_HELP)]
+    Quantify(commands::quantify::QuantifyArgs),
+    /// Every stiction x linear combination on one loop, in one table (paper Tables 3-8).
+    #[command(after_help = commands::quantify::COMPARE_HELP)]
+    Compare(commands::quantify::CompareArgs),
     /// Simulate the paper's closed-loop benchmark (PI loop, sticky valve); writes CSV `t,SP,PV,OP,MV`.
     #[command(after_help = commands::simulate::AFTER_HELP)]
     Simulate(commands::simulate::Args),
@@ -95,6 +102,7 @@ pub fn run() -> ExitCode {
         stdin: &mut stdin.lock(),
         stdout: &mut stdout.lock(),
         stderr: &mut stderr.lock(),
+        progress: std::io::IsTerminal::is_terminal(&std::io::stderr()),
     };
     let code = run_from(std::env::args_os(), &mut streams);
     ExitCode::from(code as u8)
@@ -125,6 +133,8 @@ where
         Command::Models(a) => commands::models::run(a, streams),
         Command::Valve(a) => commands::valve::run(a, streams),
         Command::Simulate(a) => commands::simulate::run(a, streams),
+        Command::Quantify(a) => commands::quantify::run_quantify(a, streams),
+        Command::Compare(a) => commands::quantify::run_compare(a, streams),
     };
     match result {
         Ok(()) => {

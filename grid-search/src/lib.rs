@@ -1,4 +1,93 @@
-//! Generic grid search composing a stiction model and a linear identifier (filled by the
-//! quantification work).
+//! Hammerstein stiction quantification by grid search (Bacci di Capaci & Scali, §2.3-2.4).
+//!
+//! For every node of a grid over a stiction model's parameters ([`grid::nodes`]), the model
+//! turns OP into an estimated valve position MV ([`stiction_models::run_valve`], In.1/In.2/In.3),
+//! a linear identifier fits MV → PV on the identification window (the first `split` of the
+//! record, from the sample where MV no longer depends on the valve's unknown initial state),
+//! and the node is scored by the paper's F_PV (eq. 9, squared norms) on the validation window
+//! (the rest). The best node is the estimate. See [`quantify`].
+//!
+//! The search is generic over the identifier (`I: LinearIdentifier + ?Sized`, so `&dyn` and
+//! concrete callers share one code path) and takes the stiction model as a registry entry, so
+//! any registered model (a third party's too) is searched over the grid its parameter
+//! description defines. Nodes are evaluated in parallel (rayon); the result does not depend on
+//! the number of threads. This crate does no IO.
+
+pub mod grid;
+mod search;
+
+pub use search::{
+    quantify, Criterion, Fits, GridPlan, Interval, NodeFit, Problem, Quantification, SearchOptions,
+};
+
 pub use linear_id;
 pub use stiction_models;
+
+/// Errors of the grid search.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SearchError {
+    /// The stiction model failed (bad OP, bad initialization).
+    #[error(transparent)]
+    Stiction(#[from] stiction_models::StictionError),
+    /// The linear identification failed where no node can be skipped (the final refit).
+    #[error(transparent)]
+    Identification(#[from] linear_id::IdError),
+    /// OP and PV have different lengths.
+    #[error("OP has {op} samples, PV has {pv}")]
+    LengthMismatch {
+        /// OP length.
+        op: usize,
+        /// PV length.
+        pv: usize,
+    },
+    /// A signal that must vary is constant: nothing can be identified.
+    #[error("{signal} is constant (value {value}): stiction is not identifiable from this record")]
+    Constant {
+        /// `OP` or `PV`.
+        signal: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A sample is NaN or infinite.
+    #[error("{signal} sample {index} is not finite ({value})")]
+    NonFinite {
+        /// `OP`, `PV` or `MV`.
+        signal: &'static str,
+        /// Index of the first bad sample.
+        index: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// The record is too short for the identification/validation split and the orders.
+    #[error("too few samples: {needed} needed ({why}), got {got}")]
+    TooFewSamples {
+        /// Samples needed.
+        needed: usize,
+        /// Samples given.
+        got: usize,
+        /// What they are needed for.
+        why: String,
+    },
+    /// An option is out of range.
+    #[error("invalid option {name} = {value}: expected {expected}")]
+    InvalidOption {
+        /// Option name.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// Valid range.
+        expected: String,
+    },
+    /// Every node was skipped: no estimate exists.
+    #[error("no grid node could be evaluated ({nodes} nodes); most common reason: {reason}")]
+    NoValidNode {
+        /// Number of nodes tried.
+        nodes: usize,
+        /// The most frequent skip reason.
+        reason: String,
+    },
+}
+
+mod delay;
+pub use delay::{estimate_delay, DelayScan};

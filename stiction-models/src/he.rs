@@ -197,6 +197,21 @@ impl StictionModel for He {
         }
         Ok(())
     }
+    fn simulate_starts(
+        &self,
+        op: &[f64],
+        starts: &[InitialState],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError> {
+        crate::kano::lockstep(
+            op,
+            starts,
+            out,
+            |op0, s| self.start_state(op0, s),
+            HeState::advance,
+            |a, b| a.u_r == b.u_r && a.u_prev == b.u_prev && a.mv_prev == b.mv_prev,
+        )
+    }
     fn box_clone(&self) -> Box<dyn StictionModel> {
         Box::new(*self)
     }

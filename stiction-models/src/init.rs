@@ -184,17 +184,17 @@ pub fn run_valve(
                     "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
                 )));
             }
-            let runs = four_runs(model, op)?;
+            let (runs, merge) = four_runs(model, op)?;
             Ok(ValveRun {
-                mv: average(&runs, n),
+                mv: average(&runs, merge, n),
                 valid_from: (stationary_fraction * n as f64).ceil() as usize,
                 fell_back: false,
             })
         }
         Initialization::In3 => {
-            let runs = four_runs(model, op)?;
+            let (runs, merge) = four_runs(model, op)?;
             let mut valid_from = 0;
-            for k in (0..n).rev() {
+            for k in (0..merge.min(n)).rev() {
                 let first = runs[0][k];
                 let tol = 1e-12 * first.abs().max(1.0);
                 if runs[1..].iter().any(|r| (r[k] - first).abs() > tol) {
@@ -209,7 +209,7 @@ pub fn run_valve(
                 valid_from
             };
             Ok(ValveRun {
-                mv: average(&runs, n),
+                mv: average(&runs, merge, n),
                 valid_from,
                 fell_back,
             })
@@ -217,22 +217,25 @@ pub fn run_valve(
     }
 }
 
-fn four_runs(model: &dyn StictionModel, op: &[f64]) -> Result<Vec<Vec<f64>>, StictionError> {
-    InitialState::four_variants()
-        .iter()
-        .map(|s| model.simulate(op, s))
-        .collect()
+/// The four runs (filled up to `merge`, the first one completely) and the merge sample.
+fn four_runs(
+    model: &dyn StictionModel,
+    op: &[f64],
+) -> Result<(Vec<Vec<f64>>, usize), StictionError> {
+    let starts = InitialState::four_variants();
+    let mut runs = vec![Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+    let merge = model.simulate_starts(op, &starts, &mut runs)?;
+    Ok((runs, merge))
 }
 
-fn average(runs: &[Vec<f64>], n: usize) -> Vec<f64> {
-    (0..n)
-        .map(|k| {
-            let first = runs[0][k];
-            if runs[1..].iter().all(|r| r[k] == first) {
-                first
-            } else {
-                runs.iter().map(|r| r[k]).sum::<f64>() / runs.len() as f64
-            }
-        })
-        .collect()
+/// The average of the four runs where they differ (before `merge`), the common value elsewhere.
+fn average(runs: &[Vec<f64>], merge: usize, n: usize) -> Vec<f64> {
+    let mut mv = runs[0].clone();
+    for (k, m) in mv.iter_mut().enumerate().take(merge.min(n)) {
+        let first = *m;
+        if runs[1..].iter().any(|r| r[k] != first) {
+            *m = runs.iter().map(|r| r[k]).sum::<f64>() / runs.len() as f64;
+        }
+    }
+    mv
 }

@@ -123,6 +123,14 @@ impl StictionModel for Kano {
     ) -> Result<(), StictionError> {
         self.core().simulate_into(op, init, mv)
     }
+    fn simulate_starts(
+        &self,
+        op: &[f64],
+        starts: &[InitialState],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError> {
+        self.core().simulate_starts(op, starts, out)
+    }
     fn box_clone(&self) -> Box<dyn StictionModel> {
         Box::new(*self)
     }
@@ -241,6 +249,78 @@ impl KanoCore {
     }
 }
 
+impl KanoCore {
+    /// Lockstep simulation from several starts (see [`StictionModel::simulate_starts`]).
+    pub(crate) fn simulate_starts(
+        &self,
+        op: &[f64],
+        starts: &[InitialState],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError> {
+        lockstep(
+            op,
+            starts,
+            out,
+            |op0, s| self.start(op0, s),
+            KanoState::advance,
+            KanoState::same,
+        )
+    }
+}
+
+/// Step several valve states in lockstep until they all equal the first, then only the first
+/// (see [`StictionModel::simulate_starts`]). `same` must be true only for states that produce
+/// identical futures for any input.
+pub(crate) fn lockstep<S: ValveState>(
+    op: &[f64],
+    starts: &[InitialState],
+    out: &mut [Vec<f64>],
+    start: impl Fn(f64, &InitialState) -> Result<S, StictionError>,
+    advance: impl Fn(&mut S, f64) -> f64,
+    same: impl Fn(&S, &S) -> bool,
+) -> Result<usize, StictionError> {
+    crate::check_finite(op)?;
+    let n = op.len();
+    if out.len() < starts.len() || starts.is_empty() {
+        return Err(StictionError::InvalidInit(format!(
+            "{} starts need as many output buffers (got {})",
+            starts.len(),
+            out.len()
+        )));
+    }
+    for o in out.iter_mut().take(starts.len()) {
+        o.resize(n, 0.0);
+    }
+    let Some(&op0) = op.first() else {
+        return Ok(0);
+    };
+    let mut states = starts
+        .iter()
+        .map(|s| start(op0, s))
+        .collect::<Result<Vec<S>, _>>()?;
+    for (o, st) in out.iter_mut().zip(&states) {
+        o[0] = st.position();
+    }
+    let all_same = |states: &[S]| states[1..].iter().all(|s| same(&states[0], s));
+    let mut k = 1;
+    let mut merge = if all_same(&states) { 1 } else { n };
+    while k < n && merge == n {
+        let u = op[k];
+        for (o, st) in out.iter_mut().zip(states.iter_mut()) {
+            o[k] = advance(st, u);
+        }
+        k += 1;
+        if all_same(&states) {
+            merge = k;
+        }
+    }
+    let st = &mut states[0];
+    for (m, &u) in out[0][k..].iter_mut().zip(&op[k..]) {
+        *m = advance(st, u);
+    }
+    Ok(merge)
+}
+
 /// Simulation state of a Kano-type valve: `u_prev`, `du_prev`, `u_s`, `stp`, `d`, `mv_prev`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct KanoState {
@@ -254,6 +334,17 @@ pub(crate) struct KanoState {
 }
 
 impl KanoState {
+    /// Same future for any input: equal in every variable that the update reads (`u_s` only
+    /// matters while stuck; it is reset at the next stop).
+    fn same(a: &KanoState, b: &KanoState) -> bool {
+        a.u_prev == b.u_prev
+            && a.du_prev == b.du_prev
+            && a.stuck == b.stuck
+            && a.d == b.d
+            && a.mv_prev == b.mv_prev
+            && (!a.stuck || a.u_s == b.u_s)
+    }
+
     #[inline(always)]
     fn advance(&mut self, u: f64) -> f64 {
         let c = &self.core;

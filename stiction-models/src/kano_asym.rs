@@ -143,6 +143,14 @@ impl StictionModel for KanoAsym {
     ) -> Result<(), StictionError> {
         self.core().simulate_into(op, init, mv)
     }
+    fn simulate_starts(
+        &self,
+        op: &[f64],
+        starts: &[InitialState],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError> {
+        self.core().simulate_starts(op, starts, out)
+    }
     fn box_clone(&self) -> Box<dyn StictionModel> {
         Box::new(*self)
     }

@@ -175,6 +175,27 @@ pub trait StictionModel: Send + Sync + fmt::Debug {
         Ok(())
     }
 
+    /// Simulate from several starts at once (In.2/In.3 use the four `(stp, d)` starts).
+    ///
+    /// Fills `out[i]` (each as long as `op`) with the run from `starts[i]` up to the returned
+    /// sample `merge`, and `out[0]` completely: from `merge` on every run is guaranteed equal to
+    /// `out[0]` (their whole valve states coincided, so they stay identical), and the other
+    /// buffers are not written there. The default runs every start to the end and returns
+    /// `op.len()`; built-in models step the starts in lockstep and stop the extra runs once
+    /// their states coincide, which makes In.3 cost little more than one run.
+    fn simulate_starts(
+        &self,
+        op: &[f64],
+        starts: &[InitialState],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError> {
+        for (s, o) in starts.iter().zip(out.iter_mut()) {
+            o.resize(op.len(), 0.0);
+            self.simulate_into(op, s, o)?;
+        }
+        Ok(op.len())
+    }
+
     /// Simulate MV for the whole OP record.
     fn simulate(&self, op: &[f64], init: &InitialState) -> Result<Vec<f64>, StictionError> {
         let mut mv = vec![0.0; op.len()];

@@ -2,6 +2,8 @@
 
 pub mod load;
 pub mod models;
+pub mod quantify;
+pub mod search_flags;
 pub mod simulate;
 pub mod valve;
 

@@ -19,6 +19,7 @@ pub fn run(args: &[&str], stdin: &[u8]) -> Out {
         stdin: &mut input,
         stdout: &mut out,
         stderr: &mut err,
+        progress: false,
     };
     let mut all = vec!["stiction"];
     all.extend_from_slice(args);

@@ -11,6 +11,7 @@ fn run(args: &[&str], stdin: &str) -> (i32, String, String) {
         stdin: &mut input,
         stdout: &mut out,
         stderr: &mut err,
+        progress: false,
     };
     let code = run_from(args.iter().copied(), &mut streams);
     (

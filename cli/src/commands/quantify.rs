@@ -1,0 +1,528 @@
+//! `stiction quantify` and `stiction compare`: the grid search on one loop.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{anyhow, Context};
+use datasets::simulate::Scenario;
+use datasets::LoopData;
+use grid_search::{estimate_delay, quantify, Problem, Quantification, SearchOptions};
+use linear_id::LinearIdentifier;
+use serde_json::{json, Value};
+use stiction_models::{find_model, Kano, ModelEntry};
+
+use super::load::{load, DataFlags};
+use super::search_flags::{build_identifier, DelayFlag, SearchFlags};
+use crate::progress::Progress;
+use crate::{data, usage, CmdResult, Failure, Streams};
+
+/// Largest dead time tried by `--delay auto`, samples.
+pub(crate) const MAX_AUTO_DELAY: usize = 10;
+
+pub(crate) const QUANTIFY_HELP: &str = "\
+The grid covers the model's parameters from 0 to the OP span (the triangle J <= S for kano).
+Each node simulates MV from OP, identifies the linear model on the first 2/3 of the record
+(from the sample where MV no longer depends on the valve's initial state, In.3) and scores
+the one-step prediction of PV on the last 1/3 (F_PV, paper eq. 9, in %). S and J are in OP
+units (% of valve span); the region is the set of nodes not significantly worse than the best.
+
+Examples:
+  stiction quantify loop.csv
+  stiction quantify loop.csv --stiction he --linear earx --delay auto
+  stiction quantify loop.csv --linear armax --orders 2,2,2 --step 0.2 --surface fit.csv
+  stiction quantify --example paper --json";
+
+pub(crate) const COMPARE_HELP: &str = "\
+Runs quantify for every stiction x linear combination and prints one table in the layout
+of the paper's Tables 3-8 (S, J, F_PV id, F_PV val, F_MV). A combination that fails gets its
+error in its row; the others still run.
+
+Examples:
+  stiction compare --example paper
+  stiction compare loop.csv --stiction kano,he --linear arx,earx
+  stiction compare loop.csv --json > results.json";
+
+/// Which embedded example to use instead of a file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Example {
+    /// The paper's benchmark loop (eq. 10, PI 0.5/0.5, σ = 0.1) with a Kano valve S = 9, J = 3,
+    /// 3000 samples, seed 1 (paper §3.2, Tables 1-2).
+    Paper,
+}
+
+/// Arguments of `stiction quantify`.
+#[derive(Debug, clap::Args)]
+pub struct QuantifyArgs {
+    /// CSV file with PV and OP columns (`-` for standard input).
+    #[arg(required_unless_present = "example", conflicts_with = "example")]
+    file: Option<PathBuf>,
+    /// Use an embedded example loop instead of a file.
+    #[arg(long, value_enum)]
+    example: Option<Example>,
+    /// Registered stiction model searched over (see `stiction models`).
+    #[arg(long, value_name = "NAME", default_value = "kano")]
+    stiction: String,
+    /// Registered linear identifier.
+    #[arg(long, value_name = "NAME", default_value = "arx")]
+    linear: String,
+    #[command(flatten)]
+    search: SearchFlags,
+    #[command(flatten)]
+    data: DataFlags,
+    /// Write the fit over the whole grid as CSV (for plotting).
+    #[arg(long, value_name = "FILE")]
+    surface: Option<PathBuf>,
+    /// Print one JSON document.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Arguments of `stiction compare`.
+#[derive(Debug, clap::Args)]
+pub struct CompareArgs {
+    /// CSV file with PV and OP columns (`-` for standard input).
+    #[arg(required_unless_present = "example", conflicts_with = "example")]
+    file: Option<PathBuf>,
+    /// Use an embedded example loop instead of a file.
+    #[arg(long, value_enum)]
+    example: Option<Example>,
+    /// Stiction models, comma-separated.
+    #[arg(
+        long,
+        value_name = "A,B",
+        value_delimiter = ',',
+        default_value = "kano,he"
+    )]
+    stiction: Vec<String>,
+    /// Linear identifiers, comma-separated.
+    #[arg(
+        long,
+        value_name = "X,Y",
+        value_delimiter = ',',
+        default_value = "arx,armax,ss,earx,earmax"
+    )]
+    linear: Vec<String>,
+    #[command(flatten)]
+    search: SearchFlags,
+    #[command(flatten)]
+    data: DataFlags,
+    /// Print one JSON document.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The loop to analyse: a file or an embedded example.
+pub(crate) fn loop_data(
+    file: Option<&Path>,
+    example: Option<Example>,
+    flags: &DataFlags,
+    s: &mut Streams<'_>,
+) -> Result<LoopData, Failure> {
+    match (file, example) {
+        (_, Some(Example::Paper)) => {
+            let scenario = Scenario {
+                valve: Box::new(Kano::params().s(9.0).j(3.0).check().map_err(data)?),
+                ..Scenario::default()
+            };
+            let sim = scenario.simulate().map_err(data)?;
+            let mut d = sim.to_loop_data();
+            d.source = "example paper (kano S = 9, J = 3, seed 1)".into();
+            Ok(d)
+        }
+        (Some(f), None) => load(f, flags, true, 30, s),
+        (None, None) => Err(usage(anyhow!("give a FILE or --example"))),
+    }
+}
+
+/// Everything about one quantification run, for printing.
+pub(crate) struct Run {
+    pub stiction: &'static ModelEntry,
+    pub linear_name: &'static str,
+    pub identifier: Box<dyn LinearIdentifier>,
+    pub delay: usize,
+    pub delay_scan: Option<grid_search::DelayScan>,
+    pub result: Quantification,
+    pub elapsed_ms: f64,
+}
+
+/// Run one stiction × linear combination on `d`.
+pub(crate) fn run_one(
+    stiction: &str,
+    linear: &str,
+    flags: &SearchFlags,
+    d: &LoopData,
+    s: &mut Streams<'_>,
+) -> Result<Run, Failure> {
+    let started = Instant::now();
+    let entry = find_model(stiction).map_err(usage)?;
+    let pv = d.require_pv().map_err(data)?;
+    let problem = Problem {
+        op: &d.op,
+        pv,
+        mv: d.mv.as_deref(),
+    };
+    let span = {
+        let (lo, hi) =
+            d.op.iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+        hi - lo
+    };
+    let options: SearchOptions = flags.options(span)?;
+    // Check the identifier and its orders once (bad usage), whatever the delay.
+    let (_, id_entry) = build_identifier(linear, flags.orders.as_deref(), 0)?;
+    let (delay, delay_scan) = match flags.delay {
+        DelayFlag::Fixed(d) => (d, None),
+        DelayFlag::Auto => {
+            let orders = flags.orders.clone();
+            let name = id_entry.name;
+            let build = move |d: usize| {
+                build_identifier(name, orders.as_deref(), d)
+                    .map(|(id, _)| id)
+                    .map_err(|_| linear_id::IdError::InvalidOrder {
+                        identifier: name,
+                        name: "delay".into(),
+                        value: d as f64,
+                        expected: "a dead time this identifier accepts".into(),
+                    })
+            };
+            let scan =
+                estimate_delay(entry, &build, problem, &options, MAX_AUTO_DELAY).map_err(data)?;
+            (scan.delay, Some(scan))
+        }
+    };
+    let (identifier, id_entry) = build_identifier(linear, flags.orders.as_deref(), delay)?;
+    let bar = Progress::new(s.progress, &format!("{} + {}", entry.name, id_entry.name));
+    let tick = |done: usize, total: usize| bar.update(done, total);
+    let result = quantify(entry, identifier.as_ref(), problem, &options, Some(&tick))
+        .map_err(|e| data(anyhow!("{}: {e}", d.source)))?;
+    bar.finish();
+    Ok(Run {
+        stiction: entry,
+        linear_name: id_entry.name,
+        identifier,
+        delay,
+        delay_scan,
+        result,
+        elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+fn round(x: f64, digits: i32) -> Value {
+    if x.is_finite() {
+        let f = 10f64.powi(digits);
+        json!((x * f).round() / f)
+    } else {
+        Value::Null
+    }
+}
+
+/// The contract's quantify object.
+pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
+    let q = &r.result;
+    let mut params = serde_json::Map::new();
+    for (spec, v) in r.stiction.params.iter().zip(q.stiction.param_values()) {
+        params.insert(spec.name.to_string(), json!(v));
+    }
+    for (name, v) in q.stiction.derived_values() {
+        params.insert(name.to_string(), json!(v));
+    }
+    let orders: serde_json::Map<String, Value> = r
+        .identifier
+        .orders()
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), json!(v)))
+        .collect();
+    let (fit_id, fit_val, other_id, other_val) = match q.criterion {
+        grid_search::Criterion::Prediction => (
+            q.fits.pred_id,
+            q.fits.pred_val,
+            q.fits.sim_id,
+            q.fits.sim_val,
+        ),
+        grid_search::Criterion::Simulation => (
+            q.fits.sim_id,
+            q.fits.sim_val,
+            q.fits.pred_id,
+            q.fits.pred_val,
+        ),
+    };
+    json!({
+        "stiction_model": r.stiction.name,
+        "linear_model": r.linear_name,
+        "S": q.s,
+        "J": q.j,
+        "params": params,
+        "fit_pv_id": fit_id,
+        "fit_pv_val": fit_val,
+        "fit_kind": q.criterion.label(),
+        "fit_pv_other": { "kind": match q.criterion {
+            grid_search::Criterion::Prediction => "simulation",
+            grid_search::Criterion::Simulation => "prediction",
+        }, "id": round(other_id, 6), "val": round(other_val, 6) },
+        "fit_mv": q.fits.mv,
+        "fit_no_stiction": q.fit_no_stiction,
+        "delay": r.delay,
+        "delay_scan": r.delay_scan.as_ref().map(|d| d.scores.iter().map(|(k, f)| json!({"delay": k, "fit_pv_val": round(*f, 6)})).collect::<Vec<_>>()),
+        "orders": orders,
+        "interval": {
+            "S": q.interval.s, "J": q.interval.j, "nodes": q.interval.nodes,
+            "fit_threshold": round(q.interval.fit_threshold, 6), "confidence": q.interval.confidence,
+        },
+        "grid": {
+            "nodes": q.nodes_evaluated,
+            "skipped": q.nodes_skipped,
+            "step": q.grid.step(),
+            "plan": q.grid,
+            "span": q.span,
+        },
+        "init": init,
+        "valid_from": q.fits.valid_from,
+        "split_index": q.split_index,
+        "stable": q.linear.is_stable(),
+        "static_gain": round(q.linear.static_gain(), 9),
+        "elapsed_ms": round(r.elapsed_ms, 3),
+    })
+}
+
+fn fmt_fit(f: Option<f64>) -> String {
+    match f {
+        Some(v) if v.is_finite() => format!("{v:.2}"),
+        _ => "-".into(),
+    }
+}
+
+pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult {
+    let d = loop_data(args.file.as_deref(), args.example, &args.data, s)?;
+    let r = run_one(&args.stiction, &args.linear, &args.search, &d, s)?;
+    if let Some(path) = &args.surface {
+        write_surface(path, &r).map_err(data)?;
+    }
+    if args.json {
+        let mut v = quantify_json(&r, args.search.init.label());
+        v["source"] = json!(d.source);
+        serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
+        writeln!(s.stdout).map_err(data)?;
+        return Ok(());
+    }
+    let q = &r.result;
+    let out = &mut *s.stdout;
+    let orders: Vec<String> = r
+        .identifier
+        .orders()
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
+    let delay_note = match &r.delay_scan {
+        Some(_) => format!("dead time {} samples (estimated)", r.delay),
+        None => format!("dead time {} samples", r.delay),
+    };
+    writeln!(
+        out,
+        "{}: {} + {} ({}), {}, {delay_note}, ranked by one-step {}",
+        d.source,
+        r.stiction.name,
+        r.linear_name,
+        orders.join(", "),
+        args.search.init.label(),
+        q.criterion.label()
+    )
+    .map_err(data)?;
+    let own: Vec<String> = r
+        .stiction
+        .params
+        .iter()
+        .zip(q.stiction.param_values())
+        .map(|(p, v)| format!("{} = {v:.3}", p.name))
+        .chain(
+            q.stiction
+                .derived_values()
+                .into_iter()
+                .map(|(k, v)| format!("{k} = {v:.3}")),
+        )
+        .collect();
+    writeln!(
+        out,
+        "  S = {:.2} %  [{:.2}, {:.2}]    J = {:.2} %  [{:.2}, {:.2}]    ({})",
+        q.s,
+        q.interval.s[0],
+        q.interval.s[1],
+        q.j,
+        q.interval.j[0],
+        q.interval.j[1],
+        own.join(", ")
+    )
+    .map_err(data)?;
+    let (fid, fval, oid, oval) = match q.criterion {
+        grid_search::Criterion::Prediction => (
+            q.fits.pred_id,
+            q.fits.pred_val,
+            q.fits.sim_id,
+            q.fits.sim_val,
+        ),
+        grid_search::Criterion::Simulation => (
+            q.fits.sim_id,
+            q.fits.sim_val,
+            q.fits.pred_id,
+            q.fits.pred_val,
+        ),
+    };
+    writeln!(
+        out,
+        "  F_PV id {:.2} %, val {:.2} %   (other fit: id {}, val {})   F_MV {}   no stiction: val {}",
+        fid,
+        fval,
+        fmt_fit(Some(oid)),
+        fmt_fit(Some(oval)),
+        fmt_fit(q.fits.mv),
+        fmt_fit(q.fit_no_stiction)
+    )
+    .map_err(data)?;
+    writeln!(
+        out,
+        "  [S, J] ranges: {} nodes within the {:.0} % likelihood-ratio region; grid {} nodes ({} skipped), step {}, OP span {:.2}; {:.0} ms",
+        q.interval.nodes,
+        100.0 * q.interval.confidence,
+        q.nodes_evaluated,
+        q.nodes_skipped,
+        q.grid.step(),
+        q.span,
+        r.elapsed_ms
+    )
+    .map_err(data)?;
+    Ok(())
+}
+
+fn write_surface(path: &Path, r: &Run) -> anyhow::Result<()> {
+    let file =
+        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
+    let mut header: Vec<String> = r
+        .stiction
+        .params
+        .iter()
+        .map(|p| p.name.to_string())
+        .collect();
+    header.extend(
+        [
+            "S",
+            "J",
+            "fit_pred_id",
+            "fit_pred_val",
+            "fit_sim_id",
+            "fit_sim_val",
+            "fit_mv",
+            "valid_from",
+            "skipped",
+        ]
+        .map(String::from),
+    );
+    w.write_record(&header)?;
+    for n in &r.result.surface {
+        let mut row: Vec<String> = n.params.iter().map(|v| v.to_string()).collect();
+        row.push(n.s.to_string());
+        row.push(n.j.to_string());
+        match &n.outcome {
+            Ok(f) => {
+                for v in [f.pred_id, f.pred_val, f.sim_id, f.sim_val] {
+                    row.push(v.to_string());
+                }
+                row.push(f.mv.map(|v| v.to_string()).unwrap_or_default());
+                row.push(f.valid_from.to_string());
+                row.push(String::new());
+            }
+            Err(reason) => {
+                row.extend(std::iter::repeat_n(String::new(), 6));
+                row.push(reason.clone());
+            }
+        }
+        w.write_record(&row)?;
+    }
+    w.flush()
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
+    // Validate every name first: a typo is bad usage, not a row error.
+    for name in &args.stiction {
+        find_model(name).map_err(usage)?;
+    }
+    for name in &args.linear {
+        build_identifier(name, None, 0)?;
+    }
+    let d = loop_data(args.file.as_deref(), args.example, &args.data, s)?;
+    let mut rows = Vec::new();
+    for st in &args.stiction {
+        for li in &args.linear {
+            rows.push((st.clone(), li.clone(), run_one(st, li, &args.search, &d, s)));
+        }
+    }
+    if args.json {
+        let mut results = Vec::new();
+        let mut errors = Vec::new();
+        for (st, li, r) in &rows {
+            match r {
+                Ok(r) => results.push(quantify_json(r, args.search.init.label())),
+                Err(f) => errors.push(json!({"stiction_model": st, "linear_model": li, "error": format!("{:#}", f.error())})),
+            }
+        }
+        let doc = json!({"source": d.source, "results": results, "errors": errors});
+        serde_json::to_writer_pretty(&mut *s.stdout, &doc).map_err(data)?;
+        writeln!(s.stdout).map_err(data)?;
+        return Ok(());
+    }
+    let out = &mut *s.stdout;
+    writeln!(
+        out,
+        "{}: {} samples, identification {} / validation {}, {}, ranked by one-step {}",
+        d.source,
+        d.len(),
+        (d.len() as f64 * args.search.split).floor(),
+        d.len() - (d.len() as f64 * args.search.split).floor() as usize,
+        args.search.init.label(),
+        match args.search.criterion {
+            super::search_flags::CriterionFlag::Prediction => "prediction",
+            super::search_flags::CriterionFlag::Simulation => "simulation",
+        }
+    )
+    .map_err(data)?;
+    writeln!(
+        out,
+        "{:<10} {:<7} {:>6} {:>13} {:>6} {:>13} {:>9} {:>9} {:>7} {:>8}",
+        "stiction", "linear", "S", "S range", "J", "J range", "F_PV id", "F_PV val", "F_MV", "time"
+    )
+    .map_err(data)?;
+    for (st, li, r) in &rows {
+        match r {
+            Ok(r) => {
+                let q = &r.result;
+                let (fid, fval) = match q.criterion {
+                    grid_search::Criterion::Prediction => (q.fits.pred_id, q.fits.pred_val),
+                    grid_search::Criterion::Simulation => (q.fits.sim_id, q.fits.sim_val),
+                };
+                writeln!(
+                    out,
+                    "{:<10} {:<7} {:>6.2} {:>13} {:>6.2} {:>13} {:>9.2} {:>9.2} {:>7} {:>7.1}s",
+                    st,
+                    li,
+                    q.s,
+                    format!("{:.2}-{:.2}", q.interval.s[0], q.interval.s[1]),
+                    q.j,
+                    format!("{:.2}-{:.2}", q.interval.j[0], q.interval.j[1]),
+                    fid,
+                    fval,
+                    fmt_fit(q.fits.mv),
+                    r.elapsed_ms / 1e3
+                )
+                .map_err(data)?;
+            }
+            Err(f) => {
+                let msg = format!("{:#}", f.error()).replace('\n', " ");
+                writeln!(out, "{st:<10} {li:<7} error: {msg}").map_err(data)?;
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,160 @@
+//! Flags shared by `quantify`, `compare` (and later `diagnose`): the linear model's orders,
+//! the dead time, and the grid.
+
+use anyhow::anyhow;
+use grid_search::{Criterion, GridPlan, SearchOptions};
+use linear_id::{find_identifier, IdentifierEntry, LinearIdentifier};
+use stiction_models::Initialization;
+
+use super::valve::parse_init;
+use crate::{usage, Failure};
+
+/// The dead time: fixed or estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum DelayFlag {
+    /// A fixed number of samples.
+    Fixed(usize),
+    /// Estimated by the search (`auto`).
+    Auto,
+}
+
+pub(crate) fn parse_delay(s: &str) -> Result<DelayFlag, String> {
+    if s.eq_ignore_ascii_case("auto") {
+        return Ok(DelayFlag::Auto);
+    }
+    s.parse::<usize>()
+        .map(DelayFlag::Fixed)
+        .map_err(|_| format!("expected a number of samples or `auto`, got {s:?}"))
+}
+
+/// Grid and identification options.
+#[derive(Debug, Clone, clap::Args)]
+pub(crate) struct SearchFlags {
+    /// Orders of the linear model: values in the identifier's order (e.g. `2,2` for arx n,m;
+    /// `2,2,2` for armax n,m,p) or NAME=VALUE pairs (`n=3,m=2`). Default: the paper's.
+    #[arg(long, value_name = "ORDERS")]
+    pub orders: Option<String>,
+    /// Process dead time in samples, or `auto` to estimate it.
+    #[arg(long, value_name = "N|auto", default_value = "0", value_parser = parse_delay)]
+    pub delay: DelayFlag,
+    /// Grid step in OP units (% of span): exhaustive grid at this step. Default: a coarse grid
+    /// at span/40 refined at step 0.1 around its best node.
+    #[arg(long, value_name = "X")]
+    pub step: Option<f64>,
+    /// Initialization of the valve model (paper §2.4).
+    #[arg(long, default_value = "In.3", value_parser = parse_init)]
+    pub init: Initialization,
+    /// Fit that ranks the grid nodes: one-step `prediction` or free-run `simulation`.
+    #[arg(long, value_enum, default_value = "prediction")]
+    pub criterion: CriterionFlag,
+    /// Fraction of the record used for identification (the rest validates).
+    #[arg(long, value_name = "F", default_value = "0.6666666666666666")]
+    pub split: f64,
+}
+
+/// `--criterion`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum CriterionFlag {
+    /// One-step-ahead prediction (default).
+    Prediction,
+    /// Free-run simulation.
+    Simulation,
+}
+
+impl SearchFlags {
+    /// Search options for a record with OP span `span`.
+    pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
+        let grid = match self.step {
+            Some(step) if step.is_finite() && step > 0.0 => GridPlan::Exhaustive { step },
+            Some(step) => {
+                return Err(usage(anyhow!(
+                    "--step {step}: expected a positive step in OP units"
+                )))
+            }
+            None => default_plan(span),
+        };
+        Ok(SearchOptions {
+            init: self.init,
+            grid,
+            split: self.split,
+            criterion: match self.criterion {
+                CriterionFlag::Prediction => Criterion::Prediction,
+                CriterionFlag::Simulation => Criterion::Simulation,
+            },
+            ..SearchOptions::default()
+        })
+    }
+}
+
+/// The default grid for OP span `span`: coarse at span/40, refined at 0.1 % (or a fifth of the
+/// coarse step when the span is under 20 %) within two coarse steps of the best coarse node.
+pub(crate) fn default_plan(span: f64) -> GridPlan {
+    let coarse = span / 40.0;
+    let fine = 0.1f64.min(coarse / 5.0).max(1e-6);
+    if coarse <= fine {
+        GridPlan::Exhaustive { step: fine }
+    } else {
+        GridPlan::CoarseToFine {
+            coarse,
+            fine,
+            radius: 2.0,
+        }
+    }
+}
+
+/// Build a registered identifier from `--orders` and a delay.
+pub(crate) fn build_identifier(
+    name: &str,
+    orders: Option<&str>,
+    delay: usize,
+) -> Result<(Box<dyn LinearIdentifier>, &'static IdentifierEntry), Failure> {
+    let entry = find_identifier(name).map_err(usage)?;
+    let mut pairs = parse_orders(entry, orders.unwrap_or(""))?;
+    pairs.retain(|(k, _)| k != "delay");
+    if entry.orders.iter().any(|o| o.name == "delay") {
+        pairs.push(("delay".into(), delay as f64));
+    } else if delay != 0 {
+        return Err(usage(anyhow!(
+            "{}: this identifier has no dead-time option",
+            entry.name
+        )));
+    }
+    let id = (entry.build)(&pairs).map_err(usage)?;
+    Ok((id, entry))
+}
+
+fn parse_orders(entry: &IdentifierEntry, s: &str) -> Result<Vec<(String, f64)>, Failure> {
+    let positional: Vec<&str> = entry
+        .orders
+        .iter()
+        .map(|o| o.name)
+        .filter(|n| *n != "delay")
+        .collect();
+    let mut out = Vec::new();
+    for (i, item) in s
+        .split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .enumerate()
+    {
+        let (name, value) = match item.split_once('=') {
+            Some((k, v)) => (k.trim().to_string(), v.trim()),
+            None => {
+                let name = positional.get(i).ok_or_else(|| {
+                    usage(anyhow!(
+                        "--orders {s:?}: {} takes at most {} positional orders ({})",
+                        entry.name,
+                        positional.len(),
+                        positional.join(", ")
+                    ))
+                })?;
+                (name.to_string(), item)
+            }
+        };
+        let value: f64 = value
+            .parse()
+            .map_err(|_| usage(anyhow!("--orders: {name} = {value:?} is not a number")))?;
+        out.push((name, value));
+    }
+    Ok(out)
+}

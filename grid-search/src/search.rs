@@ -1,0 +1,711 @@
+//! The search itself.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use linear_id::{fit_pv, LinearFit, LinearIdentifier};
+use rayon::prelude::*;
+use serde::Serialize;
+use stiction_models::{run_valve, Initialization, ModelEntry, StictionModel};
+
+use crate::{grid, SearchError};
+
+/// Which PV estimate ranks the nodes.
+///
+/// Decided by measurement (`docs/CRITERION.md`): in closed loop a free-run simulation fit can
+/// prefer S = J = 0, because OP carries feedback information about the noise in PV, while the
+/// one-step prediction peaks at the truth. Both fits are always computed and reported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Criterion {
+    /// One-step-ahead prediction with measured PV lags (default).
+    #[default]
+    Prediction,
+    /// Free-run simulation of the deterministic part from MV.
+    Simulation,
+}
+
+impl Criterion {
+    /// `prediction` or `simulation`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Criterion::Prediction => "prediction",
+            Criterion::Simulation => "simulation",
+        }
+    }
+}
+
+/// How the grid is laid out.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum GridPlan {
+    /// Every node at `step` (OP units) over the model's whole admissible region.
+    Exhaustive {
+        /// Grid step, OP units.
+        step: f64,
+    },
+    /// A grid at `coarse`, then every node at `fine` within `radius` coarse steps of the best
+    /// coarse node (spec §5.6).
+    CoarseToFine {
+        /// Coarse step, OP units.
+        coarse: f64,
+        /// Fine step, OP units.
+        fine: f64,
+        /// Half-width of the refinement box, in coarse steps.
+        radius: f64,
+    },
+}
+
+impl GridPlan {
+    /// The finest step of the plan.
+    pub fn step(&self) -> f64 {
+        match *self {
+            GridPlan::Exhaustive { step } => step,
+            GridPlan::CoarseToFine { fine, .. } => fine,
+        }
+    }
+}
+
+/// Options of [`quantify`].
+///
+/// | field | default | meaning |
+/// |-------|---------|---------|
+/// | `init` | In.3 | handling of the valve's unknown initial state (paper §2.4) |
+/// | `grid` | exhaustive, step 0.1 | [`GridPlan`] |
+/// | `split` | 2/3 | fraction of the record used for identification |
+/// | `criterion` | prediction | [`Criterion`] ranking the nodes |
+/// | `confidence` | 0.95 | level of the likelihood-ratio region behind [`Interval`] |
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SearchOptions {
+    /// Initialization strategy.
+    pub init: Initialization,
+    /// Grid layout.
+    pub grid: GridPlan,
+    /// Identification fraction, in `(0, 1)`.
+    pub split: f64,
+    /// Ranking criterion.
+    pub criterion: Criterion,
+    /// Confidence level of the interval, in `(0, 1)`.
+    pub confidence: f64,
+}
+
+impl Default for SearchOptions {
+    fn default() -> Self {
+        SearchOptions {
+            init: Initialization::In3,
+            grid: GridPlan::Exhaustive { step: 0.1 },
+            split: 2.0 / 3.0,
+            criterion: Criterion::Prediction,
+            confidence: 0.95,
+        }
+    }
+}
+
+/// The data of one loop registration.
+#[derive(Debug, Clone, Copy)]
+pub struct Problem<'a> {
+    /// Controller output.
+    pub op: &'a [f64],
+    /// Process variable.
+    pub pv: &'a [f64],
+    /// Measured valve position, when available (enables F_MV).
+    pub mv: Option<&'a [f64]>,
+}
+
+/// Fit indices of an evaluated node (all in %, the paper's squared-norm F of eq. 9).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Fits {
+    /// One-step prediction, identification window.
+    pub pred_id: f64,
+    /// One-step prediction, validation window.
+    pub pred_val: f64,
+    /// Free-run simulation, identification window.
+    pub sim_id: f64,
+    /// Free-run simulation, validation window.
+    pub sim_val: f64,
+    /// F_MV (eq. 14) over the samples used, when MV is measured.
+    pub mv: Option<f64>,
+    /// First sample used (where MV no longer depends on the valve's initial state).
+    pub valid_from: usize,
+    /// In.3 fell back to In.2 for this node.
+    pub init_fell_back: bool,
+}
+
+impl Fits {
+    fn rank(&self, c: Criterion) -> (f64, f64) {
+        match c {
+            Criterion::Prediction => (self.pred_id, self.pred_val),
+            Criterion::Simulation => (self.sim_id, self.sim_val),
+        }
+    }
+}
+
+/// One grid node and what became of it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeFit {
+    /// The model's own parameters (order of its registry entry).
+    pub params: Vec<f64>,
+    /// Equivalent S.
+    #[serde(rename = "S")]
+    pub s: f64,
+    /// Equivalent J.
+    #[serde(rename = "J")]
+    pub j: f64,
+    /// The fits, or why the node was skipped.
+    pub outcome: Result<Fits, String>,
+}
+
+impl NodeFit {
+    /// Validation fit under `c`, `-inf` when skipped.
+    pub fn score(&self, c: Criterion) -> f64 {
+        self.outcome
+            .as_ref()
+            .map_or(f64::NEG_INFINITY, |f| f.rank(c).1)
+    }
+}
+
+/// The set of nodes not significantly worse than the best, and the ranges of S and J over it.
+///
+/// Criterion: the likelihood-ratio region of nonlinear least squares on the validation
+/// residuals, `n_val · ln(SSE_node / SSE_best) <= χ²_p(confidence)` with `p` the number of
+/// stiction parameters. It assumes white Gaussian residuals, which the one-step predictor's
+/// are approximately when the model is right; treat it as a guide to how well the data pin
+/// S and J down, not as an exact probability.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Interval {
+    /// Smallest and largest S in the region.
+    #[serde(rename = "S")]
+    pub s: [f64; 2],
+    /// Smallest and largest J in the region.
+    #[serde(rename = "J")]
+    pub j: [f64; 2],
+    /// Nodes in the region.
+    pub nodes: usize,
+    /// The region's fit threshold (validation F_PV, %).
+    pub fit_threshold: f64,
+    /// Confidence level used.
+    pub confidence: f64,
+}
+
+/// The result of [`quantify`].
+#[derive(Debug)]
+pub struct Quantification {
+    /// The best stiction model.
+    pub stiction: Box<dyn StictionModel>,
+    /// Its equivalent S (OP units).
+    pub s: f64,
+    /// Its equivalent J (OP units).
+    pub j: f64,
+    /// The linear model identified at the best node.
+    pub linear: LinearFit,
+    /// Fits at the best node.
+    pub fits: Fits,
+    /// Ranking criterion used.
+    pub criterion: Criterion,
+    /// Uncertainty of S and J.
+    pub interval: Interval,
+    /// Every node, in grid order (for surfaces).
+    pub surface: Vec<NodeFit>,
+    /// Estimated MV over the whole record at the best node.
+    pub mv_est: Vec<f64>,
+    /// PV estimate (the criterion's) from `fits.valid_from` on; `NaN` before.
+    pub pv_est: Vec<f64>,
+    /// First validation sample.
+    pub split_index: usize,
+    /// Grid layout used and its finest step.
+    pub grid: GridPlan,
+    /// OP span (max - min), the upper bound of the grid.
+    pub span: f64,
+    /// Nodes evaluated (including refinement) and skipped.
+    pub nodes_evaluated: usize,
+    /// Nodes skipped (valve never moves, singular regression, unstable model, ...).
+    pub nodes_skipped: usize,
+    /// Validation fit of the no-stiction node (all parameters 0), if it was evaluated.
+    pub fit_no_stiction: Option<f64>,
+    /// Wall time of the search, ms.
+    pub elapsed_ms: f64,
+}
+
+impl Quantification {
+    /// The validation fit of the best node under `c`.
+    pub fn fits_score(&self, c: Criterion) -> f64 {
+        self.fits.rank(c).1
+    }
+}
+
+/// χ² quantile for `p` degrees of freedom (1-4) at the usual levels; other levels fall back
+/// to the Wilson–Hilferty approximation.
+fn chi2_quantile(p: usize, level: f64) -> f64 {
+    const TABLE: [(f64, [f64; 4]); 3] = [
+        (0.90, [2.706, 4.605, 6.251, 7.779]),
+        (0.95, [3.841, 5.991, 7.815, 9.488]),
+        (0.99, [6.635, 9.210, 11.345, 13.277]),
+    ];
+    if (1..=4).contains(&p) {
+        if let Some((_, q)) = TABLE.iter().find(|(l, _)| (l - level).abs() < 1e-9) {
+            return q[p - 1];
+        }
+    }
+    // Wilson–Hilferty with the normal quantile by Acklam-free bisection on erf-less logistic:
+    // adequate for a guide interval.
+    let z = normal_quantile(level);
+    let k = p as f64;
+    k * (1.0 - 2.0 / (9.0 * k) + z * (2.0 / (9.0 * k)).sqrt()).powi(3)
+}
+
+fn normal_quantile(level: f64) -> f64 {
+    // Bisection on the normal CDF computed from a series of erf.
+    let cdf = |x: f64| 0.5 * (1.0 + erf(x / std::f64::consts::SQRT_2));
+    let (mut lo, mut hi) = (-10.0, 10.0);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if cdf(mid) < level {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+fn erf(x: f64) -> f64 {
+    // Abramowitz & Stegun 7.1.26 (|error| < 1.5e-7).
+    let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
+    let y = 1.0
+        - (((((1.061_405_429 * t - 1.453_152_027) * t) + 1.421_413_741) * t - 0.284_496_736) * t
+            + 0.254_829_592)
+            * t
+            * (-x * x).exp();
+    if x >= 0.0 {
+        y
+    } else {
+        -y
+    }
+}
+
+struct Ctx<'a, I: ?Sized> {
+    entry: &'a ModelEntry,
+    identifier: &'a I,
+    problem: Problem<'a>,
+    init: Initialization,
+    split_index: usize,
+}
+
+/// Everything computed at one node; the big vectors only kept for the final refit.
+struct Evaluated {
+    fits: Fits,
+    linear: LinearFit,
+    mv: Vec<f64>,
+    pred: Vec<f64>,
+    sim: Vec<f64>,
+}
+
+impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
+    fn evaluate(&self, params: &[f64]) -> Result<Evaluated, String> {
+        let model = (self.entry.build)(params).map_err(|e| e.to_string())?;
+        let run =
+            run_valve(model.as_ref(), self.problem.op, &self.init).map_err(|e| e.to_string())?;
+        let (op, pv) = (self.problem.op, self.problem.pv);
+        let n = op.len();
+        let k0 = run.valid_from;
+        let ni = self.split_index;
+        let needed = self.identifier.min_samples().max(10);
+        if ni <= k0 || ni - k0 < needed {
+            return Err(format!(
+                "the valve's initial state matters until sample {k0}: too few identification samples left"
+            ));
+        }
+        let mv_id = &run.mv[k0..ni];
+        if distinct_at_least(mv_id, 3) < 3 {
+            return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
+        }
+        let linear = self
+            .identifier
+            .identify(mv_id, &pv[k0..ni])
+            .map_err(|e| e.to_string())?;
+        linear.check_stable(true).map_err(|e| e.to_string())?;
+        let pred = linear
+            .predict_one_step(&run.mv[k0..], &pv[k0..])
+            .map_err(|e| e.to_string())?;
+        let init_len = linear.first_sample().min(n - k0);
+        let sim = linear
+            .simulate(&run.mv[k0..], &pv[k0..k0 + init_len])
+            .unwrap_or_else(|_| vec![f64::NAN; n - k0]);
+        let split = ni - k0;
+        let first = linear.first_sample().min(split);
+        let score = |est: &[f64], range: std::ops::Range<usize>| {
+            let f = fit_pv(&pv[k0 + range.start..k0 + range.end], &est[range]);
+            if f.is_finite() {
+                f
+            } else {
+                f64::NEG_INFINITY
+            }
+        };
+        let fits = Fits {
+            pred_id: score(&pred, first..split),
+            pred_val: score(&pred, split..n - k0),
+            sim_id: score(&sim, first..split),
+            sim_val: score(&sim, split..n - k0),
+            mv: self
+                .problem
+                .mv
+                .map(|m| linear_id::fit_mv(&m[k0..], &run.mv[k0..])),
+            valid_from: k0,
+            init_fell_back: run.fell_back,
+        };
+        if !fits.pred_val.is_finite() {
+            return Err("the prediction is not finite".into());
+        }
+        Ok(Evaluated {
+            fits,
+            linear,
+            mv: run.mv,
+            pred,
+            sim,
+        })
+    }
+}
+
+/// Number of distinct values, counting up to `cap`.
+fn distinct_at_least(x: &[f64], cap: usize) -> usize {
+    let mut seen: Vec<f64> = Vec::with_capacity(cap);
+    for &v in x {
+        if !seen.contains(&v) {
+            seen.push(v);
+            if seen.len() >= cap {
+                break;
+            }
+        }
+    }
+    seen.len()
+}
+
+fn check_signal(signal: &'static str, x: &[f64]) -> Result<(), SearchError> {
+    if let Some(index) = x.iter().position(|v| !v.is_finite()) {
+        return Err(SearchError::NonFinite {
+            signal,
+            index,
+            value: x[index],
+        });
+    }
+    Ok(())
+}
+
+/// Quantify stiction: search the grid of `entry`'s parameters with `identifier` as the linear
+/// block, and return the best node with its fits, uncertainty and the whole surface.
+///
+/// `progress`, when given, is called with (nodes done, nodes planned) from worker threads.
+pub fn quantify<I: LinearIdentifier + ?Sized>(
+    entry: &ModelEntry,
+    identifier: &I,
+    problem: Problem<'_>,
+    options: &SearchOptions,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+) -> Result<Quantification, SearchError> {
+    let start = Instant::now();
+    let (op, pv) = (problem.op, problem.pv);
+    if op.len() != pv.len() || problem.mv.is_some_and(|m| m.len() != op.len()) {
+        return Err(SearchError::LengthMismatch {
+            op: op.len(),
+            pv: pv.len(),
+        });
+    }
+    check_signal("OP", op)?;
+    check_signal("PV", pv)?;
+    if let Some(mv) = problem.mv {
+        check_signal("MV", mv)?;
+    }
+    if !(options.split > 0.0 && options.split < 1.0) {
+        return Err(SearchError::InvalidOption {
+            name: "split",
+            value: options.split,
+            expected: "a fraction strictly between 0 and 1".into(),
+        });
+    }
+    if !(options.confidence > 0.0 && options.confidence < 1.0) {
+        return Err(SearchError::InvalidOption {
+            name: "confidence",
+            value: options.confidence,
+            expected: "a level strictly between 0 and 1".into(),
+        });
+    }
+    let n = op.len();
+    let needed = 3 * (identifier.min_samples().max(10));
+    if n < needed {
+        return Err(SearchError::TooFewSamples {
+            needed,
+            got: n,
+            why: format!("identification and validation with {}", identifier.name()),
+        });
+    }
+    let (lo, hi) = min_max(op);
+    if hi - lo <= 0.0 {
+        return Err(SearchError::Constant {
+            signal: "OP",
+            value: lo,
+        });
+    }
+    let (plo, phi) = min_max(pv);
+    if phi - plo <= 0.0 {
+        return Err(SearchError::Constant {
+            signal: "PV",
+            value: plo,
+        });
+    }
+    let span = hi - lo;
+    for (name, step) in match options.grid {
+        GridPlan::Exhaustive { step } => vec![("step", step)],
+        GridPlan::CoarseToFine {
+            coarse,
+            fine,
+            radius,
+        } => {
+            vec![("coarse step", coarse), ("step", fine), ("radius", radius)]
+        }
+    } {
+        if !(step.is_finite() && step > 0.0) {
+            return Err(SearchError::InvalidOption {
+                name: if name == "step" { "step" } else { "grid" },
+                value: step,
+                expected: format!("{name} > 0 (OP units)"),
+            });
+        }
+    }
+    let ctx = Ctx {
+        entry,
+        identifier,
+        problem,
+        init: options.init,
+        split_index: ((n as f64) * options.split).floor() as usize,
+    };
+
+    let crit = options.criterion;
+    let done = AtomicUsize::new(0);
+    let eval_all = |nodes: Vec<Vec<f64>>, planned: usize, offset: usize| -> Vec<NodeFit> {
+        nodes
+            .into_par_iter()
+            .map(|params| {
+                let outcome = ctx.evaluate(&params).map(|e| e.fits);
+                let eq = (entry.build)(&params).map(|m| m.equivalent()).unwrap_or(
+                    stiction_models::Equivalent {
+                        s: f64::NAN,
+                        j: f64::NAN,
+                    },
+                );
+                if let Some(p) = progress {
+                    p(offset + done.fetch_add(1, Ordering::Relaxed) + 1, planned);
+                }
+                NodeFit {
+                    params,
+                    s: eq.s,
+                    j: eq.j,
+                    outcome,
+                }
+            })
+            .collect()
+    };
+
+    let mut surface = match options.grid {
+        GridPlan::Exhaustive { step } => {
+            let nodes = grid::nodes(entry, span, step);
+            let planned = nodes.len();
+            eval_all(nodes, planned, 0)
+        }
+        GridPlan::CoarseToFine {
+            coarse,
+            fine,
+            radius,
+        } => {
+            let nodes = grid::nodes(entry, span, coarse);
+            let coarse_count = nodes.len();
+            let coarse_fits = eval_all(nodes, coarse_count, 0);
+            let best = best_index(&coarse_fits, crit);
+            let mut all = coarse_fits;
+            if let Some(b) = best {
+                let centre = all[b].params.clone();
+                let bounds: Vec<(f64, f64)> = centre
+                    .iter()
+                    .map(|&c| (c - radius * coarse, c + radius * coarse))
+                    .collect();
+                let fine_nodes: Vec<Vec<f64>> =
+                    grid::nodes_in_box(entry, span, fine, Some(&bounds))
+                        .into_iter()
+                        .filter(|p| !all.iter().any(|nf| same_node(&nf.params, p)))
+                        .collect();
+                done.store(0, Ordering::Relaxed);
+                let planned = fine_nodes.len();
+                all.extend(eval_all(fine_nodes, planned, 0));
+            }
+            all
+        }
+    };
+    // Grid order: lexicographic in the parameters (fixes tie-breaking).
+    surface.sort_by(|a, b| {
+        a.params
+            .iter()
+            .zip(&b.params)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+
+    let skipped = surface.iter().filter(|n| n.outcome.is_err()).count();
+    let Some(best) = best_index(&surface, crit) else {
+        let mut counts: HashMap<&str, usize> = HashMap::new();
+        for nf in &surface {
+            if let Err(r) = &nf.outcome {
+                *counts.entry(r.as_str()).or_default() += 1;
+            }
+        }
+        let reason = counts
+            .into_iter()
+            .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(a.0)))
+            .map_or_else(
+                || "no nodes in the grid".to_string(),
+                |(r, _)| r.to_string(),
+            );
+        return Err(SearchError::NoValidNode {
+            nodes: surface.len(),
+            reason,
+        });
+    };
+
+    // Refit the best node to get the model and the series (deterministic: same as in the grid).
+    let best_params = surface[best].params.clone();
+    let ev = ctx
+        .evaluate(&best_params)
+        .map_err(|r| SearchError::NoValidNode {
+            nodes: surface.len(),
+            reason: r,
+        })?;
+    let stiction = (entry.build)(&best_params)?;
+    let eq = stiction.equivalent();
+    let interval = interval(
+        &surface,
+        best,
+        crit,
+        pv,
+        ctx.split_index,
+        options.confidence,
+        entry.params.len(),
+    );
+    let k0 = ev.fits.valid_from;
+    let mut pv_est = vec![f64::NAN; n];
+    let est = match crit {
+        Criterion::Prediction => &ev.pred,
+        Criterion::Simulation => &ev.sim,
+    };
+    pv_est[k0..].copy_from_slice(est);
+    let fit_no_stiction = surface
+        .iter()
+        .find(|nf| nf.params.iter().all(|&v| v == 0.0))
+        .and_then(|nf| nf.outcome.as_ref().ok().map(|f| f.rank(crit).1));
+    Ok(Quantification {
+        stiction,
+        s: eq.s,
+        j: eq.j,
+        linear: ev.linear,
+        fits: ev.fits,
+        criterion: crit,
+        interval,
+        nodes_evaluated: surface.len(),
+        nodes_skipped: skipped,
+        surface,
+        mv_est: ev.mv,
+        pv_est,
+        split_index: ctx.split_index,
+        grid: options.grid,
+        span,
+        fit_no_stiction,
+        elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+fn same_node(a: &[f64], b: &[f64]) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9)
+}
+
+fn min_max(x: &[f64]) -> (f64, f64) {
+    x.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        })
+}
+
+/// The best node: highest validation fit; ties within 1e-9 go to the earliest node in grid
+/// order (smaller first parameter, then second, ...).
+fn best_index(nodes: &[NodeFit], c: Criterion) -> Option<usize> {
+    let max = nodes
+        .iter()
+        .map(|n| n.score(c))
+        .filter(|f| f.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if !max.is_finite() {
+        return None;
+    }
+    nodes.iter().position(|n| n.score(c) >= max - 1e-9)
+}
+
+fn interval(
+    nodes: &[NodeFit],
+    best: usize,
+    c: Criterion,
+    pv: &[f64],
+    split: usize,
+    confidence: f64,
+    p: usize,
+) -> Interval {
+    let val = &pv[split..];
+    let n_val = val.len() as f64;
+    let f_best = nodes[best].score(c);
+    // F = 100 (1 - SSE/SST) on the validation window, so SSE ratios follow from F.
+    let sse = |f: f64| (1.0 - f / 100.0).max(1e-300);
+    let q = chi2_quantile(p, confidence);
+    // n ln(SSE/SSE_best) <= q  <=>  SSE <= SSE_best exp(q/n)
+    let sse_max = sse(f_best) * (q / n_val).exp();
+    let threshold = 100.0 * (1.0 - sse_max);
+    let mut s = [f64::INFINITY, f64::NEG_INFINITY];
+    let mut j = [f64::INFINITY, f64::NEG_INFINITY];
+    let mut count = 0;
+    for nf in nodes {
+        let f = nf.score(c);
+        if f.is_finite() && f >= threshold {
+            count += 1;
+            s = [s[0].min(nf.s), s[1].max(nf.s)];
+            j = [j[0].min(nf.j), j[1].max(nf.j)];
+        }
+    }
+    Interval {
+        s,
+        j,
+        nodes: count,
+        fit_threshold: threshold,
+        confidence,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_table_and_fallback_agree() {
+        assert_eq!(chi2_quantile(2, 0.95), 5.991);
+        // Wilson–Hilferty is within 1 % of the table.
+        let wh = {
+            let z = normal_quantile(0.95);
+            let k = 2.0f64;
+            k * (1.0 - 2.0 / (9.0 * k) + z * (2.0 / (9.0 * k)).sqrt()).powi(3)
+        };
+        assert!((wh - 5.991).abs() / 5.991 < 0.01, "{wh}");
+        assert!((normal_quantile(0.975) - 1.95996).abs() < 1e-3);
+    }
+
+    #[test]
+    fn distinct_counts_up_to_the_cap() {
+        assert_eq!(distinct_at_least(&[1.0, 1.0, 1.0], 3), 1);
+        assert_eq!(distinct_at_least(&[1.0, 2.0, 1.0, 2.0], 3), 2);
+        assert_eq!(distinct_at_least(&[1.0, 2.0, 3.0, 4.0], 3), 3);
+    }
+}

@@ -1,0 +1,316 @@
+//! ARX (paper eq. 2) by linear least squares through a Householder QR (faer).
+
+use faer::Mat;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{check_data, check_order};
+use crate::registry::{as_order, resolve};
+use crate::{
+    la, mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, PreparedOutput,
+    Structure,
+};
+
+/// Largest accepted polynomial order.
+pub(crate) const MAX_ORDER: usize = 50;
+/// Largest accepted dead time.
+pub(crate) const MAX_DELAY: usize = 10_000;
+
+/// ARX, eq. (2): `A(q) y_k = B(q) u_{k-delay} + e_k`, by least squares (QR, no normal
+/// equations) on mean-centered data.
+///
+/// | name | default | meaning | valid range |
+/// |------|---------|---------|-------------|
+/// | `n` | 2 | order of A(q) (`a1 … an`) | 0 ..= 50 |
+/// | `m` | 2 | order of B(q) (`b1 q^-1 … bm q^-m`) | 1 ..= 50 |
+/// | `delay` | 0 | dead time `t_d`: first input lag is `1 + delay` | 0 ..= 10000 |
+///
+/// | `centering` | `"operating_point"` | offset handling, see [`Centering`] | |
+///
+/// A regression whose column-equilibrated QR has a relative pivot below 1e-10 is
+/// [`IdError::Singular`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "ArxParams", into = "ArxParams")]
+pub struct Arx {
+    n: usize,
+    m: usize,
+    delay: usize,
+    centering: Centering,
+}
+
+/// How ARX handles the signals' offsets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Centering {
+    /// Default. Least squares with an intercept (every regression column centered with its own
+    /// mean over the regression rows, which is the same thing), the intercept then folded into
+    /// the model's operating point ([`LinearFit::means`]). Exact for noise-free ARX data with
+    /// any offset.
+    #[default]
+    OperatingPoint,
+    /// Subtract the identification-window means of u and y, then least squares without an
+    /// intercept (SIPPY's `centering = "MeanVal"`). Off by O(1/N) on offset data.
+    Mean,
+}
+
+/// Unchecked parameters of [`Arx`]; [`ArxParams::check`] builds the identifier.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ArxParams {
+    /// Order of A(q).
+    pub n: usize,
+    /// Order of B(q).
+    pub m: usize,
+    /// Dead time in samples.
+    pub delay: usize,
+    /// Offset handling.
+    pub centering: Centering,
+}
+
+impl Default for ArxParams {
+    fn default() -> Self {
+        ArxParams {
+            n: 2,
+            m: 2,
+            delay: 0,
+            centering: Centering::OperatingPoint,
+        }
+    }
+}
+
+impl ArxParams {
+    /// Set `n`.
+    pub fn n(mut self, n: usize) -> Self {
+        self.n = n;
+        self
+    }
+    /// Set `m`.
+    pub fn m(mut self, m: usize) -> Self {
+        self.m = m;
+        self
+    }
+    /// Set `delay`.
+    pub fn delay(mut self, delay: usize) -> Self {
+        self.delay = delay;
+        self
+    }
+    /// Set the offset handling.
+    pub fn centering(mut self, centering: Centering) -> Self {
+        self.centering = centering;
+        self
+    }
+    /// Validate and build.
+    pub fn check(self) -> Result<Arx, IdError> {
+        check_order("arx", "n", self.n, 0, MAX_ORDER)?;
+        check_order("arx", "m", self.m, 1, MAX_ORDER)?;
+        check_order("arx", "delay", self.delay, 0, MAX_DELAY)?;
+        Ok(Arx {
+            n: self.n,
+            m: self.m,
+            delay: self.delay,
+            centering: self.centering,
+        })
+    }
+}
+
+impl TryFrom<ArxParams> for Arx {
+    type Error = IdError;
+    fn try_from(p: ArxParams) -> Result<Self, IdError> {
+        p.check()
+    }
+}
+
+impl From<Arx> for ArxParams {
+    fn from(a: Arx) -> Self {
+        ArxParams {
+            n: a.n,
+            m: a.m,
+            delay: a.delay,
+            centering: a.centering,
+        }
+    }
+}
+
+/// Cached centered output for [`LinearIdentifier::prepare`].
+struct ArxCache {
+    y_mean: f64,
+    yc: Vec<f64>,
+}
+
+impl Arx {
+    /// Start a parameter builder (`Arx::params().n(2).m(2).delay(0).check()?`).
+    pub fn params() -> ArxParams {
+        ArxParams::default()
+    }
+
+    /// First usable sample `n0 = max(n, m + delay)`.
+    fn n0(&self) -> usize {
+        self.n.max(self.m + self.delay)
+    }
+
+    fn solve(&self, u: &[f64], y: &[f64], yc: &[f64], y_mean: f64) -> Result<LinearFit, IdError> {
+        let (n, m) = (self.n, self.m);
+        let len = y.len();
+        let n0 = self.n0();
+        let rows = len - n0;
+        let d = n + m;
+        let u_mean = mean(u);
+        la::with_buffer(rows, d + 1, |ab| {
+            self.fill_and_solve(ab, u, y, yc, y_mean, u_mean)
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fill_and_solve(
+        &self,
+        ab: &mut Mat<f64>,
+        u: &[f64],
+        y: &[f64],
+        yc: &[f64],
+        y_mean: f64,
+        u_mean: f64,
+    ) -> Result<LinearFit, IdError> {
+        let (n, m, delay) = (self.n, self.m, self.delay);
+        let len = y.len();
+        let n0 = self.n0();
+        let rows = len - n0;
+        let d = n + m;
+        for i in 0..n {
+            let src = &yc[n0 - 1 - i..len - 1 - i];
+            for (dst, &s) in ab.col_as_slice_mut(i).iter_mut().zip(src) {
+                *dst = -s;
+            }
+        }
+        for j in 0..m {
+            let lag = delay + 1 + j;
+            let src = &u[n0 - lag..len - lag];
+            for (dst, &s) in ab.col_as_slice_mut(n + j).iter_mut().zip(src) {
+                *dst = s - u_mean;
+            }
+        }
+        ab.col_as_slice_mut(d).copy_from_slice(&yc[n0..]);
+        let mut col_means = [0.0; 2 * MAX_ORDER + 1];
+        if self.centering == Centering::OperatingPoint {
+            for (j, cm) in col_means.iter_mut().enumerate().take(d + 1) {
+                let col = ab.col_as_slice_mut(j);
+                *cm = col.iter().sum::<f64>() / rows as f64;
+                col.iter_mut().for_each(|v| *v -= *cm);
+            }
+        }
+        let sol = la::lstsq_augmented_in_place(ab).map_err(|pivot| IdError::Singular {
+            identifier: "arx",
+            detail: format!(
+                "regression matrix {rows}x{d}: smallest relative QR pivot {pivot:.3e} < 1e-10"
+            ),
+        })?;
+        let mut a = Vec::with_capacity(n + 1);
+        a.push(1.0);
+        a.extend_from_slice(&sol.x[..n]);
+        let (mut u_mean, mut y_mean) = (u_mean, y_mean);
+        if self.centering == Centering::OperatingPoint {
+            // intercept of A yc = B uc + c0, folded into the operating point
+            let c0 = col_means[d] - (0..d).map(|j| sol.x[j] * col_means[j]).sum::<f64>();
+            let a1: f64 = a.iter().sum();
+            let b1: f64 = sol.x[n..].iter().sum();
+            if a1.abs() >= b1.abs() && a1 != 0.0 {
+                y_mean += c0 / a1;
+            } else if b1 != 0.0 {
+                u_mean -= c0 / b1;
+            }
+        }
+        let structure = Structure::Polynomial {
+            a,
+            b: sol.x[n..].to_vec(),
+            c: vec![1.0],
+            delay,
+        };
+        LinearFit::new("arx", structure, u_mean, y_mean, None, u, y)
+    }
+}
+
+#[typetag::serde(name = "arx")]
+impl LinearIdentifier for Arx {
+    fn name(&self) -> &'static str {
+        "arx"
+    }
+    fn orders(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("n", self.n as f64),
+            ("m", self.m as f64),
+            ("delay", self.delay as f64),
+        ]
+    }
+    fn min_samples(&self) -> usize {
+        // strictly more equations than unknowns
+        self.n0() + self.n + self.m + 1
+    }
+    fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+        check_data(u, y, self.min_samples())?;
+        let y_mean = mean(y);
+        let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
+        self.solve(u, y, &yc, y_mean)
+    }
+    fn prepare(&self, y: &[f64]) -> Result<PreparedOutput, IdError> {
+        crate::error::check_finite("y", y)?;
+        let y_mean = mean(y);
+        let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
+        Ok(PreparedOutput::with_cache(
+            y,
+            Box::new(ArxCache { y_mean, yc }),
+        ))
+    }
+    fn identify_prepared(
+        &self,
+        prepared: &PreparedOutput,
+        u: &[f64],
+    ) -> Result<LinearFit, IdError> {
+        let y = prepared.y();
+        match prepared.cache::<ArxCache>() {
+            Some(c) => {
+                check_data(u, y, self.min_samples())?;
+                self.solve(u, y, &c.yc, c.y_mean)
+            }
+            None => self.identify(u, y),
+        }
+    }
+    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
+        Box::new(*self)
+    }
+}
+
+const ARX_ORDERS: [OrderSpec; 3] = [
+    OrderSpec {
+        name: "n",
+        default: 2.0,
+        meaning: "order of A(q) (auto-regressive part)",
+    },
+    OrderSpec {
+        name: "m",
+        default: 2.0,
+        meaning: "order of B(q) (exogenous part, b1 q^-1 .. bm q^-m)",
+    },
+    OrderSpec {
+        name: "delay",
+        default: 0.0,
+        meaning: "dead time t_d in samples (first input lag is 1 + delay)",
+    },
+];
+
+fn build_arx(pairs: &[(String, f64)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let v = resolve("arx", &ARX_ORDERS, pairs)?;
+    Ok(Box::new(
+        Arx::params()
+            .n(as_order("arx", "n", v[0])?)
+            .m(as_order("arx", "m", v[1])?)
+            .delay(as_order("arx", "delay", v[2])?)
+            .check()?,
+    ))
+}
+
+inventory::submit! {
+    IdentifierEntry {
+        name: "arx",
+        description: "ARX (eq. 2) by least squares (Householder QR)",
+        orders: &ARX_ORDERS,
+        build: build_arx,
+    }
+}
