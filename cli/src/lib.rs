@@ -47,6 +47,9 @@ enum Command {
     /// Run a stiction model over the OP column of a CSV file; writes CSV `OP,MV`.
     #[command(after_help = commands::valve::AFTER_HELP)]
     Valve(commands::valve::Args),
+    /// Identify a linear model from an input column (MV, or OP) to PV and print its fits.
+    #[command(after_help = commands::identify::AFTER_HELP)]
+    Identify(commands::identify::Args),
     /// Quantify stiction: grid search of a stiction model with a linear model (paper §2.3).
     #[command(after_help = commands::quantify::QUANTIFY_HELP)]
     Quantify(commands::quantify::QuantifyArgs),
@@ -133,6 +136,7 @@ where
         Command::Models(a) => commands::models::run(a, streams),
         Command::Valve(a) => commands::valve::run(a, streams),
         Command::Simulate(a) => commands::simulate::run(a, streams),
+        Command::Identify(a) => commands::identify::run(a, streams),
         Command::Quantify(a) => commands::quantify::run_quantify(a, streams),
         Command::Compare(a) => commands::quantify::run_compare(a, streams),
     };

@@ -92,7 +92,9 @@ fn missing_file_and_bad_flags() {
 
 #[test]
 fn help_shows_an_example_for_each_command() {
-    for cmd in ["models", "valve", "simulate"] {
+    for cmd in [
+        "models", "valve", "simulate", "identify", "quantify", "compare",
+    ] {
         let o = run(&[cmd, "--help"], b"");
         assert_eq!(o.code, 0);
         assert!(

@@ -32,6 +32,17 @@ pub struct DataFlags {
     drop_gaps: bool,
 }
 
+impl DataFlags {
+    /// Use column `name` as OP.
+    pub(crate) fn set_op(&mut self, name: String) {
+        self.op = Some(name);
+    }
+    /// Use column `name` as PV.
+    pub(crate) fn set_pv(&mut self, name: String) {
+        self.pv = Some(name);
+    }
+}
+
 /// Read `file` (`-` = stdin) into loop data; notes about what was done go to stderr.
 pub(crate) fn load(
     file: &Path,

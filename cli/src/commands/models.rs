@@ -4,6 +4,21 @@ use anyhow::Context;
 use serde_json::json;
 use stiction_models::registry;
 
+fn linear_json() -> Vec<serde_json::Value> {
+    linear_id::registry()
+        .iter()
+        .map(|e| {
+            json!({
+                "name": e.name,
+                "description": e.description,
+                "orders": e.orders.iter().map(|o| json!({
+                    "name": o.name, "default": o.default, "meaning": o.meaning,
+                })).collect::<Vec<_>>(),
+            })
+        })
+        .collect()
+}
+
 use crate::{data, CmdResult, Streams};
 
 /// Arguments of `stiction models`.
@@ -29,6 +44,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
                 })).collect::<Vec<_>>(),
                 "constraints": e.constraints.iter().map(|c| c.describe()).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
+            "linear": linear_json(),
         });
         serde_json::to_writer_pretty(&mut *s.stdout, &doc)
             .context("writing JSON")
@@ -51,6 +67,20 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             format!("  [{}]", constraints.join("; "))
         };
         writeln!(out, "  {:<11} {}{constraints}", e.name, params.join(", ")).map_err(data)?;
+        writeln!(out, "  {:<11} {}", "", e.description).map_err(data)?;
+    }
+    writeln!(
+        out,
+        "\nLinear identifiers (MV -> PV); orders with their defaults:"
+    )
+    .map_err(data)?;
+    for e in linear_id::registry() {
+        let orders: Vec<String> = e
+            .orders
+            .iter()
+            .map(|o| format!("{}={}", o.name, o.default))
+            .collect();
+        writeln!(out, "  {:<11} {}", e.name, orders.join(", ")).map_err(data)?;
         writeln!(out, "  {:<11} {}", "", e.description).map_err(data)?;
     }
     Ok(())
