@@ -386,7 +386,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         100.0 * q.interval.confidence,
         q.nodes_evaluated,
         q.nodes_skipped,
-        q.grid.step(),
+        (q.grid.step() * 1e6).round() / 1e6,
         q.span,
         r.elapsed_ms
     )
