@@ -79,6 +79,12 @@ pub enum SearchError {
         /// Valid range.
         expected: String,
     },
+    /// The record cannot determine the stiction parameters at all.
+    #[error("stiction is not identifiable from this record: {reason}")]
+    NotIdentifiable {
+        /// Why.
+        reason: String,
+    },
     /// Every node was skipped: no estimate exists.
     #[error("no grid node could be evaluated ({nodes} nodes); most common reason: {reason}")]
     NoValidNode {

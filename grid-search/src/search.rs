@@ -225,6 +225,8 @@ pub struct Quantification {
     pub fit_no_stiction: Option<f64>,
     /// Wall time of the search, ms.
     pub elapsed_ms: f64,
+    /// What limits the estimate, in words (empty when S and J are well determined).
+    pub warnings: Vec<String>,
 }
 
 impl Quantification {
@@ -454,6 +456,14 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         });
     }
     let span = hi - lo;
+    let reversal_band = 0.01 * span;
+    if reversals(op, reversal_band) == 0 {
+        return Err(SearchError::NotIdentifiable {
+            reason: format!(
+                "OP never reverses direction by more than 1 % of its span ({reversal_band:.3}); S is the band OP must cross to reverse the valve"
+            ),
+        });
+    }
     for (name, step) in match options.grid {
         GridPlan::Exhaustive { step } => vec![("step", step)],
         GridPlan::CoarseToFine {
@@ -601,7 +611,9 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         .iter()
         .find(|nf| nf.params.iter().all(|&v| v == 0.0))
         .and_then(|nf| nf.outcome.as_ref().ok().map(|f| f.rank(crit).1));
+    let warnings = warnings(&surface, &interval, &ev.fits, span, crit);
     Ok(Quantification {
+        warnings,
         stiction,
         s: eq.s,
         j: eq.j,
@@ -620,6 +632,70 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         fit_no_stiction,
         elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
     })
+}
+
+/// Number of direction reversals of `x` by more than `band` (a hysteresis count).
+fn reversals(x: &[f64], band: f64) -> usize {
+    let Some(&first) = x.first() else {
+        return 0;
+    };
+    let (mut lo, mut hi) = (first, first);
+    let mut dir = 0i8;
+    let mut count = 0;
+    for &v in x {
+        lo = lo.min(v);
+        hi = hi.max(v);
+        if dir >= 0 && hi - v > band {
+            if dir > 0 {
+                count += 1;
+            }
+            dir = -1;
+            lo = v;
+        } else if dir <= 0 && v - lo > band {
+            if dir < 0 {
+                count += 1;
+            }
+            dir = 1;
+            hi = v;
+        }
+    }
+    count
+}
+
+fn warnings(
+    nodes: &[NodeFit],
+    interval: &Interval,
+    fits: &Fits,
+    span: f64,
+    c: Criterion,
+) -> Vec<String> {
+    let mut w = Vec::new();
+    let zero_in_region = nodes
+        .iter()
+        .any(|n| n.params.iter().all(|&v| v == 0.0) && n.score(c) >= interval.fit_threshold);
+    if zero_in_region {
+        w.push(
+            "a valve without stiction (S = J = 0) explains PV as well (it is inside the region): no evidence of stiction"
+                .into(),
+        );
+    }
+    if interval.s[1] - interval.s[0] > 0.25 * span {
+        w.push(format!(
+            "S is poorly determined: the region spans {:.2} to {:.2} % (OP span {:.2} %)",
+            interval.s[0], interval.s[1], span
+        ));
+    }
+    let j_width = interval.j[1] - interval.j[0];
+    if j_width > 0.5 * interval.s[1].max(1e-12) && j_width > 0.5 {
+        w.push(format!(
+            "J is poorly determined: the region spans {:.2} to {:.2} %",
+            interval.j[0], interval.j[1]
+        ));
+    }
+    if fits.init_fell_back {
+        w.push("the valve model's initial state never washed out (In.3 fell back to In.2)".into());
+    }
+    w
 }
 
 fn same_node(a: &[f64], b: &[f64]) -> bool {
@@ -700,6 +776,18 @@ mod tests {
         };
         assert!((wh - 5.991).abs() / 5.991 < 0.01, "{wh}");
         assert!((normal_quantile(0.975) - 1.95996).abs() < 1e-3);
+    }
+
+    #[test]
+    fn reversals_count_direction_changes_beyond_the_band() {
+        let ramp: Vec<f64> = (0..100).map(|k| k as f64).collect();
+        assert_eq!(reversals(&ramp, 1.0), 0);
+        let tri: Vec<f64> = (0..400).map(|k| ((k % 100) as f64 - 50.0).abs()).collect();
+        assert_eq!(reversals(&tri, 1.0), 7);
+        let noisy: Vec<f64> = (0..100)
+            .map(|k| k as f64 + if k % 2 == 0 { 0.4 } else { 0.0 })
+            .collect();
+        assert_eq!(reversals(&noisy, 1.0), 0);
     }
 
     #[test]

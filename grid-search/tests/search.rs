@@ -249,6 +249,23 @@ fn degenerate_inputs_are_errors_not_estimates() {
     )
     .unwrap_err();
     assert!(matches!(e, SearchError::TooFewSamples { .. }), "{e}");
+    let ramp: Vec<f64> = (0..n)
+        .map(|k| 20.0 + 0.05 * k as f64 + 0.01 * (k as f64).sin())
+        .collect();
+    let e = quantify(
+        kano,
+        &arx,
+        Problem {
+            op: &ramp,
+            pv: &pv,
+            mv: None,
+        },
+        &opts(0.5),
+        None,
+    )
+    .unwrap_err();
+    assert!(matches!(e, SearchError::NotIdentifiable { .. }), "{e}");
+    assert!(e.to_string().contains("OP never reverses"), "{e}");
     let mut bad = pv.clone();
     bad[7] = f64::NAN;
     let e = quantify(
@@ -264,4 +281,33 @@ fn degenerate_inputs_are_errors_not_estimates() {
     )
     .unwrap_err();
     assert_eq!(e.to_string(), "PV sample 7 is not finite (NaN)");
+}
+
+/// A loop with a linear valve: the estimate says there is no evidence of stiction.
+#[test]
+fn no_stiction_is_reported_as_such() {
+    let d = sim(PlantPreset::Paper, 0.0, 0.0, 0.1, 5);
+    let kano = find_model("kano").unwrap();
+    let arx = Arx::params().check().unwrap();
+    let q = quantify(
+        kano,
+        &arx,
+        Problem {
+            op: &d.op,
+            pv: &d.pv,
+            mv: None,
+        },
+        &opts(0.25),
+        None,
+    )
+    .unwrap();
+    assert!(q.s <= 0.5, "S = {}", q.s);
+    assert!(q.interval.s[0] == 0.0, "region {:?}", q.interval);
+    assert!(
+        q.warnings
+            .iter()
+            .any(|w| w.contains("no evidence of stiction")),
+        "{:?}",
+        q.warnings
+    );
 }

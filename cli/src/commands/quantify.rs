@@ -283,6 +283,7 @@ pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
         "stable": q.linear.is_stable(),
         "static_gain": round(q.linear.static_gain(), 9),
         "elapsed_ms": round(r.elapsed_ms, 3),
+        "warnings": q.warnings,
     })
 }
 
@@ -391,6 +392,9 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         r.elapsed_ms
     )
     .map_err(data)?;
+    for w in &q.warnings {
+        writeln!(out, "  note: {w}").map_err(data)?;
+    }
     Ok(())
 }
 
