@@ -7,7 +7,7 @@ use std::time::Instant;
 use linear_id::{fit_pv, LinearFit, LinearIdentifier};
 use rayon::prelude::*;
 use serde::Serialize;
-use stiction_models::{run_valve, Initialization, ModelEntry, StictionModel};
+use stiction_models::{run_valve_with, Initialization, ModelEntry, StictionModel, ValveScratch};
 
 use crate::{grid, SearchError};
 
@@ -296,18 +296,36 @@ struct Ctx<'a, I: ?Sized> {
 
 /// Everything computed at one node; the big vectors only kept for the final refit.
 struct Evaluated {
-    fits: Fits,
     linear: LinearFit,
     mv: Vec<f64>,
     pred: Vec<f64>,
     sim: Vec<f64>,
 }
 
+/// Per-thread buffers, reused from node to node.
+#[derive(Default)]
+struct Scratch {
+    valve: ValveScratch,
+    pred: Vec<f64>,
+}
+
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
-    fn evaluate(&self, params: &[f64]) -> Result<Evaluated, String> {
+    /// Evaluate one node; with `keep`, also return the model and the series.
+    fn evaluate(
+        &self,
+        params: &[f64],
+        scratch: &mut Scratch,
+        keep: bool,
+    ) -> Result<(Fits, Option<Evaluated>), String> {
         let model = (self.entry.build)(params).map_err(|e| e.to_string())?;
-        let run =
-            run_valve(model.as_ref(), self.problem.op, &self.init).map_err(|e| e.to_string())?;
+        let run = run_valve_with(
+            model.as_ref(),
+            self.problem.op,
+            &self.init,
+            &mut scratch.valve,
+        )
+        .map_err(|e| e.to_string())?;
+        let mv = &scratch.valve.mv;
         let (op, pv) = (self.problem.op, self.problem.pv);
         let n = op.len();
         let k0 = run.valid_from;
@@ -318,7 +336,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 "the valve's initial state matters until sample {k0}: too few identification samples left"
             ));
         }
-        let mv_id = &run.mv[k0..ni];
+        let mv_id = &mv[k0..ni];
         if distinct_at_least(mv_id, 3) < 3 {
             return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
         }
@@ -327,12 +345,14 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             .identify(mv_id, &pv[k0..ni])
             .map_err(|e| e.to_string())?;
         linear.check_stable(true).map_err(|e| e.to_string())?;
-        let pred = linear
-            .predict_one_step(&run.mv[k0..], &pv[k0..])
+        scratch.pred.resize(n - k0, 0.0);
+        linear
+            .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
             .map_err(|e| e.to_string())?;
+        let pred = &scratch.pred;
         let init_len = linear.first_sample().min(n - k0);
         let sim = linear
-            .simulate(&run.mv[k0..], &pv[k0..k0 + init_len])
+            .simulate(&mv[k0..], &pv[k0..k0 + init_len])
             .unwrap_or_else(|_| vec![f64::NAN; n - k0]);
         let split = ni - k0;
         let first = linear.first_sample().min(split);
@@ -345,27 +365,27 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             }
         };
         let fits = Fits {
-            pred_id: score(&pred, first..split),
-            pred_val: score(&pred, split..n - k0),
+            pred_id: score(pred, first..split),
+            pred_val: score(pred, split..n - k0),
             sim_id: score(&sim, first..split),
             sim_val: score(&sim, split..n - k0),
             mv: self
                 .problem
                 .mv
-                .map(|m| linear_id::fit_mv(&m[k0..], &run.mv[k0..])),
+                .map(|m| linear_id::fit_mv(&m[k0..], &mv[k0..])),
             valid_from: k0,
             init_fell_back: run.fell_back,
         };
         if !fits.pred_val.is_finite() {
             return Err("the prediction is not finite".into());
         }
-        Ok(Evaluated {
-            fits,
+        let full = keep.then(|| Evaluated {
             linear,
-            mv: run.mv,
-            pred,
+            mv: mv.clone(),
+            pred: pred.clone(),
             sim,
-        })
+        });
+        Ok((fits, full))
     }
 }
 
@@ -495,8 +515,8 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
     let eval_all = |nodes: Vec<Vec<f64>>, planned: usize, offset: usize| -> Vec<NodeFit> {
         nodes
             .into_par_iter()
-            .map(|params| {
-                let outcome = ctx.evaluate(&params).map(|e| e.fits);
+            .map_init(Scratch::default, |scratch, params| {
+                let outcome = ctx.evaluate(&params, scratch, false).map(|(f, _)| f);
                 let eq = (entry.build)(&params).map(|m| m.equivalent()).unwrap_or(
                     stiction_models::Equivalent {
                         s: f64::NAN,
@@ -583,12 +603,16 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
 
     // Refit the best node to get the model and the series (deterministic: same as in the grid).
     let best_params = surface[best].params.clone();
-    let ev = ctx
-        .evaluate(&best_params)
+    let (fits, full) = ctx
+        .evaluate(&best_params, &mut Scratch::default(), true)
         .map_err(|r| SearchError::NoValidNode {
             nodes: surface.len(),
             reason: r,
         })?;
+    let ev = full.ok_or_else(|| SearchError::NoValidNode {
+        nodes: surface.len(),
+        reason: "the best node could not be refitted".into(),
+    })?;
     let stiction = (entry.build)(&best_params)?;
     let eq = stiction.equivalent();
     let interval = interval(
@@ -600,7 +624,7 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         options.confidence,
         entry.params.len(),
     );
-    let k0 = ev.fits.valid_from;
+    let k0 = fits.valid_from;
     let mut pv_est = vec![f64::NAN; n];
     let est = match crit {
         Criterion::Prediction => &ev.pred,
@@ -611,14 +635,14 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         .iter()
         .find(|nf| nf.params.iter().all(|&v| v == 0.0))
         .and_then(|nf| nf.outcome.as_ref().ok().map(|f| f.rank(crit).1));
-    let warnings = warnings(&surface, &interval, &ev.fits, span, crit);
+    let warnings = warnings(&surface, &interval, &fits, span, crit);
     Ok(Quantification {
         warnings,
         stiction,
         s: eq.s,
         j: eq.j,
         linear: ev.linear,
-        fits: ev.fits,
+        fits: fits,
         criterion: crit,
         interval,
         nodes_evaluated: surface.len(),

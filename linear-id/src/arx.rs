@@ -1,6 +1,6 @@
-//! ARX (paper eq. 2) by linear least squares through a Householder QR (faer).
+//! ARX (paper eq. 2) by linear least squares through a Householder QR (ours for
+//! `n + m <= 15`, faer's blocked QR above).
 
-use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{check_data, check_order};
@@ -148,21 +148,23 @@ impl Arx {
     }
 
     fn solve(&self, u: &[f64], y: &[f64], yc: &[f64], y_mean: f64) -> Result<LinearFit, IdError> {
-        let (n, m) = (self.n, self.m);
-        let len = y.len();
-        let n0 = self.n0();
-        let rows = len - n0;
-        let d = n + m;
+        let rows = y.len() - self.n0();
+        let nc = self.n + self.m + 1;
         let u_mean = mean(u);
-        la::with_buffer(rows, d + 1, |ab| {
+        la::with_buffer(rows * nc, |ab| {
             self.fill_and_solve(ab, u, y, yc, y_mean, u_mean)
         })
     }
 
+    /// Fill the column-major regression `[Φ | y]` (`rows × (d + 1)`) into `ab` and solve.
+    ///
+    /// The diagnostics come from the QR: the residual sum of squares of the regression is
+    /// that of the one-step prediction over `[n0, len)` (the intercept folded into the
+    /// operating point changes nothing there), so no prediction is run.
     #[allow(clippy::too_many_arguments)]
     fn fill_and_solve(
         &self,
-        ab: &mut Mat<f64>,
+        ab: &mut [f64],
         u: &[f64],
         y: &[f64],
         yc: &[f64],
@@ -174,29 +176,35 @@ impl Arx {
         let n0 = self.n0();
         let rows = len - n0;
         let d = n + m;
+        let mut cols = ab.chunks_exact_mut(rows);
         for i in 0..n {
             let src = &yc[n0 - 1 - i..len - 1 - i];
-            for (dst, &s) in ab.col_as_slice_mut(i).iter_mut().zip(src) {
+            let col = cols.next().unwrap_or_default();
+            for (dst, &s) in col.iter_mut().zip(src) {
                 *dst = -s;
             }
         }
         for j in 0..m {
             let lag = delay + 1 + j;
             let src = &u[n0 - lag..len - lag];
-            for (dst, &s) in ab.col_as_slice_mut(n + j).iter_mut().zip(src) {
+            let col = cols.next().unwrap_or_default();
+            for (dst, &s) in col.iter_mut().zip(src) {
                 *dst = s - u_mean;
             }
         }
-        ab.col_as_slice_mut(d).copy_from_slice(&yc[n0..]);
+        let ycol = cols.next().unwrap_or_default();
+        ycol.copy_from_slice(&yc[n0..]);
         let mut col_means = [0.0; 2 * MAX_ORDER + 1];
         if self.centering == Centering::OperatingPoint {
-            for (j, cm) in col_means.iter_mut().enumerate().take(d + 1) {
-                let col = ab.col_as_slice_mut(j);
-                *cm = col.iter().sum::<f64>() / rows as f64;
+            for (cm, col) in col_means.iter_mut().zip(ab.chunks_exact_mut(rows)) {
+                *cm = la::sum(col) / rows as f64;
                 col.iter_mut().for_each(|v| *v -= *cm);
             }
         }
-        let sol = la::lstsq_augmented_in_place(ab).map_err(|pivot| IdError::Singular {
+        // ‖y - mean(y)‖² over the regression rows, the denominator of F_PV
+        let ycol = &ab[d * rows..(d + 1) * rows];
+        let y_ss = la::sum_sq_about(ycol, la::sum(ycol) / rows as f64);
+        let sol = la::lstsq_colmajor(ab, rows, d + 1).map_err(|pivot| IdError::Singular {
             identifier: "arx",
             detail: format!(
                 "regression matrix {rows}x{d}: smallest relative QR pivot {pivot:.3e} < 1e-10"
@@ -206,6 +214,7 @@ impl Arx {
         a.push(1.0);
         a.extend_from_slice(&sol.x[..n]);
         let (mut u_mean, mut y_mean) = (u_mean, y_mean);
+        let mut intercept_kept = true;
         if self.centering == Centering::OperatingPoint {
             // intercept of A yc = B uc + c0, folded into the operating point
             let c0 = col_means[d] - (0..d).map(|j| sol.x[j] * col_means[j]).sum::<f64>();
@@ -215,6 +224,8 @@ impl Arx {
                 y_mean += c0 / a1;
             } else if b1 != 0.0 {
                 u_mean -= c0 / b1;
+            } else {
+                intercept_kept = false;
             }
         }
         let structure = Structure::Polynomial {
@@ -223,7 +234,14 @@ impl Arx {
             c: vec![1.0],
             delay,
         };
-        LinearFit::new("arx", structure, u_mean, y_mean, None, u, y)
+        if !intercept_kept || !sol.rss.is_finite() {
+            // A(1) = B(1) = 0: the prediction differs from the regression by the dropped
+            // intercept; compute the diagnostics the long way
+            return LinearFit::new("arx", structure, u_mean, y_mean, None, u, y);
+        }
+        Ok(LinearFit::with_diagnostics(
+            "arx", structure, u_mean, y_mean, len, n0, sol.rss, y_ss,
+        ))
     }
 }
 
@@ -312,5 +330,74 @@ inventory::submit! {
         description: "ARX (eq. 2) by least squares (Householder QR)",
         orders: &ARX_ORDERS,
         build: build_arx,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    /// Noisy ARX-like data with offsets.
+    fn data(len: usize) -> (Vec<f64>, Vec<f64>) {
+        let mut state: u64 = 99;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let mut u = vec![0.0; len];
+        let mut y = vec![0.0; len];
+        let mut level = 1.0;
+        for k in 0..len {
+            if rnd() > 0.4 {
+                level = -level;
+            }
+            u[k] = 20.0 + level;
+            let mut v = 3.0 + 0.3 * rnd();
+            if k >= 2 {
+                v += 0.9 * y[k - 1] - 0.2 * y[k - 2] + 0.4 * u[k - 1] + 0.1 * u[k - 2] - 0.3 * 3.0;
+            }
+            y[k] = v;
+        }
+        (u, y)
+    }
+
+    #[test]
+    fn fast_diagnostics_match_prediction() {
+        let (u, y) = data(1500);
+        for centering in [Centering::OperatingPoint, Centering::Mean] {
+            for (n, m, delay) in [(2, 2, 0), (1, 3, 2), (4, 1, 0)] {
+                let id = Arx::params()
+                    .n(n)
+                    .m(m)
+                    .delay(delay)
+                    .centering(centering)
+                    .check()
+                    .unwrap();
+                let fast = id.identify(&u, &y).unwrap();
+                // the reference: diagnostics from a full one-step prediction
+                let mut slow = fast.clone();
+                slow.refresh_info(&u, &y).unwrap();
+                let (f, s) = (fast.info(), slow.info());
+                assert_eq!(f.first_sample, s.first_sample);
+                assert_eq!(f.n_samples, s.n_samples);
+                assert!(
+                    (f.residual_variance - s.residual_variance).abs() < 1e-9 * s.residual_variance,
+                    "{centering:?} {n} {m} {delay}: {} vs {}",
+                    f.residual_variance,
+                    s.residual_variance
+                );
+                assert!(
+                    (f.fit_pv - s.fit_pv).abs() < 1e-9,
+                    "{} vs {}",
+                    f.fit_pv,
+                    s.fit_pv
+                );
+                assert_eq!(f.process_max_pole, s.process_max_pole);
+                assert_eq!(f.predictor_max_pole, s.predictor_max_pole);
+            }
+        }
     }
 }

@@ -101,6 +101,9 @@ pub enum IdError {
 
 /// Reject NaN / infinite samples, naming the first.
 pub(crate) fn check_finite(signal: &'static str, x: &[f64]) -> Result<(), IdError> {
+    if crate::la::all_finite(x) {
+        return Ok(());
+    }
     match x.iter().position(|v| !v.is_finite()) {
         Some(index) => Err(IdError::NonFinite {
             signal,

@@ -5,7 +5,7 @@
 //!
 //! | name | model | estimator | default orders |
 //! |------|-------|-----------|----------------|
-//! | `arx` | eq. 2 `A y = B u_{k-td} + e` | least squares, Householder QR (faer) | n = m = 2, delay 0 |
+//! | `arx` | eq. 2 `A y = B u_{k-td} + e` | least squares, Householder QR | n = m = 2, delay 0 |
 //! | `armax` | eq. 4 `A y = B u + C e` | recursive extended LS (Karra & Karim, no bias) | n = m = p = 2 |
 //! | `earx` | eq. 7 `A y = B u + e + η_k` | decoupled recursive LS: θ and a time-varying bias β | n = m = 2 |
 //! | `earmax` | eq. 8 `A y = B u + C e + η_k` | as earx with the C(q) part (a-posteriori residuals) | n = m = p = 2 |
@@ -56,6 +56,43 @@
 //!   `[Φ | y]` (rank deficient when a relative pivot < 1e-10); PARSIM-K uses QR + the
 //!   pseudo-inverse of the small triangular factor (relative cut 1e-10), so rank-deficient
 //!   noise-free data behave like SIPPY's `pinv`. Cross-checked against nalgebra in unit tests.
+//!   Tall QRs (ARX with `n + m <= 15`, PARSIM-K's `N × (2p + 2f + 1)` step-2 and its step-6
+//!   regressions) use our unblocked Householder on column-major slices, compiled through
+//!   pulp's runtime SIMD dispatch (as faer); its loops use fixed lanes and no fused
+//!   multiply-add, so results are the same bit for bit on every instruction set. Unit tests
+//!   check it against faer's QR, and every closed form against its general route (roots of
+//!   degree ≤ 2 and 2 × 2 eigenvalues vs the companion / real Schur eigenvalues, the
+//!   triangular inverse vs the SVD pseudo-inverse, the Hankel Gram vs the product, ARX's
+//!   QR diagnostics vs a full prediction).
+//!
+//! # Performance
+//!
+//! The grid search calls `identify`, `predict_one_step`, `simulate` and `check_stable` tens
+//! of thousands of times, so each is kept allocation-light and O(N) passes over slices.
+//! Instructions per call at N = 3000 with the default orders (`valgrind --tool=callgrind`,
+//! `examples/profile_identify.rs`; deterministic) and divan medians
+//! (`benches/identifiers.rs`, a loaded 2-core machine, so indicative only):
+//!
+//! | identifier | identify, instructions | identify, median | predict_one_step, instructions |
+//! |------|------|------|------|
+//! | `arx` | 0.29 M | 26 µs | 65 k |
+//! | `armax` | 1.9 M | 165 µs | 0.25 M |
+//! | `earx` | 1.2 M | 167 µs | 0.20 M |
+//! | `earmax` | 2.1 M | 259 µs | 0.35 M |
+//! | `ss` | 9.3 M | 0.91 ms | 0.17 M |
+//!
+//! * ARX takes its diagnostics (residual variance, F_PV on the identification window) from
+//!   the QR (`ρ²` and the output column) instead of running a prediction.
+//! * The recursive estimators run on fixed-size stack arrays for `d = n + m + p <= 8`; they
+//!   are latency-bound (each step's divide and dot products depend on the previous step),
+//!   so halving their instructions gains little wall-clock time.
+//! * PARSIM-K: one QR of `[Zp | U_0 | Y_0 | targets]`, the Gram of `[Zp | Uf]` from its
+//!   Hankel structure (`O((p + f) N)`), `R⁻¹` by back substitution when it is provably the
+//!   pseudo-inverse (else the SVD), and the step-6 regressors in one pass of `3n` side-by-side
+//!   predictor states.
+//! * Polynomial prediction adds the A and B terms in one vectorised pass per coefficient;
+//!   free runs and state-space runs have their orders as compile-time constants up to 3
+//!   (polynomial) / 4 (state space); poles of degree ≤ 2 are closed form.
 //!
 //! # Recursive estimators (Karra & Karim) — decisions
 //!

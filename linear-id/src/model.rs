@@ -228,6 +228,150 @@ fn complex_solve(m: &mut [Vec<c64>], rhs: &mut [c64]) -> Option<()> {
     Some(())
 }
 
+/// The free run of a polynomial model once every lag exists (`k >= start`):
+/// `ŷ_k = -Σ a_i ŷ_{k-i} + Σ b_j (u_{k-delay-j} - ū)`, summed in that order.
+struct PolyTail<'a> {
+    /// `[a1, …, an]`.
+    a: &'a [f64],
+    b: &'a [f64],
+    delay: usize,
+    um: f64,
+}
+
+impl PolyTail<'_> {
+    /// Orders as compile-time constants: the lag loops unroll into straight-line code.
+    fn run<const NA: usize, const NB: usize>(&self, u: &[f64], out: &mut [f64], start: usize) {
+        let (Ok(a), Ok(b)) = (<[f64; NA]>::try_from(self.a), <[f64; NB]>::try_from(self.b)) else {
+            return self.run_dyn(u, out, start);
+        };
+        for k in start..out.len() {
+            let (done, rest) = out.split_at_mut(k);
+            let ys: &[f64; NA] = match done[k - NA..].try_into() {
+                Ok(v) => v,
+                Err(_) => return,
+            };
+            let lo = k - self.delay - NB;
+            let us: &[f64; NB] = match u[lo..lo + NB].try_into() {
+                Ok(v) => v,
+                Err(_) => return,
+            };
+            let mut v = 0.0;
+            for i in 0..NA {
+                v -= a[i] * ys[NA - 1 - i];
+            }
+            for j in 0..NB {
+                v += b[j] * (us[NB - 1 - j] - self.um);
+            }
+            rest[0] = v;
+        }
+    }
+
+    fn run_dyn(&self, u: &[f64], out: &mut [f64], start: usize) {
+        let (na, nb, delay) = (self.a.len(), self.b.len(), self.delay);
+        for k in start..out.len() {
+            let mut v = 0.0;
+            for (ai, oi) in self.a.iter().zip(out[k - na..k].iter().rev()) {
+                v -= ai * oi;
+            }
+            for (bj, uj) in self.b.iter().zip(u[k - delay - nb..k - delay].iter().rev()) {
+                v += bj * (uj - self.um);
+            }
+            out[k] = v;
+        }
+    }
+}
+
+/// A state-space model borrowed for [`ss_run`]; `a` row-major `n × n`.
+struct SsModel<'a> {
+    a: &'a [f64],
+    b: &'a [f64],
+    c: &'a [f64],
+    d: f64,
+    k: &'a [f64],
+    x0: &'a [f64],
+}
+
+/// Call `$f(n)` with `n` a literal for state dimensions up to 4 (the body, inlined, then
+/// works on fixed-size loops), with the runtime value otherwise.
+macro_rules! dispatch_state_dim {
+    ($n:expr, |$v:ident| $body:expr) => {
+        match $n {
+            1 => {
+                let $v = 1;
+                $body
+            }
+            2 => {
+                let $v = 2;
+                $body
+            }
+            3 => {
+                let $v = 3;
+                $body
+            }
+            4 => {
+                let $v = 4;
+                $body
+            }
+            other => {
+                let $v = other;
+                $body
+            }
+        }
+    };
+}
+
+/// State-space run on centered data, no allocation per sample. With `y`: the one-step
+/// predictor `ŷ = C x + D u`, `x+ = A x + B u + K (y - ŷ)`, out = ŷ + `y_off`; without:
+/// the free run `x+ = A x + B u`, out = `C x + D u` (+ `y_off`). Same operation order as the
+/// straightforward loops (`dot` then the input terms), so the same bits.
+#[inline(always)]
+fn ss_run(
+    n: usize,
+    m: &SsModel<'_>,
+    u: &[f64],
+    y: Option<&[f64]>,
+    um: f64,
+    ym: f64,
+    out: &mut [f64],
+) {
+    let (a, b, c) = (&m.a[..n * n], &m.b[..n], &m.c[..n]);
+    let mut x = m.x0[..n].to_vec();
+    let mut xn = vec![0.0; n];
+    let (x, xn) = (&mut x[..n], &mut xn[..n]);
+    for t in 0..out.len() {
+        let uc = u[t] - um;
+        let mut yhat = 0.0;
+        for i in 0..n {
+            yhat += c[i] * x[i];
+        }
+        yhat += m.d * uc;
+        out[t] = yhat + ym;
+        match y {
+            Some(y) => {
+                let k = &m.k[..n];
+                let e = (y[t] - ym) - yhat;
+                for (i, row) in a.chunks_exact(n).enumerate() {
+                    let mut v = 0.0;
+                    for j in 0..n {
+                        v += row[j] * x[j];
+                    }
+                    xn[i] = v + b[i] * uc + k[i] * e;
+                }
+            }
+            None => {
+                for (i, row) in a.chunks_exact(n).enumerate() {
+                    let mut v = 0.0;
+                    for j in 0..n {
+                        v += row[j] * x[j];
+                    }
+                    xn[i] = v + b[i] * uc;
+                }
+            }
+        }
+        x.copy_from_slice(xn);
+    }
+}
+
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -314,6 +458,48 @@ impl LinearFit {
         };
         fit.refresh_info(u, y)?;
         Ok(fit)
+    }
+
+    /// A fit whose one-step residual sum of squares `rss` over `[first_sample, n_samples)` and
+    /// the output's sum of squares about its mean there (`y_ss`) are already known (ARX: from
+    /// the QR), so that no prediction has to run. Same `info` as [`LinearFit::new`] up to
+    /// round-off (test `fast_diagnostics_match_prediction` in `arx.rs`).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn with_diagnostics(
+        kind: &str,
+        structure: Structure,
+        u_mean: f64,
+        y_mean: f64,
+        n_samples: usize,
+        first_sample: usize,
+        rss: f64,
+        y_ss: f64,
+    ) -> LinearFit {
+        let cnt = (n_samples - first_sample).max(1) as f64;
+        let fit_pv = if rss.is_finite() && y_ss > 0.0 {
+            100.0 * (1.0 - rss / y_ss)
+        } else {
+            f64::NEG_INFINITY
+        };
+        let process_max_pole = la::max_modulus(&structure.poles());
+        let predictor_max_pole = la::max_modulus(&structure.predictor_poles());
+        LinearFit {
+            kind: kind.to_string(),
+            structure,
+            u_mean,
+            y_mean,
+            bias: None,
+            disturbance: None,
+            info: FitInfo {
+                n_samples,
+                first_sample,
+                residual_variance: rss / cnt,
+                fit_pv,
+                process_max_pole,
+                predictor_max_pole,
+                singular_values: Vec::new(),
+            },
+        }
     }
 
     pub(crate) fn refresh_info(&mut self, u: &[f64], y: &[f64]) -> Result<(), IdError> {
@@ -456,7 +642,6 @@ impl LinearFit {
                 let n0 = self.first_sample();
                 let na = a.len() - 1;
                 let nc = c.len() - 1;
-                let nb = b.len();
                 let mut eps = vec![0.0; if nc > 0 { n_data } else { 0 }];
                 let mut betas = Vec::new();
                 let mut beta = 0.0;
@@ -479,16 +664,33 @@ impl LinearFit {
                     }
                     out[k] = v + ym;
                 }
-                // tail: every lag measured; centering folded into one constant
+                // tail: every lag measured; centering folded into one constant. The A and B
+                // terms do not depend on earlier predictions: one vectorisable pass per
+                // coefficient, in the same order as the sample-by-sample sum (same bits).
                 let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
+                if n0 < n_data {
+                    let tail = &mut out[n0..n_data];
+                    tail.iter_mut().for_each(|v| *v = kconst);
+                    for (i, &ai) in a.iter().enumerate().skip(1) {
+                        let lagged = &y[n0 - i..n_data - i];
+                        for (v, yi) in tail.iter_mut().zip(lagged) {
+                            *v -= ai * yi;
+                        }
+                    }
+                    for (j, &bj) in b.iter().enumerate() {
+                        let lag = delay + j + 1;
+                        let lagged = &u[n0 - lag..n_data - lag];
+                        for (v, uj) in tail.iter_mut().zip(lagged) {
+                            *v += bj * uj;
+                        }
+                    }
+                    if nc == 0 && self.bias.is_none() {
+                        tail.iter_mut().for_each(|v| *v += ym);
+                        return Ok(betas);
+                    }
+                }
                 for k in n0..n_data {
-                    let mut v = kconst;
-                    for (ai, yi) in a[1..].iter().zip(y[k - na..k].iter().rev()) {
-                        v -= ai * yi;
-                    }
-                    for (bj, uj) in b.iter().zip(u[k - delay - nb..k - delay].iter().rev()) {
-                        v += bj * uj;
-                    }
+                    let mut v = out[k];
                     if nc > 0 {
                         for (ci, ei) in c[1..].iter().zip(eps[k - nc..k].iter().rev()) {
                             v += ci * ei;
@@ -517,21 +719,16 @@ impl LinearFit {
                 Ok(betas)
             }
             Structure::StateSpace { a, b, c, d, k, x0 } => {
-                let n = a.len();
-                // predictor form: A_K = A - K C, B_K = B - K D
-                let mut x = x0.clone();
-                let mut xn = vec![0.0; n];
-                for t in 0..n_data {
-                    let uc = u[t] - um;
-                    let yc = y[t] - ym;
-                    let yhat = dot(c, &x) + d * uc;
-                    out[t] = yhat + ym;
-                    let e = yc - yhat;
-                    for i in 0..n {
-                        xn[i] = dot(&a[i], &x) + b[i] * uc + k[i] * e;
-                    }
-                    std::mem::swap(&mut x, &mut xn);
-                }
+                let a_flat: Vec<f64> = a.iter().flatten().copied().collect();
+                let m = SsModel {
+                    a: &a_flat,
+                    b,
+                    c,
+                    d: *d,
+                    k,
+                    x0,
+                };
+                dispatch_state_dim!(a.len(), |n| ss_run(n, &m, u, Some(y), um, ym, out));
                 Ok(Vec::new())
             }
         }
@@ -553,7 +750,11 @@ impl LinearFit {
         match &self.structure {
             Structure::Polynomial { a, b, delay, .. } => {
                 let na = a.len() - 1;
-                for k in 0..n_data {
+                let nb = b.len();
+                // from `full` on every lag exists: the branch-free tail (same sums, same order)
+                let full = na.max(delay + nb);
+                let head_end = full.max(y_init.len()).min(n_data);
+                for k in 0..head_end {
                     if k < y_init.len() {
                         out[k] = y_init[k] - ym;
                         continue;
@@ -570,22 +771,233 @@ impl LinearFit {
                     }
                     out[k] = v;
                 }
+                let tail = PolyTail {
+                    a: &a[1..],
+                    b,
+                    delay: *delay,
+                    um,
+                };
+                macro_rules! fixed {
+                    ($(($na:literal, $nb:literal))*) => {
+                        match (na, nb) {
+                            $(($na, $nb) => tail.run::<$na, $nb>(u, &mut out, head_end),)*
+                            _ => tail.run_dyn(u, &mut out, head_end),
+                        }
+                    };
+                }
+                fixed!((0, 1)(0, 2)(0, 3)(1, 1)(1, 2)(1, 3)(2, 1)(2, 2)(2, 3)(3, 1)(3, 2)(3, 3));
             }
             Structure::StateSpace { a, b, c, d, x0, .. } => {
-                let mut x = x0.clone();
-                for t in 0..n_data {
-                    let uc = u[t] - um;
-                    out[t] = dot(c, &x) + d * uc;
-                    let mut xn = matvec(a, &x);
-                    for (xi, bi) in xn.iter_mut().zip(b) {
-                        *xi += bi * uc;
-                    }
-                    x = xn;
-                }
+                let a_flat: Vec<f64> = a.iter().flatten().copied().collect();
+                let m = SsModel {
+                    a: &a_flat,
+                    b,
+                    c,
+                    d: *d,
+                    k: &[],
+                    x0,
+                };
+                dispatch_state_dim!(a.len(), |n| ss_run(n, &m, u, None, um, 0.0, &mut out));
             }
         }
         out.iter_mut().for_each(|v| *v += ym);
         check_finite("estimate", &out)?;
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn fit(structure: Structure, bias: Option<BiasTracking>) -> LinearFit {
+        LinearFit {
+            kind: "test".into(),
+            structure,
+            u_mean: 1.5,
+            y_mean: -0.5,
+            bias,
+            disturbance: None,
+            info: FitInfo {
+                n_samples: 0,
+                first_sample: 0,
+                residual_variance: 0.0,
+                fit_pv: 0.0,
+                process_max_pole: 0.0,
+                predictor_max_pole: 0.0,
+                singular_values: Vec::new(),
+            },
+        }
+    }
+
+    fn signals(len: usize) -> (Vec<f64>, Vec<f64>) {
+        let u = (0..len)
+            .map(|k| ((k * 13) % 7) as f64 * 0.3 + 1.0)
+            .collect();
+        let y = (0..len).map(|k| (k as f64 * 0.1).sin() - 0.4).collect();
+        (u, y)
+    }
+
+    /// The sample-by-sample one-step predictor (the specification's loop).
+    fn reference_predict(f: &LinearFit, u: &[f64], y: &[f64]) -> Vec<f64> {
+        let Structure::Polynomial { a, b, c, delay } = &f.structure else {
+            unreachable!()
+        };
+        let (um, ym) = (f.u_mean, f.y_mean);
+        let n0 = f.first_sample();
+        let (na, nc) = (a.len() - 1, c.len() - 1);
+        let mut out = vec![0.0; y.len()];
+        let mut eps = vec![0.0; y.len()];
+        let (mut beta, mut pb) = (0.0, f.bias.map_or(0.0, |b| b.p0));
+        for k in 0..y.len() {
+            let mut v = 0.0;
+            for i in 1..=na.min(k) {
+                v -= a[i] * (y[k - i] - ym);
+            }
+            for (j, &bj) in b.iter().enumerate() {
+                if k > delay + j {
+                    v += bj * (u[k - delay - j - 1] - um);
+                }
+            }
+            if k < n0 {
+                out[k] = v + ym;
+                continue;
+            }
+            for i in 1..=nc {
+                v += c[i] * eps[k - i];
+            }
+            let yc = y[k] - ym;
+            match f.bias {
+                Some(bt) => {
+                    out[k] = v + beta + ym;
+                    let kb = pb / (bt.lambda + pb);
+                    beta += kb * (yc - v - beta);
+                    pb = (1.0 - kb) * pb / bt.lambda;
+                    eps[k] = yc - v - beta;
+                }
+                None => {
+                    out[k] = v + ym;
+                    eps[k] = yc - v;
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn vectorised_polynomial_prediction_matches_the_sample_loop() {
+        let (u, y) = signals(400);
+        let bias = Some(BiasTracking {
+            lambda: 0.8,
+            p0: 1e4,
+        });
+        for (c, bias) in [
+            (vec![1.0], None),
+            (vec![1.0, 0.3, -0.1], None),
+            (vec![1.0], bias),
+            (vec![1.0, 0.2], bias),
+        ] {
+            let f = fit(
+                Structure::Polynomial {
+                    a: vec![1.0, -0.9, 0.2],
+                    b: vec![0.4, 0.1, 0.05],
+                    c,
+                    delay: 2,
+                },
+                bias,
+            );
+            let fast = f.predict_one_step(&u, &y).unwrap();
+            let want = reference_predict(&f, &u, &y);
+            for (a, b) in fast.iter().zip(&want) {
+                assert!((a - b).abs() < 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn polynomial_free_run_matches_the_sample_loop() {
+        let (u, y) = signals(200);
+        // (2, 2) and (1, 3) take the fixed-order tail, (4, 1) and (2, 5) the dynamic one
+        for (a, b, delay, n_init) in [
+            (vec![1.0, -0.9, 0.2], vec![0.4, 0.1], 0, 2),
+            (vec![1.0, -0.5], vec![0.4, 0.1, 0.05], 3, 0),
+            (vec![1.0, -0.5, 0.1, 0.02, -0.01], vec![0.3], 1, 7),
+            (vec![1.0, -0.9, 0.2], vec![0.1; 5], 2, 1),
+        ] {
+            let f = fit(
+                Structure::Polynomial {
+                    a: a.clone(),
+                    b: b.clone(),
+                    c: vec![1.0],
+                    delay,
+                },
+                None,
+            );
+            let (um, ym) = (f.u_mean, f.y_mean);
+            let sim = f.simulate(&u, &y[..n_init]).unwrap();
+            let mut want = vec![0.0; u.len()];
+            for k in 0..u.len() {
+                if k < n_init {
+                    want[k] = y[k] - ym;
+                    continue;
+                }
+                let mut v = 0.0;
+                for i in 1..a.len().min(k + 1) {
+                    v -= a[i] * want[k - i];
+                }
+                for (j, &bj) in b.iter().enumerate() {
+                    if k > delay + j {
+                        v += bj * (u[k - delay - j - 1] - um);
+                    }
+                }
+                want[k] = v;
+            }
+            for (got, w) in sim.iter().zip(&want) {
+                assert_eq!(*got, w + ym);
+            }
+        }
+    }
+
+    #[test]
+    fn state_space_runs_match_the_plain_loops() {
+        let (u, y) = signals(300);
+        for n in [1usize, 2, 3, 5] {
+            let a: Vec<Vec<f64>> = (0..n)
+                .map(|i| (0..n).map(|j| if i == j { 0.6 } else { 0.05 }).collect())
+                .collect();
+            let b: Vec<f64> = (0..n).map(|i| 0.1 * (i + 1) as f64).collect();
+            let c: Vec<f64> = (0..n).map(|i| 1.0 - 0.2 * i as f64).collect();
+            let k: Vec<f64> = (0..n).map(|i| 0.05 * i as f64).collect();
+            let x0: Vec<f64> = (0..n).map(|i| 0.3 - 0.1 * i as f64).collect();
+            let d = 0.2;
+            let f = fit(
+                Structure::StateSpace {
+                    a: a.clone(),
+                    b: b.clone(),
+                    c: c.clone(),
+                    d,
+                    k: k.clone(),
+                    x0: x0.clone(),
+                },
+                None,
+            );
+            let (um, ym) = (f.u_mean, f.y_mean);
+            let pred = f.predict_one_step(&u, &y).unwrap();
+            let sim = f.simulate(&u, &[]).unwrap();
+            let (mut xp, mut xs) = (x0.clone(), x0.clone());
+            for t in 0..u.len() {
+                let uc = u[t] - um;
+                let yhat = dot(&c, &xp) + d * uc;
+                assert!((pred[t] - (yhat + ym)).abs() < 1e-12, "n={n} t={t}");
+                let e = (y[t] - ym) - yhat;
+                xp = (0..n)
+                    .map(|i| dot(&a[i], &xp) + b[i] * uc + k[i] * e)
+                    .collect();
+                let ys = dot(&c, &xs) + d * uc;
+                assert!((sim[t] - (ys + ym)).abs() < 1e-12, "n={n} t={t}");
+                xs = (0..n).map(|i| dot(&a[i], &xs) + b[i] * uc).collect();
+            }
+        }
     }
 }

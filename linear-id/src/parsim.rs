@@ -7,7 +7,7 @@
 //! `Γ W`, `W = (Zp Π⊥ Zpᵀ)^{1/2}`; `A_K`, `C` by shift invariance; `B_K`, (`D`), `K`, `x0`
 //! by least squares on the predictor output; unscale.
 
-use faer::{Mat, MatRef};
+use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{check_data, check_order, check_real};
@@ -159,9 +159,9 @@ fn svd_failed(what: &str) -> IdError {
     }
 }
 
-/// Least squares with a pseudo-inverse: `A = Q R` (faer Householder QR), then
-/// `x = pinv(R[..k, ..k]) (Qᵀ b)[..k]` for the leading `k` columns; tolerance
-/// `max(rows, k) · ε · σ_max`.
+/// Least squares with a pseudo-inverse: `[A | B] → Q [R | QᵀB]` by Householder QR
+/// ([`la::householder_qr_colmajor_simd`]), then `x = pinv(R[..k, ..k]) (Qᵀ b)[..k]` for the
+/// leading `k` columns; tolerance `max(PINV_RTOL, max(rows, k) · ε) · σ_max`.
 struct PinvLs {
     /// `pinv(R_k)` for the requested leading sizes.
     pinvs: Vec<Mat<f64>>,
@@ -169,45 +169,149 @@ struct PinvLs {
     qtb: Mat<f64>,
 }
 
-fn pinv_ls(a: Mat<f64>, targets: MatRef<'_, f64>, sizes: &[usize]) -> Result<PinvLs, IdError> {
-    let (rows, k) = a.shape();
-    let qr = la::Qr::new(a);
-    let mut b = targets.to_owned();
-    qr.apply_qt(b.as_mut());
-    let qtb = b.as_ref().get(..k, ..).to_owned();
+/// `ab` is column-major `rows × (k + targets)`: the `k` regressor columns, then the targets;
+/// it is overwritten by the factorisation.
+fn pinv_ls(ab: &mut [f64], rows: usize, k: usize, sizes: &[usize]) -> Result<PinvLs, IdError> {
+    let nc = ab.len() / rows;
+    la::householder_qr_colmajor_simd(ab, rows, nc, k);
+    let r = |i: usize, j: usize| ab[j * rows + i];
+    let qtb = Mat::<f64>::from_fn(k, nc - k, |i, j| r(i, k + j));
     let mut pinvs = Vec::with_capacity(sizes.len());
     for &s in sizes {
-        let r = Mat::<f64>::from_fn(s, s, |i, j| if j >= i { qr.r(i, j) } else { 0.0 });
-        let pi = la::pinv_rtol(r.as_ref(), PINV_RTOL.max(rows.max(s) as f64 * f64::EPSILON))
-            .ok_or_else(|| svd_failed("SVD of R"))?;
+        let rs = Mat::<f64>::from_fn(s, s, |i, j| if j >= i { r(i, j) } else { 0.0 });
+        let rtol = PINV_RTOL.max(rows.max(s) as f64 * f64::EPSILON);
+        let pi = match la::upper_inverse_if_well_conditioned(rs.as_ref(), rtol) {
+            Some(inv) => inv,
+            None => la::pinv_rtol(rs.as_ref(), rtol).ok_or_else(|| svd_failed("SVD of R"))?,
+        };
         pinvs.push(pi);
     }
     Ok(PinvLs { pinvs, qtb })
 }
 
-/// Simulate the predictor `x+ = A_K x + B_K u + K y`, `ŷ = C x + D u` from `x0`.
-#[allow(clippy::too_many_arguments)]
-fn predictor_output(
-    ak: &[Vec<f64>],
-    bk: &[f64],
-    c: &[f64],
-    d: f64,
-    k: &[f64],
-    x0: &[f64],
-    u: &[f64],
-    y: &[f64],
-    out: &mut [f64],
-) {
-    let n = ak.len();
-    let mut x = x0.to_vec();
-    let mut xn = vec![0.0; n];
-    for t in 0..u.len() {
-        out[t] = crate::model::dot(c, &x) + d * u[t];
-        for i in 0..n {
-            xn[i] = crate::model::dot(&ak[i], &x) + bk[i] * u[t] + k[i] * y[t];
-        }
-        std::mem::swap(&mut x, &mut xn);
+/// `Σ_{t < ncol} a[oa + t] b[ob + t]` for every `oa < ka`, `ob < kb` (row-major `ka × kb`),
+/// by `ka + kb - 1` dot products and the shift recurrence
+/// `H(i + 1, j + 1) = H(i, j) - a_i b_j + a_{i + ncol} b_{j + ncol}`.
+fn shifted_products(a: &[f64], ka: usize, b: &[f64], kb: usize, ncol: usize) -> Vec<f64> {
+    let mut h = vec![0.0; ka * kb];
+    for ob in 0..kb {
+        h[ob] = la::dot(&a[..ncol], &b[ob..ob + ncol]);
     }
+    for oa in 1..ka {
+        h[oa * kb] = la::dot(&a[oa..oa + ncol], &b[..ncol]);
+    }
+    for oa in 1..ka {
+        for ob in 1..kb {
+            h[oa * kb + ob] = h[(oa - 1) * kb + ob - 1] - a[oa - 1] * b[ob - 1]
+                + a[oa - 1 + ncol] * b[ob - 1 + ncol];
+        }
+    }
+    h
+}
+
+/// The Gram matrix `XᵀX` of `X = [Zp | Uf]` (transposed layout: `ncol` rows; columns the
+/// u shifts `0..p`, the y shifts `0..p`, the u shifts `p..p+f`), from the Hankel structure:
+/// every entry is a shifted product of u or y with itself or the other
+/// ([`shifted_products`]), `O((p + f) N)` instead of `O((2p + f)² N)`. Equal to the direct
+/// product up to round-off (test `hankel_gram_matches_product`).
+fn hankel_gram(us: &[f64], ys: &[f64], ncol: usize, p: usize, f: usize) -> Mat<f64> {
+    let ku = p + f;
+    let huu = shifted_products(us, ku, us, ku, ncol);
+    let hyy = shifted_products(ys, p, ys, p, ncol);
+    let huy = shifted_products(us, ku, ys, p, ncol);
+    // column c -> (is_y, shift)
+    let col = |c: usize| -> (bool, usize) {
+        if c < p {
+            (false, c)
+        } else if c < 2 * p {
+            (true, c - p)
+        } else {
+            (false, c - p)
+        }
+    };
+    let nz = 2 * p + f;
+    Mat::<f64>::from_fn(nz, nz, |i, j| match (col(i), col(j)) {
+        ((false, a), (false, b)) => huu[a * ku + b],
+        ((true, a), (true, b)) => hyy[a * p + b],
+        ((false, a), (true, b)) => huy[a * p + b],
+        ((true, a), (false, b)) => huy[b * p + a],
+    })
+}
+
+/// Step-6 regressors in one pass over the data: the predictor output
+/// `ŷ = C x`, `x+ = A_K x + B_K u + K y` from `x0` is linear in `(B_K, K, x0)`, and its
+/// column for the unit vector `e_r` of each block is written to `ab` (column-major, `len`
+/// rows): `B_K = e_r` (columns `0..n`), then `u` itself if `d_required`, `K = e_r`, `x0 = e_r`.
+/// The `3n` state trajectories run side by side with the same arithmetic as `3n` separate
+/// simulations (the zero inputs only add exact zeros). `ak` is `n × n` row-major.
+#[inline(always)]
+fn step6_columns(
+    n: usize,
+    ak: &[f64],
+    c: &[f64],
+    us: &[f64],
+    ys: &[f64],
+    d_required: bool,
+    ab: &mut [f64],
+) {
+    let len = us.len();
+    let (ak, c) = (&ak[..n * n], &c[..n]);
+    let nstate = 3 * n;
+    let mut xs = vec![0.0; nstate * n];
+    let mut xn = vec![0.0; n];
+    // x0 columns start from e_r
+    for r in 0..n {
+        xs[(2 * n + r) * n + r] = 1.0;
+    }
+    let d_off = usize::from(d_required);
+    for t in 0..len {
+        let (ut, yt) = (us[t], ys[t]);
+        for (blk, x) in xs.chunks_exact_mut(n).enumerate() {
+            let mut yhat = 0.0;
+            for i in 0..n {
+                yhat += c[i] * x[i];
+            }
+            let col = if blk < n { blk } else { blk + d_off };
+            ab[col * len + t] = yhat;
+            for (i, row) in ak.chunks_exact(n).enumerate() {
+                let mut v = 0.0;
+                for j in 0..n {
+                    v += row[j] * x[j];
+                }
+                xn[i] = v;
+            }
+            if blk < n {
+                xn[blk] += ut;
+            } else if blk < 2 * n {
+                xn[blk - n] += yt;
+            }
+            x.copy_from_slice(&xn);
+        }
+    }
+    if d_required {
+        ab[n * len..(n + 1) * len].copy_from_slice(us);
+    }
+}
+
+/// [`step6_columns`] with the state dimension a compile-time constant for `n <= 4`.
+fn step6_columns_dispatch(
+    n: usize,
+    ak: &[f64],
+    c: &[f64],
+    us: &[f64],
+    ys: &[f64],
+    d_required: bool,
+    ab: &mut [f64],
+) {
+    macro_rules! fixed {
+        ($($n:literal)*) => {
+            match n {
+                $($n => step6_columns($n, ak, c, us, ys, d_required, ab),)*
+                _ => step6_columns(n, ak, c, us, ys, d_required, ab),
+            }
+        };
+    }
+    fixed!(1 2 3 4)
 }
 
 impl ParsimK {
@@ -236,44 +340,31 @@ impl ParsimK {
         let ncol = len + 1 - p - f; // number of time columns N
                                     // --- Step 1 (transposed: one row per time t = p + j)
         let zp_cols = 2 * p;
-        // Step 2 regressors [Zp | U_0 | Y_0]
+        // Step 2 regressors [Zp | U_0 | Y_0], then the targets Y_0 .. Y_{f-1}, U_1 .. U_{f-1},
+        // column-major in one buffer (one QR gives R and Qᵀ targets)
         let kreg = zp_cols + 2;
-        let mut reg = Mat::<f64>::zeros(ncol, kreg);
+        let ntarg = 2 * f - 1;
+        let mut reg = Vec::with_capacity(ncol * (kreg + ntarg));
         for i in 0..p {
-            reg.col_as_slice_mut(i).copy_from_slice(&us[i..i + ncol]);
-            reg.col_as_slice_mut(p + i)
-                .copy_from_slice(&ys[i..i + ncol]);
+            reg.extend_from_slice(&us[i..i + ncol]);
         }
-        reg.col_as_slice_mut(zp_cols)
-            .copy_from_slice(&us[p..p + ncol]);
-        reg.col_as_slice_mut(zp_cols + 1)
-            .copy_from_slice(&ys[p..p + ncol]);
-        // targets: Y_0 .. Y_{f-1}, then U_1 .. U_{f-1}
-        let mut targets = Mat::<f64>::zeros(ncol, 2 * f - 1);
+        for i in 0..p {
+            reg.extend_from_slice(&ys[i..i + ncol]);
+        }
+        reg.extend_from_slice(&us[p..p + ncol]);
+        reg.extend_from_slice(&ys[p..p + ncol]);
         for i in 0..f {
-            targets
-                .col_as_slice_mut(i)
-                .copy_from_slice(&ys[p + i..p + i + ncol]);
+            reg.extend_from_slice(&ys[p + i..p + i + ncol]);
         }
         for i in 1..f {
-            targets
-                .col_as_slice_mut(f - 1 + i)
-                .copy_from_slice(&us[p + i..p + i + ncol]);
+            reg.extend_from_slice(&us[p + i..p + i + ncol]);
         }
-        // Step 3 needs the Gram of [Zp | Uf]; compute before `reg` is consumed.
-        let mut xw = Mat::<f64>::zeros(ncol, zp_cols + f);
-        for j in 0..zp_cols {
-            xw.col_as_slice_mut(j).copy_from_slice(reg.col_as_slice(j));
-        }
-        for i in 0..f {
-            xw.col_as_slice_mut(zp_cols + i)
-                .copy_from_slice(&us[p + i..p + i + ncol]);
-        }
-        let gram = la::mul(xw.as_ref().transpose(), xw.as_ref());
-        drop(xw);
+        // Step 3 needs the Gram of [Zp | Uf] (Hankel structure, no product of the full data)
+        let gram = hankel_gram(&us, &ys, ncol, p, f);
 
         // --- Step 2
-        let ls = pinv_ls(reg, targets.as_ref(), &[zp_cols + 1, kreg])?;
+        let ls = pinv_ls(&mut reg, ncol, kreg, &[zp_cols + 1, kreg])?;
+        drop(reg);
         let coef = |pi: &Mat<f64>, rhs: &[f64]| -> Vec<f64> {
             let s = pi.nrows();
             (0..s)
@@ -359,41 +450,12 @@ impl ParsimK {
 
         // --- Step 6: B_K, (D), K, x0 by least squares on the predictor output (all L samples)
         let npar = 3 * n + usize::from(prm.d_required);
-        let mut ab = Mat::<f64>::zeros(len, npar + 1);
-        let zeros = vec![0.0; n];
-        let mut unit = vec![0.0; n];
-        let mut colbuf = vec![0.0; len];
-        let mut cidx = 0;
-        for r in 0..n {
-            unit.iter_mut().for_each(|v| *v = 0.0);
-            unit[r] = 1.0;
-            predictor_output(&ak, &unit, &c_s, 0.0, &zeros, &zeros, &us, &ys, &mut colbuf);
-            ab.col_as_slice_mut(cidx).copy_from_slice(&colbuf);
-            cidx += 1;
-        }
-        if prm.d_required {
-            ab.col_as_slice_mut(cidx).copy_from_slice(&us);
-            cidx += 1;
-        }
-        for r in 0..n {
-            unit.iter_mut().for_each(|v| *v = 0.0);
-            unit[r] = 1.0;
-            predictor_output(&ak, &zeros, &c_s, 0.0, &unit, &zeros, &us, &ys, &mut colbuf);
-            ab.col_as_slice_mut(cidx).copy_from_slice(&colbuf);
-            cidx += 1;
-        }
-        for r in 0..n {
-            unit.iter_mut().for_each(|v| *v = 0.0);
-            unit[r] = 1.0;
-            predictor_output(&ak, &zeros, &c_s, 0.0, &zeros, &unit, &us, &ys, &mut colbuf);
-            ab.col_as_slice_mut(cidx).copy_from_slice(&colbuf);
-            cidx += 1;
-        }
-        ab.col_as_slice_mut(npar).copy_from_slice(&ys);
+        let mut ab = vec![0.0; len * (npar + 1)];
+        let ak_flat: Vec<f64> = ak.iter().flatten().copied().collect();
+        step6_columns_dispatch(n, &ak_flat, &c_s, &us, &ys, prm.d_required, &mut ab);
+        ab[npar * len..].copy_from_slice(&ys);
         let theta = {
-            let a = ab.as_ref().get(.., ..npar).to_owned();
-            let b = ab.as_ref().get(.., npar..).to_owned();
-            let ls6 = pinv_ls(a, b.as_ref(), &[npar])?;
+            let ls6 = pinv_ls(&mut ab, len, npar, &[npar])?;
             coef(
                 &ls6.pinvs[0],
                 &(0..npar).map(|r| ls6.qtb[(r, 0)]).collect::<Vec<_>>(),
@@ -545,5 +607,108 @@ inventory::submit! {
         description: "state space (eq. 6, innovation form) by PARSIM-K subspace identification",
         orders: &SS_ORDERS,
         build: build_ss,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn hankel_gram_matches_product() {
+        let len = 700;
+        let us: Vec<f64> = (0..len)
+            .map(|k| ((k * 7919) % 113) as f64 / 56.0 - 1.0)
+            .collect();
+        let ys: Vec<f64> = (0..len)
+            .map(|k| (k as f64 * 0.37).sin() + 0.1 * us[k])
+            .collect();
+        for (p, f) in [(10, 10), (3, 7), (12, 4)] {
+            let ncol = len + 1 - p - f;
+            let mut x = Mat::<f64>::zeros(ncol, 2 * p + f);
+            for i in 0..p {
+                x.col_as_slice_mut(i).copy_from_slice(&us[i..i + ncol]);
+                x.col_as_slice_mut(p + i).copy_from_slice(&ys[i..i + ncol]);
+            }
+            for i in 0..f {
+                x.col_as_slice_mut(2 * p + i)
+                    .copy_from_slice(&us[p + i..p + i + ncol]);
+            }
+            let direct = la::mul(x.as_ref().transpose(), x.as_ref());
+            let fast = hankel_gram(&us, &ys, ncol, p, f);
+            for i in 0..2 * p + f {
+                for j in 0..2 * p + f {
+                    assert!(
+                        (direct[(i, j)] - fast[(i, j)]).abs() < 1e-11 * ncol as f64,
+                        "p={p} f={f} ({i},{j}): {} vs {}",
+                        direct[(i, j)],
+                        fast[(i, j)]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn step6_columns_match_separate_simulations() {
+        let len = 300;
+        let us: Vec<f64> = (0..len)
+            .map(|k| ((k * 31) % 17) as f64 / 8.0 - 1.0)
+            .collect();
+        let ys: Vec<f64> = (0..len).map(|k| (k as f64 * 0.2).cos()).collect();
+        for n in [1usize, 2, 3, 5] {
+            let ak: Vec<f64> = (0..n * n)
+                .map(|i| {
+                    if i % (n + 1) == 0 {
+                        0.5
+                    } else {
+                        0.05 * i as f64 / (n * n) as f64
+                    }
+                })
+                .collect();
+            let c: Vec<f64> = (0..n).map(|i| 1.0 - 0.3 * i as f64).collect();
+            for d_required in [false, true] {
+                let npar = 3 * n + usize::from(d_required);
+                let mut ab = vec![f64::NAN; len * npar];
+                step6_columns_dispatch(n, &ak, &c, &us, &ys, d_required, &mut ab);
+                // reference: one simulation per column
+                let sim = |bk: &[f64], k: &[f64], x0: &[f64]| -> Vec<f64> {
+                    let mut x = x0.to_vec();
+                    let mut out = vec![0.0; len];
+                    for t in 0..len {
+                        out[t] = (0..n).map(|i| c[i] * x[i]).sum();
+                        x = (0..n)
+                            .map(|i| {
+                                (0..n).map(|j| ak[i * n + j] * x[j]).sum::<f64>()
+                                    + bk[i] * us[t]
+                                    + k[i] * ys[t]
+                            })
+                            .collect();
+                    }
+                    out
+                };
+                let z = vec![0.0; n];
+                let off = usize::from(d_required);
+                for r in 0..n {
+                    let mut e = vec![0.0; n];
+                    e[r] = 1.0;
+                    for (col, want) in [
+                        (r, sim(&e, &z, &z)),
+                        (n + off + r, sim(&z, &e, &z)),
+                        (2 * n + off + r, sim(&z, &z, &e)),
+                    ] {
+                        assert_eq!(
+                            &ab[col * len..(col + 1) * len],
+                            &want[..],
+                            "n={n} col {col}"
+                        );
+                    }
+                }
+                if d_required {
+                    assert_eq!(&ab[n * len..(n + 1) * len], &us[..]);
+                }
+            }
+        }
     }
 }

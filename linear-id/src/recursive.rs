@@ -126,15 +126,65 @@ impl Recursive {
         self.n0() + 2 * self.dim() + 2
     }
 
-    /// The recursion over centered data.
+    /// The recursion over centered data. Dimensions up to 8 (every default order) run on
+    /// fixed-size stack arrays, so the compiler unrolls the `d × d` loops; larger ones on
+    /// heap vectors; both through the same code ([`Recursive::run_with`]).
     fn run(&self, uc: &[f64], yc: &[f64]) -> Result<RlsRun, IdError> {
-        let (na, nb, nc, delay) = (self.na, self.nb, self.nc, self.delay);
-        let t = &self.tuning;
+        macro_rules! fixed {
+            ($($d:literal)*) => {
+                match self.dim() {
+                    $($d => return self.run_fixed::<$d>(uc, yc),)*
+                    _ => {}
+                }
+            };
+        }
+        fixed!(1 2 3 4 5 6 7 8);
         let d = self.dim();
-        let len = yc.len();
-        let n0 = self.n0();
         let mut theta = vec![0.0; d];
         let mut p = vec![0.0; d * d];
+        let mut phi = vec![0.0; d];
+        let mut pphi = vec![0.0; d];
+        let betas = self.run_with(uc, yc, &mut theta, &mut p, &mut phi, &mut pphi)?;
+        Ok(RlsRun { theta, betas })
+    }
+
+    fn run_fixed<const D: usize>(&self, uc: &[f64], yc: &[f64]) -> Result<RlsRun, IdError> {
+        let mut theta = [0.0; D];
+        let mut p = [[0.0; D]; D];
+        let mut phi = [0.0; D];
+        let mut pphi = [0.0; D];
+        let betas = self.run_with(
+            uc,
+            yc,
+            &mut theta,
+            p.as_flattened_mut(),
+            &mut phi,
+            &mut pphi,
+        )?;
+        Ok(RlsRun {
+            theta: theta.to_vec(),
+            betas,
+        })
+    }
+
+    /// The recursion with caller storage (`theta`, `phi`, `pphi` of length `d`, `p` of
+    /// `d²`, row-major); returns the β series (empty without bias).
+    #[inline(always)]
+    fn run_with(
+        &self,
+        uc: &[f64],
+        yc: &[f64],
+        theta: &mut [f64],
+        p: &mut [f64],
+        phi: &mut [f64],
+        pphi: &mut [f64],
+    ) -> Result<Vec<f64>, IdError> {
+        let (na, nb, nc, delay) = (self.na, self.nb, self.nc, self.delay);
+        let t = &self.tuning;
+        let d = theta.len();
+        let (p, phi, pphi) = (&mut p[..d * d], &mut phi[..d], &mut pphi[..d]);
+        let len = yc.len();
+        let n0 = self.n0();
         for i in 0..d {
             p[i * d + i] = t.p0;
         }
@@ -143,8 +193,6 @@ impl Recursive {
         let mut pb = t.p_beta0;
         let mut eps = vec![0.0; len];
         let mut betas = vec![0.0; if self.bias { len } else { 0 }];
-        let mut phi = vec![0.0; d];
-        let mut pphi = vec![0.0; d];
         for k in n0..len {
             for i in 0..na {
                 phi[i] = -yc[k - 1 - i];
@@ -158,14 +206,13 @@ impl Recursive {
             // LTI part on the bias-corrected output
             let z = yc[k] - beta;
             let mut quad = 0.0;
-            for r in 0..d {
-                let row = &p[r * d..(r + 1) * d];
-                let v: f64 = row.iter().zip(&phi).map(|(a, b)| a * b).sum();
+            for (r, row) in p.chunks_exact(d).enumerate() {
+                let v: f64 = row.iter().zip(&*phi).map(|(a, b)| a * b).sum();
                 pphi[r] = v;
                 quad += phi[r] * v;
             }
             let den = lam + quad;
-            let pred: f64 = phi.iter().zip(&theta).map(|(a, b)| a * b).sum();
+            let pred: f64 = phi.iter().zip(&*theta).map(|(a, b)| a * b).sum();
             let err = z - pred;
             let inv = 1.0 / den;
             for r in 0..d {
@@ -186,7 +233,7 @@ impl Recursive {
                 p.iter_mut().for_each(|v| *v *= s);
             }
             lam = t.lambda_rate * lam + (1.0 - t.lambda_rate);
-            let lti: f64 = phi.iter().zip(&theta).map(|(a, b)| a * b).sum();
+            let lti: f64 = phi.iter().zip(&*theta).map(|(a, b)| a * b).sum();
             if self.bias {
                 let r = yc[k] - lti;
                 let kb = pb / (t.lambda_beta + pb);
@@ -202,7 +249,7 @@ impl Recursive {
                 });
             }
         }
-        Ok(RlsRun { theta, betas })
+        Ok(betas)
     }
 
     fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {

@@ -158,6 +158,24 @@ pub struct ValveRun {
     pub fell_back: bool,
 }
 
+/// Reusable buffers for [`run_valve_with`]: a grid search keeps one per thread so that the
+/// thousands of valve runs it makes allocate nothing.
+#[derive(Debug, Clone, Default)]
+pub struct ValveScratch {
+    runs: [Vec<f64>; 4],
+    /// The MV of the last run (see [`ValveRun::mv`]).
+    pub mv: Vec<f64>,
+}
+
+/// [`ValveRun`] without the MV, which [`run_valve_with`] leaves in [`ValveScratch::mv`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunInfo {
+    /// See [`ValveRun::valid_from`].
+    pub valid_from: usize,
+    /// See [`ValveRun::fell_back`].
+    pub fell_back: bool,
+}
+
 /// Run `model` over `op` under `init`.
 ///
 /// For In.3 two sequences coincide at a sample when they differ by at most
@@ -168,14 +186,33 @@ pub fn run_valve(
     op: &[f64],
     init: &Initialization,
 ) -> Result<ValveRun, StictionError> {
+    let mut scratch = ValveScratch::default();
+    let info = run_valve_with(model, op, init, &mut scratch)?;
+    Ok(ValveRun {
+        mv: scratch.mv,
+        valid_from: info.valid_from,
+        fell_back: info.fell_back,
+    })
+}
+
+/// [`run_valve`] into reusable buffers: the MV is left in `scratch.mv`.
+pub fn run_valve_with(
+    model: &dyn StictionModel,
+    op: &[f64],
+    init: &Initialization,
+    scratch: &mut ValveScratch,
+) -> Result<RunInfo, StictionError> {
     check_finite(op)?;
     let n = op.len();
+    scratch.mv.resize(n, 0.0);
     match init {
-        Initialization::In1(state) => Ok(ValveRun {
-            mv: model.simulate(op, state)?,
-            valid_from: 0,
-            fell_back: false,
-        }),
+        Initialization::In1(state) => {
+            model.simulate_into(op, state, &mut scratch.mv)?;
+            Ok(RunInfo {
+                valid_from: 0,
+                fell_back: false,
+            })
+        }
         Initialization::In2 {
             stationary_fraction,
         } => {
@@ -184,15 +221,18 @@ pub fn run_valve(
                     "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
                 )));
             }
-            let (runs, merge) = four_runs(model, op)?;
-            Ok(ValveRun {
-                mv: average(&runs, merge, n),
+            let merge =
+                model.simulate_starts(op, &InitialState::four_variants(), &mut scratch.runs)?;
+            average_into(&scratch.runs, merge, &mut scratch.mv);
+            Ok(RunInfo {
                 valid_from: (stationary_fraction * n as f64).ceil() as usize,
                 fell_back: false,
             })
         }
         Initialization::In3 => {
-            let (runs, merge) = four_runs(model, op)?;
+            let merge =
+                model.simulate_starts(op, &InitialState::four_variants(), &mut scratch.runs)?;
+            let runs = &scratch.runs;
             let mut valid_from = 0;
             for k in (0..merge.min(n)).rev() {
                 let first = runs[0][k];
@@ -208,8 +248,8 @@ pub fn run_valve(
             } else {
                 valid_from
             };
-            Ok(ValveRun {
-                mv: average(&runs, merge, n),
+            average_into(&scratch.runs, merge, &mut scratch.mv);
+            Ok(RunInfo {
                 valid_from,
                 fell_back,
             })
@@ -217,25 +257,13 @@ pub fn run_valve(
     }
 }
 
-/// The four runs (filled up to `merge`, the first one completely) and the merge sample.
-fn four_runs(
-    model: &dyn StictionModel,
-    op: &[f64],
-) -> Result<(Vec<Vec<f64>>, usize), StictionError> {
-    let starts = InitialState::four_variants();
-    let mut runs = vec![Vec::new(), Vec::new(), Vec::new(), Vec::new()];
-    let merge = model.simulate_starts(op, &starts, &mut runs)?;
-    Ok((runs, merge))
-}
-
 /// The average of the four runs where they differ (before `merge`), the common value elsewhere.
-fn average(runs: &[Vec<f64>], merge: usize, n: usize) -> Vec<f64> {
-    let mut mv = runs[0].clone();
-    for (k, m) in mv.iter_mut().enumerate().take(merge.min(n)) {
+fn average_into(runs: &[Vec<f64>], merge: usize, mv: &mut [f64]) {
+    mv.copy_from_slice(&runs[0][..mv.len()]);
+    for (k, m) in mv.iter_mut().enumerate().take(merge) {
         let first = *m;
         if runs[1..].iter().any(|r| r[k] != first) {
             *m = runs.iter().map(|r| r[k]).sum::<f64>() / runs.len() as f64;
         }
     }
-    mv
 }

@@ -25,7 +25,10 @@ mod kano_asym;
 mod registry;
 
 pub use he::{He, HeParams};
-pub use init::{run_valve, Direction, InitialState, Initialization, ValveRun};
+pub use init::{
+    run_valve, run_valve_with, Direction, InitialState, Initialization, RunInfo, ValveRun,
+    ValveScratch,
+};
 pub use kano::{Kano, KanoParams};
 pub use kano_asym::{KanoAsym, KanoAsymParams};
 pub use registry::{find_model, registry, BuildFn, Constraint, ModelEntry, ParamSpec};
