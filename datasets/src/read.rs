@@ -169,7 +169,11 @@ pub fn read_csv(
         Some(Err(e)) => return Err(csv_err(&file, e)),
         Some(Ok(h)) => h,
     };
-    let header: Vec<String> = header.iter().map(str::to_string).collect();
+    // A quoted header cell may span lines; messages name columns on one line.
+    let header: Vec<String> = header
+        .iter()
+        .map(|h| h.replace(['\r', '\n'], " "))
+        .collect();
     if header.iter().all(String::is_empty) {
         return Err(DataError::Empty { file });
     }

@@ -17,7 +17,8 @@ pub mod grid;
 mod search;
 
 pub use search::{
-    quantify, Criterion, Fits, GridPlan, Interval, NodeFit, Problem, Quantification, SearchOptions,
+    evaluate_nodes, quantify, quantify_from_surface, Criterion, Fits, GridPlan, Interval, NodeFit,
+    Problem, Quantification, SearchOptions,
 };
 
 pub use linear_id;

@@ -58,6 +58,25 @@ pub enum GridPlan {
 }
 
 impl GridPlan {
+    /// The default grid for OP span `span` (what `stiction quantify` uses without `--step`):
+    /// coarse at span/40, refined within two coarse steps of the best coarse node at 0.1 % of
+    /// valve span, or at the largest of 0.05, 0.02, 0.01, ... that is at most a fifth of the
+    /// coarse step when the span is under 20 %. Coarse-to-fine finds the exhaustive grid's
+    /// optimum on the paper's loops (`tests/search.rs`).
+    pub fn for_span(span: f64) -> GridPlan {
+        let coarse = span / 40.0;
+        let fine = nice_step_at_most((coarse / 5.0).min(0.1));
+        if coarse <= fine {
+            GridPlan::Exhaustive { step: fine }
+        } else {
+            GridPlan::CoarseToFine {
+                coarse,
+                fine,
+                radius: 2.0,
+            }
+        }
+    }
+
     /// The finest step of the plan.
     pub fn step(&self) -> f64 {
         match *self {
@@ -234,6 +253,19 @@ impl Quantification {
     pub fn fits_score(&self, c: Criterion) -> f64 {
         self.fits.rank(c).1
     }
+}
+
+/// The largest of 1, 2, 5 × 10^k that is at most `x` (x > 0).
+fn nice_step_at_most(x: f64) -> f64 {
+    if !(x.is_finite() && x > 0.0) {
+        return 1e-6;
+    }
+    let decade = 10f64.powf(x.log10().floor());
+    [5.0, 2.0, 1.0]
+        .iter()
+        .map(|m| m * decade)
+        .find(|v| *v <= x * (1.0 + 1e-12))
+        .unwrap_or(decade)
 }
 
 /// χ² quantile for `p` degrees of freedom (1-4) at the usual levels; other levels fall back
@@ -426,6 +458,115 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Quantification, SearchError> {
     let start = Instant::now();
+    let prep = prepare(entry, identifier, problem, options)?;
+    let crit = options.criterion;
+    let done = AtomicUsize::new(0);
+    let eval_all = |nodes: Vec<Vec<f64>>| -> Vec<NodeFit> {
+        let planned = nodes.len();
+        done.store(0, Ordering::Relaxed);
+        prep.ctx.evaluate_all(nodes, &|| {
+            if let Some(p) = progress {
+                p(done.fetch_add(1, Ordering::Relaxed) + 1, planned);
+            }
+        })
+    };
+    let surface = match options.grid {
+        GridPlan::Exhaustive { step } => eval_all(grid::nodes(entry, prep.span, step)),
+        GridPlan::CoarseToFine {
+            coarse,
+            fine,
+            radius,
+        } => {
+            let mut all = eval_all(grid::nodes(entry, prep.span, coarse));
+            if let Some(b) = best_index(&all, crit) {
+                let bounds: Vec<(f64, f64)> = all[b]
+                    .params
+                    .iter()
+                    .map(|&c| (c - radius * coarse, c + radius * coarse))
+                    .collect();
+                let fine_nodes: Vec<Vec<f64>> =
+                    grid::nodes_in_box(entry, prep.span, fine, Some(&bounds))
+                        .into_iter()
+                        .filter(|p| !all.iter().any(|nf| same_node(&nf.params, p)))
+                        .collect();
+                all.extend(eval_all(fine_nodes));
+            }
+            all
+        }
+    };
+    finish(&prep, surface, options.grid, start, Vec::new())
+}
+
+/// Evaluate an explicit list of nodes (parameter vectors of `entry`) exactly as [`quantify`]
+/// evaluates grid nodes, in parallel, in the given order. For searches of one's own (local
+/// pattern searches, refinements) that then call [`quantify_from_surface`].
+pub fn evaluate_nodes<I: LinearIdentifier + ?Sized>(
+    entry: &ModelEntry,
+    identifier: &I,
+    problem: Problem<'_>,
+    options: &SearchOptions,
+    nodes: Vec<Vec<f64>>,
+) -> Result<Vec<NodeFit>, SearchError> {
+    let prep = prepare(entry, identifier, problem, options)?;
+    Ok(prep.ctx.evaluate_all(nodes, &|| {}))
+}
+
+/// The result of a search whose nodes were evaluated with [`evaluate_nodes`]: selects the best
+/// node (same ranking and tie-breaking as [`quantify`]), refits it for its series, and computes
+/// the interval and warnings. `grid` describes the search in the result; `notes` are added to
+/// its warnings.
+pub fn quantify_from_surface<I: LinearIdentifier + ?Sized>(
+    entry: &ModelEntry,
+    identifier: &I,
+    problem: Problem<'_>,
+    options: &SearchOptions,
+    surface: Vec<NodeFit>,
+    grid: GridPlan,
+    notes: Vec<String>,
+) -> Result<Quantification, SearchError> {
+    let start = Instant::now();
+    let prep = prepare(entry, identifier, problem, options)?;
+    finish(&prep, surface, grid, start, notes)
+}
+
+struct Prepared<'a, I: ?Sized> {
+    ctx: Ctx<'a, I>,
+    span: f64,
+    confidence: f64,
+    criterion: Criterion,
+}
+
+impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
+    fn evaluate_all(&self, nodes: Vec<Vec<f64>>, tick: &(dyn Fn() + Sync)) -> Vec<NodeFit> {
+        nodes
+            .into_par_iter()
+            .map_init(Scratch::default, |scratch, params| {
+                let outcome = self.evaluate(&params, scratch, false).map(|(f, _)| f);
+                let eq = (self.entry.build)(&params)
+                    .map(|m| m.equivalent())
+                    .unwrap_or(stiction_models::Equivalent {
+                        s: f64::NAN,
+                        j: f64::NAN,
+                    });
+                tick();
+                NodeFit {
+                    params,
+                    s: eq.s,
+                    j: eq.j,
+                    outcome,
+                }
+            })
+            .collect()
+    }
+}
+
+/// Check the data and options; everything a node evaluation needs.
+fn prepare<'a, I: LinearIdentifier + ?Sized>(
+    entry: &'a ModelEntry,
+    identifier: &'a I,
+    problem: Problem<'a>,
+    options: &SearchOptions,
+) -> Result<Prepared<'a, I>, SearchError> {
     let (op, pv) = (problem.op, problem.pv);
     if op.len() != pv.len() || problem.mv.is_some_and(|m| m.len() != op.len()) {
         return Err(SearchError::LengthMismatch {
@@ -509,67 +650,28 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         init: options.init,
         split_index: ((n as f64) * options.split).floor() as usize,
     };
+    Ok(Prepared {
+        ctx,
+        span,
+        confidence: options.confidence,
+        criterion: options.criterion,
+    })
+}
 
-    let crit = options.criterion;
-    let done = AtomicUsize::new(0);
-    let eval_all = |nodes: Vec<Vec<f64>>, planned: usize, offset: usize| -> Vec<NodeFit> {
-        nodes
-            .into_par_iter()
-            .map_init(Scratch::default, |scratch, params| {
-                let outcome = ctx.evaluate(&params, scratch, false).map(|(f, _)| f);
-                let eq = (entry.build)(&params).map(|m| m.equivalent()).unwrap_or(
-                    stiction_models::Equivalent {
-                        s: f64::NAN,
-                        j: f64::NAN,
-                    },
-                );
-                if let Some(p) = progress {
-                    p(offset + done.fetch_add(1, Ordering::Relaxed) + 1, planned);
-                }
-                NodeFit {
-                    params,
-                    s: eq.s,
-                    j: eq.j,
-                    outcome,
-                }
-            })
-            .collect()
-    };
-
-    let mut surface = match options.grid {
-        GridPlan::Exhaustive { step } => {
-            let nodes = grid::nodes(entry, span, step);
-            let planned = nodes.len();
-            eval_all(nodes, planned, 0)
-        }
-        GridPlan::CoarseToFine {
-            coarse,
-            fine,
-            radius,
-        } => {
-            let nodes = grid::nodes(entry, span, coarse);
-            let coarse_count = nodes.len();
-            let coarse_fits = eval_all(nodes, coarse_count, 0);
-            let best = best_index(&coarse_fits, crit);
-            let mut all = coarse_fits;
-            if let Some(b) = best {
-                let centre = all[b].params.clone();
-                let bounds: Vec<(f64, f64)> = centre
-                    .iter()
-                    .map(|&c| (c - radius * coarse, c + radius * coarse))
-                    .collect();
-                let fine_nodes: Vec<Vec<f64>> =
-                    grid::nodes_in_box(entry, span, fine, Some(&bounds))
-                        .into_iter()
-                        .filter(|p| !all.iter().any(|nf| same_node(&nf.params, p)))
-                        .collect();
-                done.store(0, Ordering::Relaxed);
-                let planned = fine_nodes.len();
-                all.extend(eval_all(fine_nodes, planned, 0));
-            }
-            all
-        }
-    };
+/// Select, refit and summarise.
+fn finish<I: LinearIdentifier + ?Sized>(
+    prep: &Prepared<'_, I>,
+    mut surface: Vec<NodeFit>,
+    grid: GridPlan,
+    start: Instant,
+    notes: Vec<String>,
+) -> Result<Quantification, SearchError> {
+    let ctx = &prep.ctx;
+    let entry = ctx.entry;
+    let crit = prep.criterion;
+    let pv = ctx.problem.pv;
+    let n = pv.len();
+    let span = prep.span;
     // Grid order: lexicographic in the parameters (fixes tie-breaking).
     surface.sort_by(|a, b| {
         a.params
@@ -621,7 +723,7 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         crit,
         pv,
         ctx.split_index,
-        options.confidence,
+        prep.confidence,
         entry.params.len(),
     );
     let k0 = fits.valid_from;
@@ -635,14 +737,15 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         .iter()
         .find(|nf| nf.params.iter().all(|&v| v == 0.0))
         .and_then(|nf| nf.outcome.as_ref().ok().map(|f| f.rank(crit).1));
-    let warnings = warnings(&surface, &interval, &fits, span, crit);
+    let mut warnings = warnings(&surface, &interval, &fits, span, crit);
+    warnings.extend(notes);
     Ok(Quantification {
         warnings,
         stiction,
         s: eq.s,
         j: eq.j,
         linear: ev.linear,
-        fits: fits,
+        fits,
         criterion: crit,
         interval,
         nodes_evaluated: surface.len(),
@@ -651,7 +754,7 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
         mv_est: ev.mv,
         pv_est,
         split_index: ctx.split_index,
-        grid: options.grid,
+        grid,
         span,
         fit_no_stiction,
         elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
@@ -812,6 +915,29 @@ mod tests {
             .map(|k| k as f64 + if k % 2 == 0 { 0.4 } else { 0.0 })
             .collect();
         assert_eq!(reversals(&noisy, 1.0), 0);
+    }
+
+    #[test]
+    fn default_plan_uses_round_fine_steps() {
+        assert_eq!(nice_step_at_most(0.1), 0.1);
+        assert_eq!(nice_step_at_most(0.047), 0.02);
+        assert_eq!(nice_step_at_most(0.05), 0.05);
+        assert!((nice_step_at_most(0.0099) - 0.005).abs() < 1e-15);
+        match GridPlan::for_span(22.6) {
+            GridPlan::CoarseToFine {
+                coarse,
+                fine,
+                radius,
+            } => {
+                assert!((coarse - 0.565).abs() < 1e-12);
+                assert_eq!((fine, radius), (0.1, 2.0));
+            }
+            other => panic!("{other:?}"),
+        }
+        match GridPlan::for_span(9.4) {
+            GridPlan::CoarseToFine { fine, .. } => assert_eq!(fine, 0.02),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

@@ -5,10 +5,13 @@
 //! | `test` | formatting check, then the fast test suite of every crate (what CI runs) |
 //! | `proptest [--cases N]` | the property tests at scale (`PROPTEST_CASES=N`, default 10000) |
 //! | `bench [ARGS...]` | the divan benchmarks of every crate (`cargo bench --workspace`) |
+//! | `reproduce [--runs N] [--out DIR] [--only ...]` | the paper's §3 simulation study, the criterion study and the recovery rates ([`reproduce`]) |
 
 use std::process::Command;
 
 use anyhow::{bail, Context, Result};
+
+mod reproduce;
 
 const USAGE: &str = "\
 usage: cargo xtask <task>
@@ -17,11 +20,15 @@ tasks:
   test                 formatting check + the fast test suite (what CI runs)
   proptest [--cases N] property tests at scale (default N = 10000)
   bench [ARGS...]      benchmarks (divan); ARGS go to the bench binaries, e.g. `cargo xtask bench kano`
+  reproduce [--runs N] [--out DIR] [--only table1|table2|fig5|fig6|fig7|criterion|recovery]
+                       the paper's simulation study (§3) next to the paper's numbers, CSVs in DIR
+                       (default runs 10, out target/reproduce); `reproduce --help` for all options
 
 examples:
   cargo xtask test
   cargo xtask proptest --cases 50000
-  cargo xtask bench";
+  cargo xtask bench
+  cargo xtask reproduce --runs 10 --only table1,table2";
 
 fn main() {
     if let Err(e) = run() {
@@ -41,6 +48,8 @@ fn run() -> Result<()> {
         "test" => test(rest),
         "proptest" => proptest(rest),
         "bench" => bench(rest),
+        "reproduce" => reproduce_release(rest),
+        "suite" => suite(rest),
         "help" | "--help" | "-h" => {
             println!("{USAGE}");
             Ok(())
@@ -108,4 +117,51 @@ fn bench(rest: &[String]) -> Result<()> {
         cmd.arg("--").args(rest);
     }
     status(&mut cmd)
+}
+
+/// `reproduce` is compute-bound: in a debug build of xtask (what `cargo xtask` gives) the
+/// workspace crates are unoptimised, so re-run xtask itself in the release profile.
+fn reproduce_release(rest: &[String]) -> Result<()> {
+    if cfg!(debug_assertions) && std::env::var_os("XTASK_REPRODUCE_NO_RELEASE").is_none() {
+        return status(
+            cargo()
+                .env("XTASK_REPRODUCE_NO_RELEASE", "1")
+                .args([
+                    "run",
+                    "--quiet",
+                    "--release",
+                    "--package",
+                    "xtask",
+                    "--",
+                    "reproduce",
+                ])
+                .args(rest),
+        );
+    }
+    reproduce::reproduce(rest)
+}
+
+/// `cargo xtask suite [--size N]`: the hidden-effect suite of `discrepancy` at full size
+/// (N loops per effect and N clean loops, default 24, 3000 samples), release build.
+fn suite(rest: &[String]) -> Result<()> {
+    let size = match rest {
+        [flag, n] if flag == "--size" => n.clone(),
+        [] => "24".to_string(),
+        _ => bail!("usage: cargo xtask suite [--size N]"),
+    };
+    status(
+        cargo()
+            .args([
+                "test",
+                "--release",
+                "-p",
+                "discrepancy",
+                "--test",
+                "hidden_effects",
+                "--",
+                "--nocapture",
+            ])
+            .env("STICTION_SUITE_SIZE", size)
+            .env("STICTION_SUITE_SAMPLES", "3000"),
+    )
 }

@@ -71,7 +71,7 @@ impl SearchFlags {
                     "--step {step}: expected a positive step in OP units"
                 )))
             }
-            None => default_plan(span),
+            None => GridPlan::for_span(span),
         };
         Ok(SearchOptions {
             init: self.init,
@@ -84,37 +84,6 @@ impl SearchFlags {
             ..SearchOptions::default()
         })
     }
-}
-
-/// The default grid for OP span `span`: coarse at span/40, refined within two coarse steps of
-/// the best coarse node at 0.1 % of valve span, or at the largest of 0.05, 0.02, 0.01, ... that
-/// is at most a fifth of the coarse step when the span is under 20 %. The coarse-to-fine search
-/// finds the exhaustive grid's optimum on the paper's loops (`grid-search/tests/search.rs`).
-pub(crate) fn default_plan(span: f64) -> GridPlan {
-    let coarse = span / 40.0;
-    let fine = nice_step_at_most((coarse / 5.0).min(0.1));
-    if coarse <= fine {
-        GridPlan::Exhaustive { step: fine }
-    } else {
-        GridPlan::CoarseToFine {
-            coarse,
-            fine,
-            radius: 2.0,
-        }
-    }
-}
-
-/// The largest of 1, 2, 5 × 10^k that is at most `x` (x > 0).
-fn nice_step_at_most(x: f64) -> f64 {
-    if !(x.is_finite() && x > 0.0) {
-        return 1e-6;
-    }
-    let decade = 10f64.powf(x.log10().floor());
-    [5.0, 2.0, 1.0]
-        .iter()
-        .map(|m| m * decade)
-        .find(|v| *v <= x * (1.0 + 1e-12))
-        .unwrap_or(decade)
 }
 
 /// Build a registered identifier from `--orders` and a delay.
@@ -172,32 +141,4 @@ fn parse_orders(entry: &IdentifierEntry, s: &str) -> Result<Vec<(String, f64)>, 
         out.push((name, value));
     }
     Ok(out)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn default_plan_uses_round_fine_steps() {
-        assert_eq!(nice_step_at_most(0.1), 0.1);
-        assert_eq!(nice_step_at_most(0.047), 0.02);
-        assert_eq!(nice_step_at_most(0.05), 0.05);
-        assert!((nice_step_at_most(0.0099) - 0.005).abs() < 1e-15);
-        match default_plan(22.6) {
-            GridPlan::CoarseToFine {
-                coarse,
-                fine,
-                radius,
-            } => {
-                assert!((coarse - 0.565).abs() < 1e-12);
-                assert_eq!((fine, radius), (0.1, 2.0));
-            }
-            other => panic!("{other:?}"),
-        }
-        match default_plan(9.4) {
-            GridPlan::CoarseToFine { fine, .. } => assert_eq!(fine, 0.02),
-            other => panic!("{other:?}"),
-        }
-    }
 }
