@@ -59,6 +59,9 @@ enum Command {
     /// Simulate the paper's closed-loop benchmark (PI loop, sticky valve); writes CSV `t,SP,PV,OP,MV`.
     #[command(after_help = commands::simulate::AFTER_HELP)]
     Simulate(commands::simulate::Args),
+    /// What the model gets wrong, its cause, the extended model and the gain (discrepancy).
+    #[command(after_help = commands::diagnose::AFTER_HELP)]
+    Diagnose(commands::diagnose::Args),
 }
 
 /// A failure with its exit status: 1 bad data or failed computation, 2 bad usage.
@@ -139,6 +142,7 @@ where
         Command::Identify(a) => commands::identify::run(a, streams),
         Command::Quantify(a) => commands::quantify::run_quantify(a, streams),
         Command::Compare(a) => commands::quantify::run_compare(a, streams),
+        Command::Diagnose(a) => commands::diagnose::run(a, streams),
     };
     match result {
         Ok(()) => {

@@ -18,7 +18,7 @@ mod search;
 
 pub use search::{
     evaluate_nodes, quantify, quantify_from_surface, Criterion, Fits, GridPlan, Interval, NodeFit,
-    Problem, Quantification, SearchOptions,
+    Problem, Quantification, SearchOptions, NEGLIGIBLE_S,
 };
 
 pub use linear_id;

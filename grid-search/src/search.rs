@@ -230,6 +230,10 @@ pub struct Quantification {
     pub mv_est: Vec<f64>,
     /// PV estimate (the criterion's) from `fits.valid_from` on; `NaN` before.
     pub pv_est: Vec<f64>,
+    /// One-step prediction of PV from `fits.valid_from` on; `NaN` before.
+    pub pv_pred: Vec<f64>,
+    /// Free-run simulation of PV from `fits.valid_from` on; `NaN` before.
+    pub pv_sim: Vec<f64>,
     /// First validation sample.
     pub split_index: usize,
     /// Grid layout used and its finest step.
@@ -240,7 +244,8 @@ pub struct Quantification {
     pub nodes_evaluated: usize,
     /// Nodes skipped (valve never moves, singular regression, unstable model, ...).
     pub nodes_skipped: usize,
-    /// Validation fit of the no-stiction node (all parameters 0), if it was evaluated.
+    /// Best validation fit among the evaluated nodes with negligible stiction
+    /// (equivalent S <= [`NEGLIGIBLE_S`]), if any could be evaluated.
     pub fit_no_stiction: Option<f64>,
     /// Wall time of the search, ms.
     pub elapsed_ms: f64,
@@ -267,6 +272,11 @@ fn nice_step_at_most(x: f64) -> f64 {
         .find(|v| *v <= x * (1.0 + 1e-12))
         .unwrap_or(decade)
 }
+
+/// Stiction this small (S, % of valve span) counts as none: the paper names S ≈ 1 % as the
+/// level that hurts, and the exact node S = J = 0 is sometimes skipped (for instance when the
+/// identified model at that node is unstable) while its neighbours are not.
+pub const NEGLIGIBLE_S: f64 = 0.2;
 
 /// χ² quantile for `p` degrees of freedom (1-4) at the usual levels; other levels fall back
 /// to the Wilson–Hilferty approximation.
@@ -727,16 +737,22 @@ fn finish<I: LinearIdentifier + ?Sized>(
         entry.params.len(),
     );
     let k0 = fits.valid_from;
-    let mut pv_est = vec![f64::NAN; n];
-    let est = match crit {
-        Criterion::Prediction => &ev.pred,
-        Criterion::Simulation => &ev.sim,
+    let pad = |x: &[f64]| {
+        let mut v = vec![f64::NAN; n];
+        v[k0..].copy_from_slice(x);
+        v
     };
-    pv_est[k0..].copy_from_slice(est);
+    let (pv_pred, pv_sim) = (pad(&ev.pred), pad(&ev.sim));
+    let pv_est = match crit {
+        Criterion::Prediction => pv_pred.clone(),
+        Criterion::Simulation => pv_sim.clone(),
+    };
     let fit_no_stiction = surface
         .iter()
-        .find(|nf| nf.params.iter().all(|&v| v == 0.0))
-        .and_then(|nf| nf.outcome.as_ref().ok().map(|f| f.rank(crit).1));
+        .filter(|nf| nf.s <= NEGLIGIBLE_S + 1e-12)
+        .filter_map(|nf| nf.outcome.as_ref().ok().map(|f| f.rank(crit).1))
+        .filter(|f| f.is_finite())
+        .reduce(f64::max);
     let mut warnings = warnings(&surface, &interval, &fits, span, crit);
     warnings.extend(notes);
     Ok(Quantification {
@@ -753,6 +769,8 @@ fn finish<I: LinearIdentifier + ?Sized>(
         surface,
         mv_est: ev.mv,
         pv_est,
+        pv_pred,
+        pv_sim,
         split_index: ctx.split_index,
         grid,
         span,

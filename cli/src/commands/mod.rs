@@ -1,5 +1,6 @@
 //! One module per subcommand, plus the argument helpers they share.
 
+pub mod diagnose;
 pub mod identify;
 pub mod load;
 pub mod models;

@@ -1,0 +1,241 @@
+//! `stiction diagnose`: what the baseline model gets wrong, its cause, the extended model and
+//! its gain (the `discrepancy` crate).
+
+use std::path::PathBuf;
+
+use anyhow::anyhow;
+use discrepancy::{diagnose, Baseline, DiagnoseOptions, Fitted};
+use grid_search::Problem;
+use serde_json::{json, Value};
+use stiction_models::find_model;
+
+use super::load::DataFlags;
+use super::quantify::{loop_data, quantify_json, Example, Run};
+use super::search_flags::{build_identifier, DelayFlag, SearchFlags};
+use crate::{data, usage, CmdResult, Streams};
+
+pub(crate) const AFTER_HELP: &str = "\
+Fits the baseline (default kano + arx with the paper's orders), characterises its residuals on
+the validation data (whiteness, dependence on past MV, low-frequency content and trend,
+direction of valve motion, stuck versus moving), then fits one extension per registered cause
+and keeps a cause only when its validation gain passes a likelihood-ratio test that grows with
+the extension's extra parameters (docs/DIAGNOSE.md):
+  disturbance          external nonstationary disturbance -> EARX / EARMAX
+  asymmetric-stiction  friction differs by direction      -> kano-asym
+  time-delay           unmodelled dead time               -> the delay estimated
+  no-stiction          the oscillation is not the valve's -> S = J = 0
+Otherwise the cause is `none` and the baseline stands.
+
+Examples:
+  stiction diagnose loop.csv
+  stiction diagnose --example paper --json
+  stiction diagnose loop.csv --linear armax --orders 2,2,2";
+
+/// Arguments of `stiction diagnose`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// CSV file with PV and OP columns (`-` for standard input).
+    #[arg(required_unless_present = "example", conflicts_with = "example")]
+    file: Option<PathBuf>,
+    /// Use an embedded example loop instead of a file.
+    #[arg(long, value_enum)]
+    example: Option<Example>,
+    /// Stiction model of the baseline.
+    #[arg(long, value_name = "NAME", default_value = "kano")]
+    stiction: String,
+    /// Linear identifier of the baseline.
+    #[arg(long, value_name = "NAME", default_value = "arx")]
+    linear: String,
+    #[command(flatten)]
+    search: SearchFlags,
+    #[command(flatten)]
+    data: DataFlags,
+    /// Skip a cause (repeatable; for comparisons).
+    #[arg(long, value_name = "CAUSE")]
+    without: Vec<String>,
+    /// Write a report directory (not yet supported).
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Print one JSON document.
+    #[arg(long)]
+    json: bool,
+}
+
+fn to_run(f: Fitted) -> Run {
+    Run {
+        stiction: f.stiction,
+        linear_name: f.linear,
+        identifier: f.identifier,
+        delay: f.delay,
+        delay_scan: f.delay_scan,
+        result: f.result,
+        elapsed_ms: f.elapsed_ms,
+    }
+}
+
+fn num(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
+    if args.report.is_some() {
+        return Err(usage(anyhow!(
+            "--report is not yet supported by diagnose (reports come with a later release); use --json"
+        )));
+    }
+    let delay = match args.search.delay {
+        DelayFlag::Fixed(d) => d,
+        DelayFlag::Auto => {
+            return Err(usage(anyhow!(
+                "--delay auto: diagnose tests the dead time itself (cause time-delay); give the baseline's fixed dead time"
+            )))
+        }
+    };
+    let stiction = find_model(&args.stiction).map_err(usage)?;
+    let (identifier, id_entry) =
+        build_identifier(&args.linear, args.search.orders.as_deref(), delay)?;
+    let d = loop_data(args.file.as_deref(), args.example, &args.data, s)?;
+    let pv = d.require_pv().map_err(data)?;
+    let span = {
+        let (lo, hi) =
+            d.op.iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+        hi - lo
+    };
+    let mut options = DiagnoseOptions::for_span(span);
+    options.search = args.search.options(span)?;
+    options.disabled = args.without.clone();
+    let baseline = Baseline {
+        stiction,
+        linear: id_entry,
+        orders: identifier
+            .orders()
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect(),
+        delay,
+    };
+    let problem = Problem {
+        op: &d.op,
+        pv,
+        mv: d.mv.as_deref(),
+    };
+    let mut dg = diagnose(problem, &baseline, &options).map_err(|e| match e {
+        discrepancy::DiagnoseError::UnknownCause { .. } => usage(e),
+        other => data(anyhow!("{}: {other}", d.source)),
+    })?;
+    let init = args.search.init.label();
+    let findings: Vec<Value> = dg
+        .findings
+        .iter_mut()
+        .map(|f| {
+            let ext = f.fitted.take().map(|x| quantify_json(&to_run(x), init));
+            json!({
+                "cause": f.cause,
+                "evidence": f.evidence,
+                "statistic": num(f.statistic),
+                "extended": ext,
+                "gain_fit_pv_val": num(f.gain_fit_pv_val),
+                "delta_S": num(f.delta_s),
+                "delta_J": num(f.delta_j),
+                "lr": num(f.lr),
+                "threshold": num(f.threshold),
+                "reference": f.reference,
+                "significant": f.significant,
+                "error": f.error,
+            })
+        })
+        .collect();
+    let extended = dg
+        .chosen
+        .and_then(|i| findings.get(i))
+        .map_or(Value::Null, |f| f["extended"].clone());
+    if args.json {
+        let baseline_json = quantify_json(&to_run(dg.baseline_fit), init);
+        let v = json!({
+            "source": d.source,
+            "baseline": baseline_json,
+            "cause": dg.cause,
+            "findings": findings,
+            "extended": extended,
+            "gain_fit_pv_val": dg.gain_fit_pv_val,
+            "summary": dg.summary,
+            "residuals": serde_json::to_value(&dg.residuals).map_err(data)?,
+            "elapsed_ms": dg.elapsed_ms,
+        });
+        serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
+        writeln!(s.stdout).map_err(data)?;
+        return Ok(());
+    }
+    let out = &mut *s.stdout;
+    writeln!(
+        out,
+        "{}: diagnosis of {} + {} ({} samples, {:.1} s)",
+        d.source,
+        dg.baseline.stiction_model,
+        dg.baseline.linear_model,
+        d.len(),
+        dg.elapsed_ms / 1e3
+    )
+    .map_err(data)?;
+    writeln!(out, "cause: {}", dg.cause).map_err(data)?;
+    writeln!(out).map_err(data)?;
+    writeln!(out, "{}", dg.summary).map_err(data)?;
+    writeln!(out).map_err(data)?;
+    writeln!(
+        out,
+        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7} {:>7} {:>9}",
+        "cause", "statistic", "LR", "needed", "signif.", "extension", "S", "J", "ΔF_PV val"
+    )
+    .map_err(data)?;
+    let b = &dg.baseline;
+    writeln!(
+        out,
+        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7.2} {:>7.2} {:>9}",
+        "(baseline)",
+        "-",
+        "-",
+        "-",
+        "-",
+        format!("{} + {} d={}", b.stiction_model, b.linear_model, b.delay),
+        b.s,
+        b.j,
+        format!("{:.2}", b.fit_pv_val)
+    )
+    .map_err(data)?;
+    for f in &dg.findings {
+        let (ext, s_, j_) = match &f.extended {
+            Some(e) => (
+                format!("{} + {} d={}", e.stiction_model, e.linear_model, e.delay),
+                format!("{:.2}", e.s),
+                format!("{:.2}", e.j),
+            ),
+            None => (
+                f.error.clone().unwrap_or_else(|| "-".into()),
+                "-".into(),
+                "-".into(),
+            ),
+        };
+        writeln!(
+            out,
+            "{:<20} {:>9.2} {:>11.1} {:>8.1} {:>8}  {:<22} {:>7} {:>7} {:>+9.2}",
+            f.cause,
+            f.statistic,
+            f.lr,
+            f.threshold.abs(),
+            if f.significant { "yes" } else { "no" },
+            ext,
+            s_,
+            j_,
+            f.gain_fit_pv_val
+        )
+        .map_err(data)?;
+    }
+    Ok(())
+}

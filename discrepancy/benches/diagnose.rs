@@ -1,0 +1,33 @@
+//! Wall time of one diagnosis of a 3000-sample loop (the paper's loop, Kano S = 9, J = 3).
+#![allow(missing_docs, clippy::unwrap_used)]
+
+use datasets::simulate::Scenario;
+use discrepancy::{diagnose, Baseline, DiagnoseOptions};
+use grid_search::Problem;
+use stiction_models::Kano;
+
+fn main() {
+    divan::main();
+}
+
+#[divan::bench(sample_count = 3, sample_size = 1)]
+fn diagnose_paper_loop_3000(bencher: divan::Bencher) {
+    let sim = Scenario {
+        valve: Box::new(Kano::params().s(9.0).j(3.0).check().unwrap()),
+        ..Scenario::default()
+    }
+    .simulate()
+    .unwrap();
+    let span = sim.op.iter().cloned().fold(f64::MIN, f64::max)
+        - sim.op.iter().cloned().fold(f64::MAX, f64::min);
+    let options = DiagnoseOptions::for_span(span);
+    let baseline = Baseline::paper().unwrap();
+    bencher.bench(|| {
+        let p = Problem {
+            op: &sim.op,
+            pv: &sim.pv,
+            mv: None,
+        };
+        diagnose(p, &baseline, &options).unwrap().cause
+    });
+}

@@ -1,0 +1,86 @@
+//! Node evaluation outside the rectangular grid of `grid-search`: a local pattern search that
+//! starts from a given node (so the extended model nests the baseline exactly), and the
+//! assembly of a [`Quantification`] from the nodes it visited.
+//!
+//! One node is evaluated exactly as `grid_search::quantify` does: the stiction model under the
+//! search's initialization → identification on `[valid_from, split)` → one-step prediction and
+//! free-run simulation scored by F_PV on `[split, N)`.
+
+use grid_search::{evaluate_nodes, NodeFit, Problem, SearchOptions};
+use linear_id::LinearIdentifier;
+use stiction_models::ModelEntry;
+
+use crate::DiagnoseError;
+
+/// A pattern search over a model's parameters, started at a given node: each round tries a
+/// step along every direction (both signs), moves to the best improvement, and halves the
+/// step down to `fine` when nothing improves. Nodes are evaluated by
+/// [`grid_search::evaluate_nodes`], exactly as grid nodes are.
+pub(crate) struct PatternSearch<'a> {
+    pub entry: &'static ModelEntry,
+    pub identifier: &'a dyn LinearIdentifier,
+    pub problem: Problem<'a>,
+    pub options: &'a SearchOptions,
+    pub span: f64,
+    pub coarse: f64,
+    pub fine: f64,
+    /// Directions (unit moves in parameter space) tried at each step.
+    pub directions: Vec<Vec<f64>>,
+    /// Maximum number of node evaluations.
+    pub budget: usize,
+}
+
+impl PatternSearch<'_> {
+    pub fn run(&self, start: &[f64]) -> Result<Vec<NodeFit>, DiagnoseError> {
+        let crit = self.options.criterion;
+        let eval = |nodes: Vec<Vec<f64>>| {
+            evaluate_nodes(
+                self.entry,
+                self.identifier,
+                self.problem,
+                self.options,
+                nodes,
+            )
+        };
+        let mut visited = eval(vec![start.to_vec()])?;
+        let mut best = 0usize;
+        let mut step = self.coarse.max(self.fine);
+        loop {
+            let centre = visited[best].params.clone();
+            let candidates: Vec<Vec<f64>> = self
+                .directions
+                .iter()
+                .flat_map(|d| [1.0, -1.0].map(|sgn| (d, sgn)))
+                .map(|(d, sgn)| {
+                    centre
+                        .iter()
+                        .zip(d)
+                        .map(|(c, di)| ((c + sgn * step * di) / self.fine).round() * self.fine)
+                        .collect::<Vec<f64>>()
+                })
+                .filter(|p| self.entry.admissible(p, self.span))
+                .filter(|p| {
+                    !visited
+                        .iter()
+                        .any(|v| v.params.iter().zip(p).all(|(a, b)| (a - b).abs() < 1e-9))
+                })
+                .collect();
+            let fresh = eval(candidates)?;
+            let start_len = visited.len();
+            visited.extend(fresh);
+            let current = visited[best].score(crit);
+            let improved = (start_len..visited.len())
+                .filter(|&i| visited[i].score(crit) > current + 1e-9)
+                .max_by(|&a, &b| visited[a].score(crit).total_cmp(&visited[b].score(crit)));
+            match improved {
+                Some(i) => best = i,
+                None if step > self.fine * 1.000_001 => step = (step / 2.0).max(self.fine),
+                None => break,
+            }
+            if visited.len() >= self.budget {
+                break;
+            }
+        }
+        Ok(visited)
+    }
+}

@@ -1,0 +1,178 @@
+//! The seeded generator of the hidden-effect suite: closed-loop loops from `datasets::simulate`
+//! with exactly one hidden effect (or none), drawn from a seed.
+//!
+//! Draw order (ChaCha8, `seed_from_u64(seed)`): plant (paper | slow), noise σ, S, J, then the
+//! effect's own draws, then the simulator seed. Ranges are documented in `docs/DIAGNOSE.md`.
+#![allow(dead_code)]
+
+use datasets::simulate::{Disturbance, Plant, PlantSpec, Scenario, SimulatedLoop};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use stiction_models::{Kano, KanoAsym, StictionModel};
+
+/// The hidden effect of a generated loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Effect {
+    /// No hidden effect: Kano valve, the plant's own coloured noise, nothing else.
+    Clean,
+    /// An external disturbance in the difference equation (eq. 11 shape or one sine).
+    Disturbance,
+    /// Kano-asym valve: slip jump differs by direction.
+    Asymmetric,
+    /// Extra dead time of the plant.
+    Delay,
+    /// A fourth-order-like slow process (extra slow pole), see `process-order`.
+    Order,
+    /// No stiction at all (linear valve) and an external oscillation: `no-stiction`.
+    Oscillation,
+}
+
+impl Effect {
+    /// The cause name `diagnose` must report.
+    pub fn cause(self) -> &'static str {
+        match self {
+            Effect::Clean => "none",
+            Effect::Disturbance => "disturbance",
+            Effect::Asymmetric => "asymmetric-stiction",
+            Effect::Delay => "time-delay",
+            Effect::Order => "process-order",
+            Effect::Oscillation => "no-stiction",
+        }
+    }
+}
+
+/// One generated loop and its ground truth.
+pub struct Case {
+    pub seed: u64,
+    pub effect: Effect,
+    pub plant: &'static str,
+    pub noise: f64,
+    /// PI gains kc = ki.
+    pub gain: f64,
+    /// True equivalent S and J of the valve.
+    pub s: f64,
+    pub j: f64,
+    /// What was hidden, in words.
+    pub what: String,
+    pub sim: SimulatedLoop,
+}
+
+fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.random::<f64>()
+}
+
+/// Generate the loop of `seed` with `effect`, `samples` long.
+pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1A6);
+    let slow = rng.random::<f64>() < 0.5;
+    let mut plant = if slow { Plant::slow() } else { Plant::paper() };
+    let noise = uniform(&mut rng, 0.05, 0.15);
+    let mut gain = uniform(&mut rng, 0.25, 0.6);
+    let s = uniform(&mut rng, 3.0, 10.0);
+    let j = uniform(&mut rng, 0.5, 0.5 * s);
+    let mut valve: Box<dyn StictionModel> =
+        Box::new(Kano::params().s(s).j(j).check().expect("valid kano"));
+    let (mut ts, mut tj) = (s, j);
+    let mut disturbances = Vec::new();
+    let what;
+    match effect {
+        Effect::Clean => what = "none".to_string(),
+        Effect::Disturbance => {
+            if rng.random::<f64>() < 0.5 {
+                let a = uniform(&mut rng, 0.4, 1.0);
+                disturbances.push(Disturbance::Paper { a });
+                what = format!("paper disturbance a = {a:.2}");
+            } else {
+                let amplitude = uniform(&mut rng, 0.4, 1.0);
+                let frequency = uniform(&mut rng, 0.01, 0.08);
+                let phase = uniform(&mut rng, 0.0, 6.28);
+                disturbances.push(Disturbance::Sine {
+                    amplitude,
+                    frequency,
+                    phase,
+                });
+                what = format!("sine amplitude {amplitude:.2} frequency {frequency:.3} rad/sample");
+            }
+        }
+        Effect::Asymmetric => {
+            let small = uniform(&mut rng, 0.2, 1.0);
+            let big = small + uniform(&mut rng, 2.0, 4.0);
+            let d = uniform(&mut rng, 1.0, 5.0);
+            let (j_up, j_dn) = if rng.random::<f64>() < 0.5 {
+                (big, small)
+            } else {
+                (small, big)
+            };
+            let k = KanoAsym::params()
+                .d(d)
+                .j_up(j_up)
+                .j_dn(j_dn)
+                .check()
+                .expect("valid kano-asym");
+            let eq = k.equivalent();
+            ts = eq.s;
+            tj = eq.j;
+            valve = Box::new(k);
+            what = format!("kano-asym D = {d:.2}, J_up = {j_up:.2}, J_dn = {j_dn:.2}");
+        }
+        Effect::Delay => {
+            // 3-6 samples; shortened (deterministically) while the PI loop would be unstable.
+            let d = rng.random_range(3..=6usize);
+            plant.delay = d;
+            while plant.check_stability(gain, gain).is_err() {
+                gain *= 0.8;
+            }
+            what = format!("extra dead time {d} samples");
+        }
+        Effect::Order => {
+            // An extra slow first-order lag in series: A(q) (1 - p q^-1), B scaled by (1 - p).
+            let p = uniform(&mut rng, 0.85, 0.93);
+            let a = &plant.a;
+            let mut a2 = vec![0.0; a.len() + 1];
+            for (i, &ai) in a.iter().enumerate() {
+                a2[i] += ai;
+                a2[i + 1] -= p * ai;
+            }
+            let b2: Vec<f64> = plant.b.iter().map(|b| b * (1.0 - p)).collect();
+            plant.a = a2;
+            plant.b = b2;
+            what = format!("extra lag pole {p:.3}");
+        }
+        Effect::Oscillation => {
+            valve = Box::new(Kano::params().check().expect("linear valve"));
+            ts = 0.0;
+            tj = 0.0;
+            let amplitude = uniform(&mut rng, 0.5, 1.5);
+            let frequency = uniform(&mut rng, 0.02, 0.06);
+            disturbances.push(Disturbance::Sine {
+                amplitude,
+                frequency,
+                phase: 0.0,
+            });
+            what = format!("linear valve, sine amplitude {amplitude:.2} frequency {frequency:.3}");
+        }
+    }
+    let sim_seed = rng.random::<u64>() % 1_000_000;
+    let scenario = Scenario {
+        plant: PlantSpec::Explicit(plant),
+        valve,
+        disturbances,
+        noise_sigma: noise,
+        controller: datasets::simulate::Controller { kc: gain, ki: gain },
+        samples,
+        seed: sim_seed,
+        ..Scenario::default()
+    };
+    let sim = scenario.simulate().expect("stable scenario");
+    Case {
+        seed,
+        effect,
+        plant: if slow { "slow" } else { "paper" },
+        noise,
+        gain,
+        s: ts,
+        j: tj,
+        what,
+        sim,
+    }
+}
