@@ -62,6 +62,12 @@ enum Command {
     /// What the model gets wrong, its cause, the extended model and the gain (discrepancy).
     #[command(after_help = commands::diagnose::AFTER_HELP)]
     Diagnose(commands::diagnose::Args),
+    /// Follow one valve over repeated registrations: S trend, outliers explained, maintenance verdict.
+    #[command(after_help = commands::trend::AFTER_HELP)]
+    Trend(commands::trend::Args),
+    /// Quantify many loops in parallel: one row per loop (JSON lines and CSV), resumable.
+    #[command(after_help = commands::batch::AFTER_HELP)]
+    Batch(commands::batch::Args),
 }
 
 /// A failure with its exit status: 1 bad data or failed computation, 2 bad usage.
@@ -143,6 +149,8 @@ where
         Command::Quantify(a) => commands::quantify::run_quantify(a, streams),
         Command::Compare(a) => commands::quantify::run_compare(a, streams),
         Command::Diagnose(a) => commands::diagnose::run(a, streams),
+        Command::Trend(a) => commands::trend::run(a, streams),
+        Command::Batch(a) => commands::batch::run(a, streams),
     };
     match result {
         Ok(()) => {

@@ -139,6 +139,99 @@ pub enum DataError {
         /// Number of leading gaps.
         count: usize,
     },
+    /// A controller-mode cell is neither a number nor a known mode name.
+    #[error(
+        "{file}: row {row}, column {column}: {text:?} is not a controller mode (a number, 0 = \
+         manual; or AUTO, CAS, MAN, ...)"
+    )]
+    BadMode {
+        /// File name.
+        file: String,
+        /// Line number (header = 1).
+        row: u64,
+        /// Column name as written in the header.
+        column: String,
+        /// The cell text.
+        text: String,
+    },
+    /// The mode column says the loop is never in closed loop.
+    #[error(
+        "{file}: column {column}: no row in closed loop (all {rows} rows manual or unknown mode)"
+    )]
+    NoClosedLoop {
+        /// File name.
+        file: String,
+        /// Mode column name.
+        column: String,
+        /// Number of rows.
+        rows: usize,
+    },
+    /// The time column repeats or goes back.
+    #[error(
+        "{file}: row {row}, column {column}: time does not increase ({value} s after {previous} s \
+         from the first sample); {count} repeated or backward time stamp(s): duplicated rows or \
+         a clock jump in the export, refused"
+    )]
+    TimeNotIncreasing {
+        /// File name.
+        file: String,
+        /// Line number of the first offending row (header = 1).
+        row: u64,
+        /// Time column name.
+        column: String,
+        /// Its time, s from the first sample.
+        value: f64,
+        /// The previous row's time, s from the first sample.
+        previous: f64,
+        /// Number of non-increasing steps in the file.
+        count: usize,
+    },
+    /// Samples are missing (intervals longer than 1.5 × the median sampling time) and the gap
+    /// policy is [`GapPolicy::Refuse`](crate::GapPolicy::Refuse).
+    #[error(
+        "{file}: row {row}, column {column}: {count} interval(s) longer than 1.5 x the median \
+         sampling time {ts} s, the first ending here ({gap} s): samples are missing; fill them \
+         (hold the last value) or drop them (keep the longest regular segment) explicitly"
+    )]
+    TimeGaps {
+        /// File name.
+        file: String,
+        /// Line number of the row after the first long interval (header = 1).
+        row: u64,
+        /// Time column name.
+        column: String,
+        /// Number of long intervals.
+        count: usize,
+        /// Length of the first long interval, s.
+        gap: f64,
+        /// Median sampling interval, s.
+        ts: f64,
+    },
+    /// PV or OP is flat (one repeated value) over more than half of the rows.
+    #[error(
+        "{file}: row {row}, column {column}: the same value for {run} of {rows} rows (historian \
+         compression, a frozen transmitter or a saturated valve): too little movement to identify"
+    )]
+    Flat {
+        /// File name.
+        file: String,
+        /// Line number where the flat run starts (header = 1).
+        row: u64,
+        /// Column name.
+        column: String,
+        /// Length of the flat run.
+        run: usize,
+        /// Number of rows.
+        rows: usize,
+    },
+    /// A MATLAB file could not be parsed or lacks what is needed.
+    #[error("{file}: {message}")]
+    Mat {
+        /// File name.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A required column has no value at all.
     #[error("{file}: column {column}: every cell is empty or NaN")]
     AllGaps {

@@ -4,6 +4,9 @@
 //!   optionally SP, MV and time) from CSV into [`LoopData`], with explicit policies for empty
 //!   and NaN cells ([`GapPolicy`]) and one-line errors naming file, row and column
 //!   ([`DataError`]).
+//! * [`read_mat`] / [`read_mat_path`] read the same variables from MATLAB v5 files (numeric
+//!   vectors; structs are not supported by the `matfile` crate), [`read_path`] picks the reader
+//!   by extension, [`parse_registration_name`] reads valve and start time from a file name.
 //! * [`simulate`] is the closed-loop benchmark of the reference paper (§3.1, eqs. 10-12): an
 //!   ARMAX plant under a velocity-form PI controller with a sticky valve taken from any
 //!   registered [`stiction_models::StictionModel`], configured by a serialisable
@@ -20,11 +23,32 @@
 #![deny(missing_docs)]
 
 mod error;
+mod mat;
 mod read;
+mod registration;
 pub mod simulate;
 
 pub use error::DataError;
+pub use mat::{read_mat, read_mat_path};
 pub use read::{read_csv, read_csv_path, GapPolicy, ReadOptions};
+pub use registration::{format_epoch, parse_registration_name, RegistrationName};
+
+/// Read a registration from a file, by its extension: `.mat` with [`read_mat_path`], anything
+/// else with [`read_csv_path`].
+pub fn read_path(
+    path: impl AsRef<std::path::Path>,
+    opts: &ReadOptions,
+) -> Result<LoopData, DataError> {
+    let path = path.as_ref();
+    let is_mat = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+    if is_mat {
+        read_mat_path(path, opts)
+    } else {
+        read_csv_path(path, opts)
+    }
+}
 
 /// One registration of a control loop, as read from a file or produced by the simulator.
 ///
@@ -35,6 +59,9 @@ pub use read::{read_csv, read_csv_path, GapPolicy, ReadOptions};
 pub struct LoopData {
     /// Where the data came from (file name, `-` for stdin, or `simulation`); used in messages.
     pub source: String,
+    /// Start of the record (its first kept sample), seconds since the Unix epoch (UTC), when the
+    /// time column holds timestamps; `None` otherwise.
+    pub start: Option<f64>,
     /// Time in seconds from the first sample, when the file has a time column.
     pub t: Option<Vec<f64>>,
     /// Set point, when available.

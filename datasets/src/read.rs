@@ -36,6 +36,27 @@ pub enum GapPolicy {
 /// | `require_pv` | `true` | a missing PV column is an error; when `false`, PV is read if present |
 /// | `gaps` | [`GapPolicy::Refuse`] | handling of empty / NaN cells |
 /// | `min_rows` | 3 | minimum number of data rows after gap handling (at least 1 is always required) |
+/// | `mode` | `None` | header name of the controller-mode column; `None` = `MODE` (see below) |
+///
+/// **Controller mode.** When a mode column is present, each cell says whether the loop was
+/// closed: numbers `0` = manual (open loop), any other number = closed loop (`1` auto, `2`
+/// cascade, ...); text (case-insensitive) `AUTO`, `AUT`, `A`, `CAS`, `CASCADE`, `RCAS`, `NORMAL`,
+/// `CLOSED` = closed loop, `MAN`, `MANUAL`, `M`, `IMAN`, `LO`, `OOS`, `OPEN`, `TRACK`, `TRK` =
+/// open loop; an empty cell is an unknown mode, taken as open loop; any other text is an error
+/// ([`DataError::BadMode`]). If some rows are not in closed loop, only the longest closed-loop
+/// segment is kept, with a note; no closed-loop row at all is [`DataError::NoClosedLoop`].
+///
+/// **Time.** A time column must increase strictly: a repeated or backward time stamp is refused
+/// ([`DataError::TimeNotIncreasing`]). Intervals longer than 1.5 × the median interval are
+/// missing samples, handled by the gap policy (refused by [`DataError::TimeGaps`], filled by
+/// holding the last row, or dropped by keeping the longest regularly sampled segment); smaller
+/// irregularities (jitter) are reported in a note and the record is treated as uniformly
+/// sampled at the median interval.
+///
+/// **Flat stretches** (records of 20 rows or more). Runs of exactly repeated PV or OP values (historian compression, a frozen
+/// transmitter) are reported in a note when the longest run is 5 samples or more or repeats are
+/// 5 % of the samples or more; a PV or OP flat over more than half of the rows (but not all of
+/// them, which is [`DataError::Constant`]) is refused ([`DataError::Flat`]).
 ///
 /// A column named explicitly (`Some`) must exist, even an optional one; an optional column
 /// found by its default name whose cells are all empty or NaN is ignored with a note.
@@ -57,6 +78,8 @@ pub struct ReadOptions {
     pub gaps: GapPolicy,
     /// Minimum number of data rows.
     pub min_rows: usize,
+    /// Header name of the controller-mode column (`None` = `MODE`).
+    pub mode: Option<String>,
 }
 
 impl Default for ReadOptions {
@@ -70,6 +93,7 @@ impl Default for ReadOptions {
             require_pv: true,
             gaps: GapPolicy::Refuse,
             min_rows: 3,
+            mode: None,
         }
     }
 }
@@ -81,6 +105,7 @@ enum Role {
     Pv,
     Op,
     Mv,
+    Mode,
 }
 
 struct Wanted {
@@ -169,10 +194,10 @@ pub fn read_csv(
         Some(Err(e)) => return Err(csv_err(&file, e)),
         Some(Ok(h)) => h,
     };
-    // A quoted header cell may span lines; messages name columns on one line.
+    // A quoted header cell may span lines: keep messages on one line.
     let header: Vec<String> = header
         .iter()
-        .map(|h| h.replace(['\r', '\n'], " "))
+        .map(|h| h.replace(['\n', '\r'], " "))
         .collect();
     if header.iter().all(String::is_empty) {
         return Err(DataError::Empty { file });
@@ -242,15 +267,23 @@ pub fn read_csv(
             let text = &record[col.index];
             let value = if col.role == Role::Time {
                 parse_time(text, &mut time_kind)
+            } else if col.role == Role::Mode {
+                parse_mode(text)
             } else {
                 parse_number(text, delimiter == b';', &mut decimal_commas)
             };
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
-                Cell::NotANumber | Cell::NotFinite | Cell::BadTime => {
+                Cell::NotANumber | Cell::NotFinite | Cell::BadTime | Cell::BadMode => {
                     let (file, column, text) = (file, col.name.clone(), text.to_string());
                     return Err(match value {
+                        Cell::BadMode => DataError::BadMode {
+                            file,
+                            row,
+                            column,
+                            text,
+                        },
                         Cell::NotFinite => DataError::NotFinite {
                             file,
                             row,
@@ -307,6 +340,20 @@ pub fn read_csv(
         }
     }
     let mut columns = kept;
+
+    // An empty mode cell is an unknown mode: not trusted as closed loop.
+    for col in columns.iter_mut().filter(|c| c.role == Role::Mode) {
+        let unknown = col.values.iter().filter(|v| v.is_none()).count();
+        if unknown > 0 {
+            notes.push(format!(
+                "column {}: {unknown} empty cell(s), taken as not in closed loop",
+                col.name
+            ));
+            for v in &mut col.values {
+                v.get_or_insert(0.0);
+            }
+        }
+    }
 
     // Gaps.
     let gap_count: usize = columns
@@ -405,6 +452,10 @@ pub fn read_csv(
         }
     }
 
+    select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
+    check_time(&file, opts.gaps, &mut columns, &mut lines, &mut notes)?;
+    check_flat(&file, &columns, &lines, &mut notes)?;
+
     let n = lines.len();
     if n < needed {
         return Err(DataError::TooFewRows {
@@ -416,6 +467,7 @@ pub fn read_csv(
 
     let mut data = LoopData {
         source: file.clone(),
+        start: None,
         t: None,
         sp: None,
         pv: None,
@@ -432,6 +484,9 @@ pub fn read_csv(
         match col.role {
             Role::Time => {
                 let t0 = values[0];
+                if let Some(TimeKind::Stamp(ns)) = time_kind {
+                    data.start = Some(ns as f64 / 1e9 + t0);
+                }
                 for v in &mut values {
                     *v -= t0;
                 }
@@ -447,6 +502,7 @@ pub fn read_csv(
                 data.op = values;
             }
             Role::Mv => data.mv = Some(values),
+            Role::Mode => {}
         }
     }
     Ok(data)
@@ -481,6 +537,7 @@ fn wanted_columns(opts: &ReadOptions) -> Vec<Wanted> {
         mk(Role::Pv, "PV", &opts.pv, &["pv"], opts.require_pv),
         mk(Role::Op, "OP", &opts.op, &["op"], true),
         mk(Role::Mv, "MV", &opts.mv, &["mv"], false),
+        mk(Role::Mode, "MODE", &opts.mode, &["mode"], false),
     ]
 }
 
@@ -504,6 +561,7 @@ enum Cell {
     NotANumber,
     NotFinite,
     BadTime,
+    BadMode,
 }
 
 fn is_gap(text: &str) -> bool {
@@ -531,6 +589,294 @@ fn parse_number(text: &str, decimal_comma: bool, decimal_commas: &mut usize) -> 
         Some(v) if v.is_infinite() => Cell::NotFinite,
         Some(v) => Cell::Value(v),
     }
+}
+
+/// A controller-mode cell: `Value(1.0)` closed loop, `Value(0.0)` open loop.
+fn parse_mode(text: &str) -> Cell {
+    if text.is_empty() {
+        return Cell::Gap;
+    }
+    if let Ok(v) = text.parse::<f64>() {
+        return if v.is_nan() {
+            Cell::Gap
+        } else if v == 0.0 {
+            Cell::Value(0.0)
+        } else {
+            Cell::Value(1.0)
+        };
+    }
+    const CLOSED: [&str; 8] = [
+        "auto", "aut", "a", "cas", "cascade", "rcas", "normal", "closed",
+    ];
+    const OPEN: [&str; 9] = [
+        "man", "manual", "m", "iman", "lo", "oos", "open", "track", "trk",
+    ];
+    let t = text.to_ascii_lowercase();
+    if CLOSED.contains(&t.as_str()) {
+        Cell::Value(1.0)
+    } else if OPEN.contains(&t.as_str()) {
+        Cell::Value(0.0)
+    } else {
+        Cell::BadMode
+    }
+}
+
+/// Keep only the rows in `a..b`.
+fn keep_rows(columns: &mut [Column], lines: &mut Vec<u64>, a: usize, b: usize) {
+    for col in columns.iter_mut() {
+        col.values = col.values[a..b].to_vec();
+    }
+    *lines = lines[a..b].to_vec();
+}
+
+/// The longest run of `true` (earliest on ties), as `a..b`.
+fn longest_run(flags: &[bool]) -> (usize, usize) {
+    let (mut best, mut start) = ((0usize, 0usize), 0usize);
+    for (i, ok) in flags.iter().chain(std::iter::once(&false)).enumerate() {
+        if !ok {
+            if i - start > best.1 - best.0 {
+                best = (start, i);
+            }
+            start = i + 1;
+        }
+    }
+    best
+}
+
+/// Keep the longest closed-loop segment when a mode column says some rows are not; drop the
+/// mode column.
+fn select_closed_loop(
+    file: &str,
+    columns: &mut Vec<Column>,
+    lines: &mut Vec<u64>,
+    notes: &mut Vec<String>,
+) -> Result<(), DataError> {
+    let Some(mi) = columns.iter().position(|c| c.role == Role::Mode) else {
+        return Ok(());
+    };
+    let closed: Vec<bool> = columns[mi].values.iter().map(|v| *v == Some(1.0)).collect();
+    let n = closed.len();
+    let open = closed.iter().filter(|c| !**c).count();
+    if open > 0 {
+        let (a, b) = longest_run(&closed);
+        if b == a {
+            return Err(DataError::NoClosedLoop {
+                file: file.to_string(),
+                column: columns[mi].name.clone(),
+                rows: n,
+            });
+        }
+        let stretches = closed
+            .iter()
+            .enumerate()
+            .filter(|(i, c)| !**c && (*i == 0 || closed[i - 1]))
+            .count();
+        notes.push(format!(
+            "column {}: {open} of {n} rows not in closed loop (manual or unknown mode, {stretches} stretch(es)); kept rows {}-{} ({} rows), the longest closed-loop segment",
+            columns[mi].name,
+            lines[a],
+            lines[b - 1],
+            b - a
+        ));
+        keep_rows(columns, lines, a, b);
+    }
+    columns.remove(mi);
+    Ok(())
+}
+
+/// Strictly increasing time; missing samples by the gap policy; jitter reported.
+fn check_time(
+    file: &str,
+    gaps: GapPolicy,
+    columns: &mut [Column],
+    lines: &mut Vec<u64>,
+    notes: &mut Vec<String>,
+) -> Result<(), DataError> {
+    let Some(ti) = columns.iter().position(|c| c.role == Role::Time) else {
+        return Ok(());
+    };
+    let t: Vec<f64> = columns[ti]
+        .values
+        .iter()
+        .map(|v| v.unwrap_or(f64::NAN))
+        .collect();
+    if t.len() < 2 {
+        return Ok(());
+    }
+    let name = columns[ti].name.clone();
+    let bad: Vec<usize> = (1..t.len())
+        .filter(|&i| t[i].partial_cmp(&t[i - 1]) != Some(std::cmp::Ordering::Greater))
+        .collect();
+    if let Some(&i) = bad.first() {
+        return Err(DataError::TimeNotIncreasing {
+            file: file.to_string(),
+            row: lines[i],
+            column: name,
+            value: t[i] - t[0],
+            previous: t[i - 1] - t[0],
+            count: bad.len(),
+        });
+    }
+    let dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut sorted = dt.clone();
+    sorted.sort_by(f64::total_cmp);
+    let ts = sorted[sorted.len() / 2];
+    let long: Vec<usize> = (0..dt.len()).filter(|&i| dt[i] > 1.5 * ts).collect();
+    if let Some(&i) = long.first() {
+        let largest = long.iter().map(|&k| dt[k]).fold(0.0, f64::max);
+        match gaps {
+            GapPolicy::Refuse => {
+                return Err(DataError::TimeGaps {
+                    file: file.to_string(),
+                    row: lines[i + 1],
+                    column: name,
+                    count: long.len(),
+                    gap: dt[i],
+                    ts,
+                })
+            }
+            GapPolicy::DropGaps => {
+                let regular: Vec<bool> = (0..t.len())
+                    .map(|k| k == 0 || dt[k - 1] <= 1.5 * ts)
+                    .collect();
+                // A segment starts at a row whose previous interval is long (or at row 0).
+                let mut best = (0usize, 0usize);
+                let mut start = 0usize;
+                for (k, &ok) in regular
+                    .iter()
+                    .chain(std::iter::once(&false))
+                    .enumerate()
+                    .skip(1)
+                {
+                    if !ok {
+                        if k - start > best.1 - best.0 {
+                            best = (start, k);
+                        }
+                        start = k;
+                    }
+                }
+                let (a, b) = best;
+                notes.push(format!(
+                    "column {name}: {} interval(s) longer than 1.5 x the median sampling time {ts} s (up to {largest} s): kept rows {}-{} ({} rows), the longest regularly sampled segment",
+                    long.len(),
+                    lines[a],
+                    lines[b - 1],
+                    b - a
+                ));
+                keep_rows(columns, lines, a, b);
+            }
+            GapPolicy::FillHold => {
+                let mut inserted = 0usize;
+                let n = t.len();
+                let mut new_cols: Vec<Vec<Option<f64>>> = vec![Vec::new(); columns.len()];
+                let mut new_lines = Vec::new();
+                for k in 0..n {
+                    for (c, col) in columns.iter().enumerate() {
+                        new_cols[c].push(col.values[k]);
+                    }
+                    new_lines.push(lines[k]);
+                    if k + 1 < n && dt[k] > 1.5 * ts {
+                        let missing = ((dt[k] / ts).round() as usize)
+                            .saturating_sub(1)
+                            .min(1_000_000);
+                        for j in 1..=missing {
+                            for (c, col) in columns.iter().enumerate() {
+                                let v = if c == ti {
+                                    Some(t[k] + j as f64 * ts)
+                                } else {
+                                    col.values[k]
+                                };
+                                new_cols[c].push(v);
+                            }
+                            new_lines.push(lines[k]);
+                        }
+                        inserted += missing;
+                    }
+                }
+                for (col, v) in columns.iter_mut().zip(new_cols) {
+                    col.values = v;
+                }
+                *lines = new_lines;
+                notes.push(format!(
+                    "column {name}: {} interval(s) longer than 1.5 x the median sampling time {ts} s (up to {largest} s): inserted {inserted} row(s) holding the last values, at the median sampling time",
+                    long.len()
+                ));
+            }
+        }
+    }
+    let t: Vec<f64> = columns[ti]
+        .values
+        .iter()
+        .map(|v| v.unwrap_or(f64::NAN))
+        .collect();
+    let dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let (lo, hi) = dt
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &d| {
+            (l.min(d), h.max(d))
+        });
+    if !dt.is_empty() && ts > 0.0 && (hi - lo) > 1e-6 * ts {
+        let dev = ((hi - ts).abs().max((ts - lo).abs())) / ts * 100.0;
+        let irregular = dt.iter().filter(|&&d| (d - ts).abs() > 1e-6 * ts).count();
+        notes.push(format!(
+            "column {name}: sampling jitter: {irregular} of {} intervals differ from the median {ts} s (from {lo} to {hi} s, up to {dev:.1} %); treated as uniformly sampled",
+            dt.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Records shorter than this are not checked for flat stretches (a handful of rows, often
+/// filled by holding, says nothing about historian compression).
+const FLAT_MIN_ROWS: usize = 20;
+
+/// Exactly repeated PV / OP values: noted, refused over more than half of the rows.
+fn check_flat(
+    file: &str,
+    columns: &[Column],
+    lines: &[u64],
+    notes: &mut Vec<String>,
+) -> Result<(), DataError> {
+    let n = lines.len();
+    if n < FLAT_MIN_ROWS {
+        return Ok(());
+    }
+    for col in columns
+        .iter()
+        .filter(|c| matches!(c.role, Role::Pv | Role::Op))
+    {
+        let v = &col.values;
+        let repeats = (1..n).filter(|&i| v[i] == v[i - 1]).count();
+        let (mut best, mut best_start, mut run_start) = (1usize, 0usize, 0usize);
+        for i in 1..=n {
+            if i == n || v[i] != v[i - 1] {
+                if i - run_start > best {
+                    best = i - run_start;
+                    best_start = run_start;
+                }
+                run_start = i;
+            }
+        }
+        if best == n {
+            continue; // constant: refused later with its own message
+        }
+        if 2 * best > n {
+            return Err(DataError::Flat {
+                file: file.to_string(),
+                row: lines[best_start],
+                column: col.name.clone(),
+                run: best,
+                rows: n,
+            });
+        }
+        if best >= 5 || 20 * repeats >= n {
+            notes.push(format!(
+                "column {}: {repeats} of {n} samples repeat the previous value exactly, the longest flat stretch {best} samples from row {} (historian compression or a frozen value?); kept",
+                col.name, lines[best_start]
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn parse_time(text: &str, kind: &mut Option<TimeKind>) -> Cell {

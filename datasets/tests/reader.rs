@@ -27,7 +27,8 @@ fn reads_a_plain_file() {
     assert_eq!(d.pv.as_deref(), Some(&[2.0, 2.5, 2.0][..]));
     assert_eq!(d.op, vec![3.0, 3.5, 3.0]);
     assert_eq!(d.mv.as_deref(), Some(&[4.0, 4.0, 4.5][..]));
-    assert_eq!(d.notes, vec!["ignored column(s): MODE"]);
+    // MODE 1 = closed loop throughout: used, nothing to report.
+    assert!(d.notes.is_empty(), "{:?}", d.notes);
     assert_eq!(d.len(), 3);
 }
 
@@ -36,7 +37,13 @@ fn column_names_are_case_insensitive_and_time_is_relative() {
     let d = read("Time,pv,Op\n100,1,2\n101,2,3\n102.5,1,2\n").unwrap();
     assert_eq!(d.t.as_deref(), Some(&[0.0, 1.0, 2.5][..]));
     assert_eq!(d.op, vec![2.0, 3.0, 2.0]);
-    assert!(d.notes.is_empty());
+    assert_eq!(
+        d.notes,
+        vec![
+            "column Time: sampling jitter: 1 of 2 intervals differ from the median 1.5 s (from \
+             1 to 1.5 s, up to 33.3 %); treated as uniformly sampled"
+        ]
+    );
 }
 
 #[test]
@@ -295,6 +302,8 @@ fn cell() -> impl Strategy<Value = String> {
         Just("inf".to_string()),
         Just("\"".to_string()),
         Just("2024-01-01T00:00:00Z".to_string()),
+        Just("AUTO".to_string()),
+        Just("man".to_string()),
         any::<f64>().prop_map(|v| v.to_string()),
         (-100i32..100).prop_map(|v| v.to_string()),
         "[a-zA-Z0-9 .,;:\\-+eE\"]{0,8}",
@@ -309,6 +318,7 @@ fn header_name() -> impl Strategy<Value = String> {
         Just("MV".to_string()),
         Just("t".to_string()),
         Just("time".to_string()),
+        Just("MODE".to_string()),
         "[a-z]{0,3}",
     ]
 }
@@ -349,4 +359,138 @@ proptest! {
             Err(e) => prop_assert!(!e.to_string().contains('\n')),
         }
     }
+}
+
+/// A record of `n` rows `t,PV,OP,MODE` with moving PV and OP.
+fn record(n: usize, mode: impl Fn(usize) -> String) -> String {
+    let mut s = String::from("t,PV,OP,MODE\n");
+    for i in 0..n {
+        let x = (i as f64 * 0.7).sin();
+        s.push_str(&format!(
+            "{},{},{},{}\n",
+            10 * i,
+            5.0 + x,
+            50.0 + 2.0 * x,
+            mode(i)
+        ));
+    }
+    s
+}
+
+#[test]
+fn mode_keeps_the_longest_closed_loop_segment() {
+    // Manual rows 0-6 and 30-34; auto (1, AUTO, CAS) elsewhere: rows 35-59 are the longest.
+    let text = record(60, |i| match i {
+        0..=6 => "0".into(),
+        30..=34 => "MAN".into(),
+        7..=29 => "AUTO".into(),
+        _ => {
+            if i % 2 == 0 {
+                "1".into()
+            } else {
+                "cas".into()
+            }
+        }
+    });
+    let d = read(&text).unwrap();
+    assert_eq!(d.len(), 25);
+    assert_eq!(d.t.as_deref().unwrap()[0], 0.0);
+    assert_eq!(d.op[0], 50.0 + 2.0 * (35.0f64 * 0.7).sin());
+    assert_eq!(
+        d.notes,
+        vec!["column MODE: 12 of 60 rows not in closed loop (manual or unknown mode, 2 stretch(es)); kept rows 37-61 (25 rows), the longest closed-loop segment"]
+    );
+    assert_eq!(
+        message(read(&record(30, |_| "0".into()))),
+        "loop.csv: column MODE: no row in closed loop (all 30 rows manual or unknown mode)"
+    );
+    assert_eq!(
+        message(read(&record(30, |i| if i == 3 {
+            "weird".into()
+        } else {
+            "1".into()
+        }))),
+        r#"loop.csv: row 5, column MODE: "weird" is not a controller mode (a number, 0 = manual; or AUTO, CAS, MAN, ...)"#
+    );
+}
+
+#[test]
+fn repeated_time_stamps_are_refused() {
+    let text = "t,PV,OP\n0,1,2\n10,2,3\n10,1,2\n20,2,3\n30,1,2\n";
+    assert_eq!(
+        message(read(text)),
+        "loop.csv: row 4, column t: time does not increase (10 s after 10 s from the first sample); 1 repeated or backward time stamp(s): duplicated rows or a clock jump in the export, refused"
+    );
+}
+
+#[test]
+fn missing_samples_follow_the_gap_policy() {
+    // 10 s sampling with one 30 s interval (two samples missing) before row 5.
+    let text = "t,PV,OP\n0,1,2\n10,2,3\n20,1,2\n50,2,4\n60,1,2\n70,2,3\n80,1,2.5\n";
+    assert_eq!(
+        message(read(text)),
+        "loop.csv: row 5, column t: 1 interval(s) longer than 1.5 x the median sampling time 10 s, the first ending here (30 s): samples are missing; fill them (hold the last value) or drop them (keep the longest regular segment) explicitly"
+    );
+    let fill = ReadOptions {
+        gaps: GapPolicy::FillHold,
+        ..ReadOptions::default()
+    };
+    let d = read_with(text, &fill).unwrap();
+    assert_eq!(
+        d.t.as_deref().unwrap(),
+        &[0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0][..]
+    );
+    assert_eq!(d.op, vec![2.0, 3.0, 2.0, 2.0, 2.0, 4.0, 2.0, 3.0, 2.5]);
+    assert!(
+        d.notes[0].contains("inserted 2 row(s) holding the last values"),
+        "{:?}",
+        d.notes
+    );
+    let drop = ReadOptions {
+        gaps: GapPolicy::DropGaps,
+        ..ReadOptions::default()
+    };
+    let d = read_with(text, &drop).unwrap();
+    assert_eq!(d.op, vec![4.0, 2.0, 3.0, 2.5]);
+    assert!(
+        d.notes[0].contains("kept rows 5-8 (4 rows)"),
+        "{:?}",
+        d.notes
+    );
+}
+
+#[test]
+fn flat_stretches_are_reported_or_refused() {
+    // PV frozen for 8 samples: noted.
+    let mut text = String::from("t,PV,OP\n");
+    for i in 0..40 {
+        let pv = if (10..18).contains(&i) {
+            3.0
+        } else {
+            (i as f64).sin()
+        };
+        text.push_str(&format!("{i},{pv},{}\n", 50.0 + (i as f64 * 0.3).cos()));
+    }
+    let d = read(&text).unwrap();
+    assert_eq!(d.notes, vec!["column PV: 7 of 40 samples repeat the previous value exactly, the longest flat stretch 8 samples from row 12 (historian compression or a frozen value?); kept"]);
+    // OP frozen for 25 of 40 rows: refused.
+    let mut text = String::from("t,PV,OP\n");
+    for i in 0..40 {
+        let op = if i >= 15 { 60.0 } else { 50.0 + i as f64 };
+        text.push_str(&format!("{i},{},{op}\n", (i as f64).sin()));
+    }
+    assert_eq!(
+        message(read(&text)),
+        "loop.csv: row 17, column OP: the same value for 25 of 40 rows (historian compression, a frozen transmitter or a saturated valve): too little movement to identify"
+    );
+}
+
+#[test]
+fn start_time_comes_from_time_stamps() {
+    let d = read(
+        "time,PV,OP\n2024-06-09 07:50:00,1,2\n2024-06-09 07:50:10,2,3\n2024-06-09 07:50:20,1,2\n",
+    )
+    .unwrap();
+    assert_eq!(datasets::format_epoch(d.start.unwrap()), "2024-06-09 07:50");
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 10.0, 20.0][..]));
 }

@@ -30,6 +30,10 @@ pub struct DataFlags {
     /// Use the longest run of rows without empty/NaN cells.
     #[arg(long)]
     drop_gaps: bool,
+    /// Name of the controller-mode column (default `MODE`): only the longest closed-loop
+    /// segment is used (0 / MAN = manual; other numbers, AUTO, CAS = closed loop).
+    #[arg(long, value_name = "NAME")]
+    mode: Option<String>,
 }
 
 impl DataFlags {
@@ -51,32 +55,41 @@ pub(crate) fn load(
     min_rows: usize,
     s: &mut Streams<'_>,
 ) -> Result<LoopData, Failure> {
-    let opts = ReadOptions {
-        pv: flags.pv.clone(),
-        op: flags.op.clone(),
-        sp: flags.sp.clone(),
-        mv: flags.mv.clone(),
-        time: flags.time.clone(),
-        require_pv,
-        gaps: if flags.fill.is_some() {
-            GapPolicy::FillHold
-        } else if flags.drop_gaps {
-            GapPolicy::DropGaps
-        } else {
-            GapPolicy::Refuse
-        },
-        min_rows,
-    };
+    let opts = flags.read_options(require_pv, min_rows);
     let loop_data = if file.as_os_str() == "-" {
         let bytes = read_all(s.stdin)
             .map_err(|e| data(anyhow::anyhow!("-: cannot read standard input: {e}")))?;
         read_csv(bytes.as_slice(), "-", &opts)
     } else {
-        datasets::read_csv_path(PathBuf::from(file), &opts)
+        datasets::read_path(PathBuf::from(file), &opts)
     }
     .map_err(data)?;
     for note in &loop_data.notes {
         let _ = writeln!(s.stderr, "note: {}: {note}", loop_data.source);
     }
     Ok(loop_data)
+}
+
+impl DataFlags {
+    /// The reader's options for these flags.
+    pub(crate) fn read_options(&self, require_pv: bool, min_rows: usize) -> ReadOptions {
+        let flags = self;
+        ReadOptions {
+            pv: flags.pv.clone(),
+            op: flags.op.clone(),
+            sp: flags.sp.clone(),
+            mv: flags.mv.clone(),
+            time: flags.time.clone(),
+            require_pv,
+            gaps: if flags.fill.is_some() {
+                GapPolicy::FillHold
+            } else if flags.drop_gaps {
+                GapPolicy::DropGaps
+            } else {
+                GapPolicy::Refuse
+            },
+            min_rows,
+            mode: flags.mode.clone(),
+        }
+    }
 }

@@ -1,12 +1,15 @@
 //! One module per subcommand, plus the argument helpers they share.
 
+pub mod batch;
 pub mod diagnose;
 pub mod identify;
 pub mod load;
 pub mod models;
 pub mod quantify;
+pub mod registrations;
 pub mod search_flags;
 pub mod simulate;
+pub mod trend;
 pub mod valve;
 
 use anyhow::{anyhow, Context};

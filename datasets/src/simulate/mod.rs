@@ -636,6 +636,7 @@ impl SimulatedLoop {
     pub fn to_loop_data(&self) -> LoopData {
         LoopData {
             source: "simulation".into(),
+            start: None,
             t: Some(self.t.clone()),
             sp: Some(self.sp.clone()),
             pv: Some(self.pv.clone()),

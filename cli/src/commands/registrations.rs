@@ -1,0 +1,432 @@
+//! What `trend` and `batch` share: finding registration files, reading them, quantifying each
+//! with every chosen model combination, and the evidence that explains a doubtful estimate.
+//!
+//! Conventions (documented in `docs/PLANT_DATA.md`):
+//! * a registration is one file (`.csv`, `.tsv`, `.txt` or `.mat`); a directory argument stands
+//!   for its files with those extensions (not recursive), in name order;
+//! * the valve is the file name up to the first `_`; the registration time is the file name's
+//!   `_YYYYMMDD-HHMM` suffix, else the first time stamp of the data, else unknown;
+//! * integrating loops (level: the tag's first letter, ISA-5.1, is `L`) are identified from MV to
+//!   the PV increment ΔPV(k) = PV(k) − PV(k−1) with `--integrating auto` (the default): an
+//!   integrator has no stable ARX model from MV to PV, so the grid search would skip the
+//!   no-stiction node as unstable and keep only nodes whose MV happens to give a stable fit.
+
+use std::path::{Path, PathBuf};
+
+use datasets::{parse_registration_name, LoopData};
+use grid_search::Quantification;
+use serde_json::Value;
+
+use super::load::DataFlags;
+use super::quantify::{quantify_json, run_one, Run};
+use super::search_flags::SearchFlags;
+use crate::Streams;
+
+/// File extensions read from a directory.
+pub(crate) const EXTENSIONS: [&str; 4] = ["csv", "tsv", "txt", "mat"];
+
+/// `--integrating`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum IntegratingFlag {
+    /// Level loops (tag letter `L`) are integrating, others not.
+    Auto,
+    /// Every loop is integrating: identify MV → ΔPV.
+    Yes,
+    /// No loop is integrating: identify MV → PV.
+    No,
+}
+
+impl IntegratingFlag {
+    /// Whether the loop of `valve` is treated as integrating.
+    pub(crate) fn applies(self, valve: &str) -> bool {
+        match self {
+            IntegratingFlag::Yes => true,
+            IntegratingFlag::No => false,
+            IntegratingFlag::Auto => valve
+                .chars()
+                .find(|c| c.is_ascii_alphabetic())
+                .is_some_and(|c| c.eq_ignore_ascii_case(&'l')),
+        }
+    }
+}
+
+/// Expand files and directories into registration files (directories: their files with a
+/// known extension, sorted by name, minus `exclude`).
+pub(crate) fn expand(paths: &[PathBuf], exclude: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    };
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(p)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?
+                .flatten()
+                .map(|e| e.path())
+                .filter(|f| {
+                    f.is_file()
+                        && f.extension()
+                            .is_some_and(|e| EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
+                })
+                .filter(|f| !exclude.iter().any(|x| same(f, x)))
+                .collect();
+            files.sort();
+            out.extend(files);
+        } else if p.exists() {
+            out.push(p.clone());
+        } else {
+            anyhow::bail!("{}: no such file or directory", p.display());
+        }
+    }
+    Ok(out)
+}
+
+/// The base name of a path, for rows and messages.
+pub(crate) fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
+
+/// One stiction × linear combination on one registration.
+pub(crate) struct ComboOutcome {
+    pub stiction: String,
+    pub linear: String,
+    /// The contract's quantify object, or the error message.
+    pub result: Result<ComboFit, String>,
+}
+
+/// A successful quantification with the numbers trend and batch use.
+pub(crate) struct ComboFit {
+    pub json: Value,
+    pub s: f64,
+    pub s_range: [f64; 2],
+    pub j: f64,
+    pub j_range: [f64; 2],
+    pub fit_val: f64,
+    /// Evidence that something besides the valve moves PV (see [`FitEvidence`]).
+    pub evidence: Vec<String>,
+}
+
+/// One registration: where it is, which valve, when, and its results.
+pub(crate) struct Registration {
+    pub path: PathBuf,
+    pub file: String,
+    pub valve: String,
+    /// Start, seconds since the Unix epoch (UTC).
+    pub start: Option<f64>,
+    /// Where the time came from: `file name`, `first time stamp` or `unknown`.
+    pub time_source: &'static str,
+    pub integrating: bool,
+    /// Notes of the reader (what was done to the data).
+    pub notes: Vec<String>,
+    /// Results per combination, or the reason the file could not be used at all.
+    pub outcome: Result<Vec<ComboOutcome>, String>,
+}
+
+/// Everything needed to evaluate a registration.
+pub(crate) struct Plan<'a> {
+    pub stiction: &'a [String],
+    pub linear: &'a [String],
+    pub search: &'a SearchFlags,
+    pub data: &'a DataFlags,
+    pub integrating: IntegratingFlag,
+    pub explainer: &'a (dyn ExplainFit + Sync),
+}
+
+/// Read and quantify one registration with every combination. Never fails: a problem is
+/// recorded in the registration.
+pub(crate) fn evaluate(path: &Path, plan: &Plan<'_>) -> Registration {
+    let file = file_name(path);
+    let name = parse_registration_name(&file);
+    let integrating = plan.integrating.applies(&name.valve);
+    let mut reg = Registration {
+        path: path.to_path_buf(),
+        file,
+        valve: name.valve,
+        start: name.start,
+        time_source: if name.start.is_some() {
+            "file name"
+        } else {
+            "unknown"
+        },
+        integrating,
+        notes: Vec::new(),
+        outcome: Err(String::new()),
+    };
+    let opts = plan.data.read_options(true, 30);
+    let d = match datasets::read_path(path, &opts) {
+        Ok(d) => d,
+        Err(e) => {
+            reg.outcome = Err(e.to_string());
+            return reg;
+        }
+    };
+    if reg.start.is_none() {
+        if let Some(s) = d.start {
+            reg.start = Some(s);
+            reg.time_source = "first time stamp";
+        }
+    }
+    reg.notes = d.notes.clone();
+    let used = if integrating { increments(&d) } else { d };
+    let mut combos = Vec::new();
+    for st in plan.stiction {
+        for li in plan.linear {
+            let mut input = std::io::empty();
+            let mut out = std::io::sink();
+            let mut err = std::io::sink();
+            let mut quiet = Streams {
+                stdin: &mut input,
+                stdout: &mut out,
+                stderr: &mut err,
+                progress: false,
+            };
+            let result = run_one(st, li, plan.search, &used, &mut quiet)
+                .map(|r| fit_of(&r, &used, &reg.notes, plan))
+                .map_err(|f| format!("{:#}", f.error()).replace('\n', " "));
+            combos.push(ComboOutcome {
+                stiction: st.clone(),
+                linear: li.clone(),
+                result,
+            });
+        }
+    }
+    reg.outcome = Ok(combos);
+    reg
+}
+
+fn fit_of(r: &Run, d: &LoopData, notes: &[String], plan: &Plan<'_>) -> ComboFit {
+    let q = &r.result;
+    let json = quantify_json(r, plan.search.init.label());
+    let fit_val = q.fits_score(q.criterion);
+    ComboFit {
+        s: q.s,
+        s_range: q.interval.s,
+        j: q.j,
+        j_range: q.interval.j,
+        fit_val,
+        evidence: plan.explainer.explain(d, q, notes),
+        json,
+    }
+}
+
+/// MV → ΔPV for an integrating loop: PV replaced by its increments, every series shortened by
+/// its first sample.
+pub(crate) fn increments(d: &LoopData) -> LoopData {
+    let tail = |v: &Vec<f64>| v.get(1..).map(<[f64]>::to_vec).unwrap_or_default();
+    let mut out = LoopData {
+        source: d.source.clone(),
+        start: d.start,
+        t: d.t.as_ref().map(tail),
+        sp: d.sp.as_ref().map(tail),
+        pv: d
+            .pv
+            .as_ref()
+            .map(|p| p.windows(2).map(|w| w[1] - w[0]).collect()),
+        op: tail(&d.op),
+        mv: d.mv.as_ref().map(tail),
+        notes: d.notes.clone(),
+    };
+    out.notes
+        .push("integrating loop: identified from MV to the PV increment ΔPV".into());
+    out
+}
+
+/// Evidence, from one quantification, that something besides the valve moves PV (a
+/// disturbance, a drifting operating point, poor data). Used to say *why* a registration is
+/// doubtful or an outlier.
+///
+/// This is the hook for the diagnosis capability (`stiction diagnose`, crate `discrepancy`):
+/// an implementation backed by it replaces [`FitEvidence`] in [`Plan::explainer`] without
+/// touching `trend` or `batch`.
+pub(crate) trait ExplainFit {
+    /// Sentences a plant engineer can read; empty when nothing stands out.
+    fn explain(&self, d: &LoopData, q: &Quantification, notes: &[String]) -> Vec<String>;
+}
+
+/// The evidence available from the quantification itself.
+///
+/// | evidence | rule |
+/// |---|---|
+/// | poor fit | validation F_PV below `min_fit` % |
+/// | slow residual | the validation residual's moving average (window N/10) holds more than 30 % of its variance: a slow, unmodelled component (a disturbance or a drifting operating point) |
+/// | PV drift | mean PV moves by more than half its standard deviation between identification and validation data |
+/// | set-point moves | the set point changes during the record (operating point not constant) |
+/// | no stiction needed | the no-stiction valve (S = J = 0) lies inside the likelihood-ratio region |
+/// | data notes | the reader reported flat stretches (historian compression) or dropped/filled samples |
+pub(crate) struct FitEvidence {
+    pub min_fit: f64,
+}
+
+impl ExplainFit for FitEvidence {
+    fn explain(&self, d: &LoopData, q: &Quantification, notes: &[String]) -> Vec<String> {
+        let mut why = Vec::new();
+        let fit = q.fits_score(q.criterion);
+        if fit < self.min_fit {
+            why.push(format!(
+                "poor fit: F_PV val {fit:.1} % < {:.0} %, the valve + linear model explains \
+                 little of PV",
+                self.min_fit
+            ));
+        }
+        if let Some(pv) = d.pv.as_deref() {
+            let split = q.split_index.min(pv.len());
+            let resid: Vec<f64> = (split..pv.len())
+                .filter_map(|k| {
+                    let e = q.pv_est.get(k).copied()?;
+                    e.is_finite().then(|| pv[k] - e)
+                })
+                .collect();
+            if let Some(ratio) = slow_fraction(&resid) {
+                if ratio > 0.3 {
+                    why.push(format!(
+                        "slow residual: {:.0} % of the validation residual's variance is slow \
+                         (moving average over N/10 samples): an unmodelled disturbance or drift",
+                        100.0 * ratio
+                    ));
+                }
+            }
+            if split > 1 && split + 1 < pv.len() {
+                let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+                let m = mean(pv);
+                let sd = (pv.iter().map(|x| (x - m).powi(2)).sum::<f64>() / pv.len() as f64).sqrt();
+                let shift = (mean(&pv[split..]) - mean(&pv[..split])).abs();
+                if sd > 0.0 && shift > 0.5 * sd {
+                    why.push(format!(
+                        "PV drift: mean PV moves by {:.1} standard deviations between \
+                         identification and validation data (non-stationary)",
+                        shift / sd
+                    ));
+                }
+            }
+        }
+        if let Some(sp) = d.sp.as_deref() {
+            let moves = sp.windows(2).filter(|w| w[1] != w[0]).count();
+            if moves > 0 {
+                why.push(format!("set point moved {moves} time(s) during the record"));
+            }
+        }
+        if q.interval.s[0] <= 0.0 {
+            why.push("no stiction needed: S = 0 is inside the likelihood-ratio region".into());
+        }
+        for n in notes {
+            if n.contains("repeat the previous value")
+                || n.contains("filled")
+                || n.contains("kept rows")
+                || n.contains("inserted")
+            {
+                why.push(format!("data: {n}"));
+            }
+        }
+        why
+    }
+}
+
+/// Share of the variance of `r` carried by its moving average over `len/10` samples.
+fn slow_fraction(r: &[f64]) -> Option<f64> {
+    let n = r.len();
+    if n < 20 {
+        return None;
+    }
+    let w = (n / 10).max(3);
+    let mean = r.iter().sum::<f64>() / n as f64;
+    let var = r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
+    if var <= 0.0 {
+        return None;
+    }
+    let mut acc: f64 = r[..w].iter().sum();
+    let mut ma = vec![acc / w as f64];
+    for k in w..n {
+        acc += r[k] - r[k - w];
+        ma.push(acc / w as f64);
+    }
+    let mm = ma.iter().sum::<f64>() / ma.len() as f64;
+    let vma = ma.iter().map(|x| (x - mm).powi(2)).sum::<f64>() / ma.len() as f64;
+    Some(vma / var)
+}
+
+/// Median of a non-empty slice.
+pub(crate) fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+/// Area under the ROC curve of `scores` for `positive` labels (ties count one half), and the
+/// threshold maximising Youden's J = TPR − FPR (flag when score ≥ threshold) with its TPR and
+/// FPR. `None` without both classes.
+pub(crate) fn roc(scores: &[(f64, bool)]) -> Option<(f64, f64, f64, f64)> {
+    let pos: Vec<f64> = scores.iter().filter(|s| s.1).map(|s| s.0).collect();
+    let neg: Vec<f64> = scores.iter().filter(|s| !s.1).map(|s| s.0).collect();
+    if pos.is_empty() || neg.is_empty() {
+        return None;
+    }
+    let mut wins = 0.0;
+    for p in &pos {
+        for n in &neg {
+            wins += if p > n {
+                1.0
+            } else if p == n {
+                0.5
+            } else {
+                0.0
+            };
+        }
+    }
+    let auc = wins / (pos.len() * neg.len()) as f64;
+    let mut cuts: Vec<f64> = scores.iter().map(|s| s.0).collect();
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    let mut best = (f64::NEG_INFINITY, 0.0, 0.0, 0.0);
+    for c in cuts {
+        let tpr = pos.iter().filter(|&&x| x >= c).count() as f64 / pos.len() as f64;
+        let fpr = neg.iter().filter(|&&x| x >= c).count() as f64 / neg.len() as f64;
+        if tpr - fpr > best.0 {
+            best = (tpr - fpr, c, tpr, fpr);
+        }
+    }
+    Some((auc, best.1, best.2, best.3))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roc_of_separable_and_random_scores() {
+        let s = [(3.0, true), (2.0, true), (1.0, false), (0.5, false)];
+        let (auc, thr, tpr, fpr) = roc(&s).unwrap_or_default();
+        assert_eq!((auc, thr, tpr, fpr), (1.0, 2.0, 1.0, 0.0));
+        let s = [(1.0, true), (2.0, false), (3.0, true), (4.0, false)];
+        assert_eq!(roc(&s).map(|r| r.0), Some(0.25));
+        assert_eq!(roc(&[(1.0, true)]), None);
+    }
+
+    #[test]
+    fn level_tags_are_integrating() {
+        assert!(IntegratingFlag::Auto.applies("2111LIC31102B"));
+        assert!(!IntegratingFlag::Auto.applies("2411FIC20102"));
+        assert!(IntegratingFlag::Yes.applies("2411FIC20102"));
+        assert!(!IntegratingFlag::No.applies("LIC1"));
+    }
+
+    #[test]
+    fn slow_fraction_separates_white_from_drift() {
+        let white: Vec<f64> = (0..300)
+            .map(|k| ((k * 7919 % 101) as f64 - 50.0) / 50.0)
+            .collect();
+        let drift: Vec<f64> = (0..300).map(|k| k as f64 / 30.0).collect();
+        assert!(slow_fraction(&white).unwrap_or(1.0) < 0.3);
+        assert!(slow_fraction(&drift).unwrap_or(0.0) > 0.3);
+    }
+}

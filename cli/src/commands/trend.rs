@@ -1,0 +1,495 @@
+//! `stiction trend`: one valve recorded again and again (paper §5.2): quantify every
+//! registration, order them in time, follow S (and J), flag and explain outliers, and give a
+//! maintenance verdict.
+
+use std::path::PathBuf;
+
+use anyhow::anyhow;
+use datasets::format_epoch;
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use stiction_models::find_model;
+
+use super::load::DataFlags;
+use super::registrations::{
+    evaluate, expand, median, ComboFit, FitEvidence, IntegratingFlag, Plan, Registration,
+};
+use super::search_flags::{build_identifier, SearchFlags};
+use crate::{data, usage, CmdResult, Streams};
+
+/// Default maintenance threshold on S, % of valve span (see `docs/PLANT_DATA.md`).
+pub(crate) const DEFAULT_THRESHOLD: f64 = 1.6;
+/// Default minimum validation fit for a registration to count, %.
+pub(crate) const DEFAULT_MIN_FIT: f64 = 50.0;
+
+pub(crate) const AFTER_HELP: &str = "\
+Every registration (file) of one valve is quantified with every stiction x linear
+combination; registrations are ordered by the time in the file name (<valve>_YYYYMMDD-HHMM)
+or else their first time stamp. For each combination:
+  weak      validation F_PV below --min-fit: not used for the trend, with the evidence why
+  outlier   S outside median +- max(3 x 1.4826 x MAD, 0.1) of the other usable
+            registrations (4 or more needed): not used for the trend, with the evidence why
+  level     median S of the usable registrations; slope: Theil-Sen, % per 30 days
+Verdict (on the mean over combinations of level, latest usable S and projected S):
+  schedule maintenance   level >= threshold
+  watch                  level < threshold, but the latest usable S or the level projected
+                         --horizon days ahead >= threshold, or level >= threshold / 2
+  healthy                otherwise; undetermined when no registration is usable
+
+Examples:
+  stiction trend ../shared/data/plant --valve 2411FIC20102
+  stiction trend data/V1_*.csv --threshold 1.5 --json
+  stiction trend DIR --valve LIC1 --stiction kano,he --linear arx,armax";
+
+/// Arguments of `stiction trend`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Registration files, or directories of them (.csv, .tsv, .txt, .mat).
+    #[arg(required = true, value_name = "FILES|DIR")]
+    paths: Vec<PathBuf>,
+    /// The valve to follow (file-name prefix before `_`); required when the files hold several.
+    #[arg(long, value_name = "TAG")]
+    valve: Option<String>,
+    /// Stiction models, comma-separated.
+    #[arg(
+        long,
+        value_name = "A,B",
+        value_delimiter = ',',
+        default_value = "kano"
+    )]
+    stiction: Vec<String>,
+    /// Linear identifiers, comma-separated.
+    #[arg(long, value_name = "X,Y", value_delimiter = ',', default_value = "arx")]
+    linear: Vec<String>,
+    /// Maintenance threshold on S, % of valve span.
+    #[arg(long, value_name = "S%", default_value_t = DEFAULT_THRESHOLD)]
+    threshold: f64,
+    /// Minimum validation F_PV (%) for a registration to count in the trend.
+    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT)]
+    min_fit: f64,
+    /// How far ahead (days) the trend is projected for the `watch` verdict.
+    #[arg(long, value_name = "DAYS", default_value_t = 90.0)]
+    horizon: f64,
+    /// Integrating loops are identified from MV to ΔPV; `auto` = level loops (tag letter L).
+    #[arg(long, value_enum, default_value = "auto")]
+    integrating: IntegratingFlag,
+    #[command(flatten)]
+    search: SearchFlags,
+    #[command(flatten)]
+    data: DataFlags,
+    /// Print one JSON document.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Status of one registration under one combination.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Flag {
+    Used,
+    Weak,
+    Outlier,
+    Error,
+}
+
+impl Flag {
+    fn label(self) -> &'static str {
+        match self {
+            Flag::Used => "ok",
+            Flag::Weak => "weak",
+            Flag::Outlier => "outlier",
+            Flag::Error => "error",
+        }
+    }
+}
+
+/// The trend of one combination.
+struct ComboTrend {
+    stiction: String,
+    linear: String,
+    flags: Vec<Flag>,
+    level: Option<f64>,
+    slope_30d: Option<f64>,
+    latest: Option<f64>,
+    band: Option<[f64; 2]>,
+}
+
+/// Theil–Sen slope of `(x, y)`: the median of pairwise slopes (distinct x).
+fn theil_sen(points: &[(f64, f64)]) -> Option<f64> {
+    let mut slopes = Vec::new();
+    for (i, a) in points.iter().enumerate() {
+        for b in &points[i + 1..] {
+            if (b.0 - a.0).abs() > 1e-9 {
+                slopes.push((b.1 - a.1) / (b.0 - a.0));
+            }
+        }
+    }
+    (!slopes.is_empty()).then(|| median(&slopes))
+}
+
+fn fit_at(r: &Registration, c: usize) -> Option<&ComboFit> {
+    r.outcome.as_ref().ok()?.get(c)?.result.as_ref().ok()
+}
+
+fn trend_of(regs: &[Registration], c: usize, min_fit: f64, names: (&str, &str)) -> ComboTrend {
+    let mut flags: Vec<Flag> = regs
+        .iter()
+        .map(|r| match fit_at(r, c) {
+            None => Flag::Error,
+            Some(f) if f.fit_val < min_fit => Flag::Weak,
+            Some(_) => Flag::Used,
+        })
+        .collect();
+    let usable: Vec<usize> = (0..regs.len())
+        .filter(|&i| flags[i] == Flag::Used)
+        .collect();
+    let s_of = |i: usize| fit_at(&regs[i], c).map_or(f64::NAN, |f| f.s);
+    let mut band = None;
+    if usable.len() >= 4 {
+        let s: Vec<f64> = usable.iter().map(|&i| s_of(i)).collect();
+        let m = median(&s);
+        let mad = median(&s.iter().map(|x| (x - m).abs()).collect::<Vec<_>>());
+        let half = (3.0 * 1.4826 * mad).max(0.1);
+        band = Some([m - half, m + half]);
+        for &i in &usable {
+            if (s_of(i) - m).abs() > half {
+                flags[i] = Flag::Outlier;
+            }
+        }
+    }
+    let kept: Vec<usize> = (0..regs.len())
+        .filter(|&i| flags[i] == Flag::Used)
+        .collect();
+    let s: Vec<f64> = kept.iter().map(|&i| s_of(i)).collect();
+    let level = (!s.is_empty()).then(|| median(&s));
+    let points: Vec<(f64, f64)> = kept
+        .iter()
+        .filter_map(|&i| regs[i].start.map(|t| (t / 86400.0, s_of(i))))
+        .collect();
+    ComboTrend {
+        stiction: names.0.to_string(),
+        linear: names.1.to_string(),
+        flags,
+        level,
+        slope_30d: theil_sen(&points).map(|v| 30.0 * v),
+        latest: kept.last().map(|&i| s_of(i)),
+        band,
+    }
+}
+
+/// The verdict and the sentence that justifies it.
+fn verdict(
+    level: Option<f64>,
+    latest: Option<f64>,
+    slope_30d: Option<f64>,
+    threshold: f64,
+    horizon: f64,
+) -> (&'static str, String) {
+    let Some(level) = level else {
+        return (
+            "undetermined",
+            "no registration is usable (all failed, weak or outliers)".into(),
+        );
+    };
+    let projected = level + slope_30d.unwrap_or(0.0) * horizon / 30.0;
+    if level >= threshold {
+        (
+            "schedule maintenance",
+            format!(
+                "the stiction level S = {level:.2} % is at or above the threshold {threshold} %"
+            ),
+        )
+    } else if latest.is_some_and(|l| l >= threshold) {
+        (
+            "watch",
+            format!(
+                "level S = {level:.2} % is below the threshold {threshold} %, but the latest usable registration reaches {:.2} %",
+                latest.unwrap_or(f64::NAN)
+            ),
+        )
+    } else if projected >= threshold {
+        (
+            "watch",
+            format!(
+                "level S = {level:.2} % is below the threshold {threshold} %, but the trend reaches {projected:.2} % within {horizon} days"
+            ),
+        )
+    } else if level >= 0.5 * threshold {
+        (
+            "watch",
+            format!("level S = {level:.2} % is at least half the threshold {threshold} %"),
+        )
+    } else {
+        (
+            "healthy",
+            format!(
+                "level S = {level:.2} % is below half the threshold {threshold} %, and neither the latest usable S nor the {horizon}-day projection {projected:.2} % reaches the threshold"
+            ),
+        )
+    }
+}
+
+pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
+    for name in &args.stiction {
+        find_model(name).map_err(usage)?;
+    }
+    for name in &args.linear {
+        build_identifier(name, args.search.orders.as_deref(), 0)?;
+    }
+    if !(args.threshold.is_finite() && args.threshold >= 0.0) {
+        return Err(usage(anyhow!(
+            "--threshold {}: expected a non-negative S in % of valve span",
+            args.threshold
+        )));
+    }
+    let files = expand(&args.paths, &[]).map_err(usage)?;
+    let mut by_valve: std::collections::BTreeMap<String, Vec<PathBuf>> = Default::default();
+    for f in files {
+        let name = super::registrations::file_name(&f);
+        let valve = datasets::parse_registration_name(&name).valve;
+        by_valve.entry(valve).or_default().push(f);
+    }
+    let (valve, files) = match &args.valve {
+        Some(v) => match by_valve.remove(v) {
+            Some(f) => (v.clone(), f),
+            None => {
+                return Err(data(anyhow!(
+                    "no registration of valve {v} (found: {})",
+                    by_valve.keys().cloned().collect::<Vec<_>>().join(", ")
+                )))
+            }
+        },
+        None if by_valve.len() == 1 => by_valve.pop_first().unwrap_or_default(),
+        None if by_valve.is_empty() => return Err(data(anyhow!("no registration files found"))),
+        None => {
+            let list: Vec<String> = by_valve
+                .iter()
+                .map(|(k, v)| format!("{k} ({})", v.len()))
+                .collect();
+            return Err(usage(anyhow!(
+                "trend follows one valve; the files hold {}: choose one with --valve",
+                list.join(", ")
+            )));
+        }
+    };
+    let explainer = FitEvidence {
+        min_fit: args.min_fit,
+    };
+    let plan = Plan {
+        stiction: &args.stiction,
+        linear: &args.linear,
+        search: &args.search,
+        data: &args.data,
+        integrating: args.integrating,
+        explainer: &explainer,
+    };
+    let bar = crate::progress::Progress::new(s.progress, &format!("trend {valve}"));
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let mut regs: Vec<Registration> = files
+        .par_iter()
+        .map(|f| {
+            let r = evaluate(f, &plan);
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            bar.update(k, files.len());
+            r
+        })
+        .collect();
+    bar.finish();
+    // In time; unknown times last, by name.
+    regs.sort_by(|a, b| match (a.start, b.start) {
+        (Some(x), Some(y)) => x.total_cmp(&y).then_with(|| a.file.cmp(&b.file)),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => a.file.cmp(&b.file),
+    });
+    let mut trends = Vec::new();
+    let mut c = 0;
+    for st in &args.stiction {
+        for li in &args.linear {
+            trends.push(trend_of(&regs, c, args.min_fit, (st, li)));
+            c += 1;
+        }
+    }
+    let mean_of = |f: &dyn Fn(&ComboTrend) -> Option<f64>| {
+        let v: Vec<f64> = trends.iter().filter_map(f).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let level = mean_of(&|t| t.level);
+    let latest = mean_of(&|t| t.latest);
+    let slope = mean_of(&|t| t.slope_30d);
+    let (verdict, reason) = verdict(level, latest, slope, args.threshold, args.horizon);
+    let rule = format!(
+        "schedule maintenance when the level (median S of the usable registrations, mean over \
+         combinations) >= {t} %; watch when it is below but the latest usable S or the \
+         {h}-day projection of the Theil-Sen trend reaches {t} %, or the level >= {half} %; \
+         healthy otherwise",
+        t = args.threshold,
+        h = args.horizon,
+        half = args.threshold / 2.0
+    );
+
+    if args.json {
+        let combos: Vec<Value> = trends
+            .iter()
+            .enumerate()
+            .map(|(c, t)| {
+                let rows: Vec<Value> = regs
+                    .iter()
+                    .zip(&t.flags)
+                    .map(|(r, flag)| {
+                        let mut row = json!({
+                            "file": r.file,
+                            "time": r.start.map(format_epoch),
+                            "time_source": r.time_source,
+                            "flag": flag.label(),
+                            "integrating": r.integrating,
+                            "notes": r.notes,
+                        });
+                        match r.outcome.as_ref().map(|o| &o[c].result) {
+                            Err(e) | Ok(Err(e)) => row["error"] = json!(e),
+                            Ok(Ok(f)) => {
+                                row["S"] = json!(f.s);
+                                row["S_range"] = json!(f.s_range);
+                                row["J"] = json!(f.j);
+                                row["J_range"] = json!(f.j_range);
+                                row["fit_pv_val"] = json!(f.fit_val);
+                                row["why"] = json!(f.evidence);
+                                row["quantify"] = f.json.clone();
+                            }
+                        }
+                        row
+                    })
+                    .collect();
+                json!({
+                    "stiction_model": t.stiction, "linear_model": t.linear,
+                    "level": t.level, "slope_per_30_days": t.slope_30d, "latest": t.latest,
+                    "outlier_band": t.band, "registrations": rows,
+                })
+            })
+            .collect();
+        let doc = json!({
+            "valve": valve, "registrations": regs.len(), "threshold": args.threshold,
+            "min_fit": args.min_fit, "horizon_days": args.horizon,
+            "level": level, "latest": latest, "slope_per_30_days": slope,
+            "verdict": verdict, "reason": reason, "rule": rule, "combinations": combos,
+        });
+        serde_json::to_writer_pretty(&mut *s.stdout, &doc).map_err(data)?;
+        writeln!(s.stdout).map_err(data)?;
+        return Ok(());
+    }
+
+    let out = &mut *s.stdout;
+    let first = regs.iter().find_map(|r| r.start).map(format_epoch);
+    let last = regs.iter().rev().find_map(|r| r.start).map(format_epoch);
+    writeln!(
+        out,
+        "valve {valve}: {} registration(s), {} .. {}{}",
+        regs.len(),
+        first.unwrap_or_else(|| "?".into()),
+        last.unwrap_or_else(|| "?".into()),
+        if regs.iter().any(|r| r.integrating) {
+            "; integrating loop: identified from MV to ΔPV"
+        } else {
+            ""
+        }
+    )
+    .map_err(data)?;
+    for (c, t) in trends.iter().enumerate() {
+        writeln!(out, "\n{} + {}", t.stiction, t.linear).map_err(data)?;
+        writeln!(
+            out,
+            "{:>3}  {:<16}  {:>6} {:>13}  {:>5} {:>11}  {:>8}  {:<7}  why",
+            "#", "time", "S", "S range", "J", "J range", "F_PV val", "flag"
+        )
+        .map_err(data)?;
+        for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
+            let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
+            match r.outcome.as_ref().map(|o| &o[c].result) {
+                Err(e) | Ok(Err(e)) => {
+                    writeln!(out, "{:>3}  {time:<16}  error: {}: {e}", k + 1, r.file)
+                        .map_err(data)?;
+                }
+                Ok(Ok(f)) => {
+                    let why = if *flag == Flag::Used {
+                        String::new()
+                    } else if f.evidence.is_empty() {
+                        "no evidence of a disturbance in this registration: the valve itself \
+                         may have changed (maintenance, operating range)"
+                            .to_string()
+                    } else {
+                        f.evidence.join("; ")
+                    };
+                    writeln!(
+                        out,
+                        "{:>3}  {time:<16}  {:>6.2} {:>13}  {:>5.2} {:>11}  {:>8.1}  {:<7}  {why}",
+                        k + 1,
+                        f.s,
+                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
+                        f.j,
+                        format!("{:.2}-{:.2}", f.j_range[0], f.j_range[1]),
+                        f.fit_val,
+                        flag.label()
+                    )
+                    .map_err(data)?;
+                }
+            }
+        }
+        let used = t.flags.iter().filter(|f| **f == Flag::Used).count();
+        let count = |x: Flag| t.flags.iter().filter(|f| **f == x).count();
+        writeln!(
+            out,
+            "  usable {used}, weak {}, outliers {}, errors {}{}",
+            count(Flag::Weak),
+            count(Flag::Outlier),
+            count(Flag::Error),
+            t.band
+                .map(|b| format!("; outlier band S in [{:.2}, {:.2}]", b[0], b[1]))
+                .unwrap_or_default()
+        )
+        .map_err(data)?;
+        writeln!(
+            out,
+            "  level (median S) {}; trend {}; latest usable S {}",
+            t.level.map_or("-".into(), |v| format!("{v:.2} %")),
+            t.slope_30d
+                .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
+            t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
+        )
+        .map_err(data)?;
+    }
+    writeln!(out, "\nverdict: {verdict}: {reason}").map_err(data)?;
+    writeln!(out, "rule: {rule}").map_err(data)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn theil_sen_ignores_one_wild_point() {
+        let p = [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 40.0), (4.0, 5.0)];
+        assert_eq!(theil_sen(&p), Some(1.0));
+    }
+
+    #[test]
+    fn verdicts() {
+        assert_eq!(
+            verdict(Some(1.2), None, None, 1.0, 90.0).0,
+            "schedule maintenance"
+        );
+        assert_eq!(verdict(Some(0.2), Some(1.1), None, 1.0, 90.0).0, "watch");
+        assert_eq!(
+            verdict(Some(0.2), Some(0.2), Some(0.3), 1.0, 90.0).0,
+            "watch"
+        );
+        assert_eq!(
+            verdict(Some(0.6), Some(0.6), Some(0.0), 1.0, 90.0).0,
+            "watch"
+        );
+        assert_eq!(
+            verdict(Some(0.2), Some(0.2), Some(0.0), 1.0, 90.0).0,
+            "healthy"
+        );
+        assert_eq!(verdict(None, None, None, 1.0, 90.0).0, "undetermined");
+    }
+}

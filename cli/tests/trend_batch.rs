@@ -1,0 +1,274 @@
+//! `stiction trend` and `stiction batch` on registrations generated with a seed (a valve whose
+//! stiction grows), a bad file, resumability, and the real plant data in `../shared` (skipped
+//! when absent).
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::run;
+use datasets::simulate::Scenario;
+use serde_json::Value;
+use stiction_models::Kano;
+
+/// A fresh temporary directory.
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("stiction-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Registrations of valve V1 a month apart with S = 2, 3, 4, 5, 6 % (J = 1), plus a file whose
+/// PV is constant.
+fn write_registrations(dir: &Path) -> Vec<f64> {
+    let s_true = vec![2.0, 3.0, 4.0, 5.0, 6.0];
+    for (k, s) in s_true.iter().enumerate() {
+        let scenario = Scenario {
+            valve: Box::new(Kano::params().s(*s).j(1.0).check().unwrap()),
+            samples: 900,
+            seed: 10 + k as u64,
+            ..Scenario::default()
+        };
+        let sim = scenario.simulate().unwrap();
+        let f = std::fs::File::create(dir.join(format!("V1_2024{:02}01-0800.csv", k + 1))).unwrap();
+        sim.write_csv(f).unwrap();
+    }
+    let mut bad = String::from("t,PV,OP\n");
+    for i in 0..100 {
+        bad.push_str(&format!("{i},5.0,{}\n", 50.0 + (i % 7) as f64));
+    }
+    std::fs::write(dir.join("V1_20240615-0800.csv"), bad).unwrap();
+    s_true
+}
+
+#[test]
+fn trend_follows_growing_stiction_and_keeps_the_bad_file_in_its_row() {
+    let dir = temp_dir("trend");
+    let s_true = write_registrations(&dir);
+    let out = run(
+        &["trend", dir.to_str().unwrap(), "--json", "--threshold", "3"],
+        b"",
+    );
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    let doc: Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(doc["valve"], "V1");
+    assert_eq!(doc["registrations"], 6);
+    let regs = doc["combinations"][0]["registrations"].as_array().unwrap();
+    // In time: Jan, Feb, Mar, Apr, May, then the bad file of 15 June.
+    let times: Vec<&str> = regs.iter().map(|r| r["time"].as_str().unwrap()).collect();
+    assert_eq!(times[0], "2024-01-01 08:00");
+    assert_eq!(times[5], "2024-06-15 08:00");
+    let bad = &regs[5];
+    assert_eq!(bad["flag"], "error");
+    let msg = bad["error"].as_str().unwrap();
+    assert!(
+        msg.contains("V1_20240615-0800.csv") && msg.contains("column PV: constant"),
+        "{msg}"
+    );
+    // Estimates follow the true S, in order.
+    let s: Vec<f64> = regs[..5].iter().map(|r| r["S"].as_f64().unwrap()).collect();
+    for (est, truth) in s.iter().zip(&s_true) {
+        assert!(
+            (est - truth).abs() < 0.6,
+            "S {est} for a valve with S = {truth}"
+        );
+    }
+    assert!(
+        doc["slope_per_30_days"].as_f64().unwrap() > 0.5,
+        "{}",
+        doc["slope_per_30_days"]
+    );
+    assert_eq!(doc["verdict"], "schedule maintenance");
+    // A threshold above every S: not scheduled, but the level is over half of it: watched.
+    let out = run(
+        &[
+            "trend",
+            dir.to_str().unwrap(),
+            "--json",
+            "--threshold",
+            "7.5",
+        ],
+        b"",
+    );
+    let doc: Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(doc["verdict"], "watch", "{}", doc["reason"]);
+    let out = run(
+        &[
+            "trend",
+            dir.to_str().unwrap(),
+            "--json",
+            "--threshold",
+            "20",
+        ],
+        b"",
+    );
+    let doc: Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(doc["verdict"], "healthy", "{}", doc["reason"]);
+    // Text output names the verdict and the rule.
+    let out = run(&["trend", dir.to_str().unwrap()], b"");
+    assert_eq!(out.code, 0);
+    assert!(
+        out.stdout.contains("valve V1: 6 registration(s)"),
+        "{}",
+        out.stdout
+    );
+    assert!(
+        out.stdout.contains("verdict: schedule maintenance"),
+        "{}",
+        out.stdout
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn trend_refuses_several_valves_without_valve() {
+    let dir = temp_dir("two-valves");
+    let text = "t,PV,OP\n0,1,2\n1,2,3\n";
+    std::fs::write(dir.join("A_20240101-0000.csv"), text).unwrap();
+    std::fs::write(dir.join("B_20240101-0000.csv"), text).unwrap();
+    let out = run(&["trend", dir.to_str().unwrap()], b"");
+    assert_eq!(out.code, 2);
+    assert!(
+        out.stderr.contains("A (1), B (1): choose one with --valve"),
+        "{}",
+        out.stderr
+    );
+    let out = run(&["trend", dir.to_str().unwrap(), "--valve", "C"], b"");
+    assert_eq!(out.code, 1);
+    assert!(
+        out.stderr
+            .contains("no registration of valve C (found: A, B)"),
+        "{}",
+        out.stderr
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn jsonl(path: &Path) -> Vec<Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+#[test]
+fn batch_writes_rows_reports_failures_and_resumes() {
+    let dir = temp_dir("batch");
+    write_registrations(&dir);
+    let out_prefix = dir.join("out");
+    let args = [
+        "batch",
+        dir.to_str().unwrap(),
+        "-o",
+        out_prefix.to_str().unwrap(),
+    ];
+    let out = run(&args, b"");
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    assert!(
+        out.stdout
+            .contains("6 file(s): 5 row(s) ok, 1 error row(s); 6 file(s) computed, 0 skipped"),
+        "{}",
+        out.stdout
+    );
+    let rows = jsonl(&dir.join("out.jsonl"));
+    assert_eq!(rows.len(), 6);
+    let bad = rows
+        .iter()
+        .find(|r| r["file"] == "V1_20240615-0800.csv")
+        .unwrap();
+    assert_eq!(bad["status"], "error");
+    assert!(bad["error"]
+        .as_str()
+        .unwrap()
+        .contains("column PV: constant"));
+    let good = rows
+        .iter()
+        .find(|r| r["file"] == "V1_20240301-0800.csv")
+        .unwrap();
+    assert_eq!(good["status"], "ok");
+    assert!(
+        (good["S"].as_f64().unwrap() - 4.0).abs() < 0.6,
+        "{}",
+        good["S"]
+    );
+    let csv = std::fs::read_to_string(dir.join("out.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 7, "{csv}");
+    assert!(csv.starts_with("file,valve,time,status,stiction_model,linear_model,S,S_lo,S_hi"));
+
+    // Again: everything is already done.
+    let out = run(&args, b"");
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    assert!(
+        out.stdout.contains("0 file(s) computed, 6 skipped"),
+        "{}",
+        out.stdout
+    );
+    assert_eq!(jsonl(&dir.join("out.jsonl")).len(), 6);
+
+    // A changed file is done again, its old row replaced; a torn last line is dropped.
+    let f = dir.join("V1_20240615-0800.csv");
+    let mut text = std::fs::read_to_string(&f).unwrap();
+    text.push_str("100,5.0,51\n");
+    std::fs::write(&f, text).unwrap();
+    let mut j = std::fs::read_to_string(dir.join("out.jsonl")).unwrap();
+    j.push_str("{\"file\": \"torn");
+    std::fs::write(dir.join("out.jsonl"), j).unwrap();
+    let out = run(&args, b"");
+    assert!(
+        out.stdout.contains("1 file(s) computed, 5 skipped"),
+        "{}",
+        out.stdout
+    );
+    let rows = jsonl(&dir.join("out.jsonl"));
+    assert_eq!(rows.len(), 6);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The plant data: the sticky valve's trend, the healthy level loop, the bad-data valve.
+#[test]
+fn plant_data_trend_and_batch() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/plant");
+    if !dir.is_dir() {
+        println!("skipped: {} not found", dir.display());
+        return;
+    }
+    let d = dir.to_str().unwrap();
+    let out = run(&["trend", d, "--valve", "2411FIC20102", "--json"], b"");
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    let doc: Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(doc["registrations"], 23);
+    assert_eq!(doc["verdict"], "schedule maintenance", "{}", doc["reason"]);
+    let regs = doc["combinations"][0]["registrations"].as_array().unwrap();
+    let doubtful: Vec<&Value> = regs
+        .iter()
+        .filter(|r| r["flag"] == "outlier" || r["flag"] == "weak")
+        .collect();
+    assert!(!doubtful.is_empty());
+    for r in &doubtful {
+        assert!(!r["why"].as_array().unwrap().is_empty(), "{r}");
+    }
+
+    let out = run(&["trend", d, "--valve", "2111LIC31102B", "--json"], b"");
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    let doc: Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(doc["registrations"], 9);
+    assert!(doc["level"].as_f64().unwrap() < 1.0, "{}", doc["level"]);
+    assert_ne!(doc["verdict"], "schedule maintenance");
+
+    let out = run(&["batch", d, "--valve", "FIC10112"], b"");
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    assert!(
+        out.stdout.contains("0 row(s) ok, 2 error row(s)"),
+        "{}",
+        out.stdout
+    );
+    assert!(
+        out.stdout.contains("time does not increase"),
+        "{}",
+        out.stdout
+    );
+}
