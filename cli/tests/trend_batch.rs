@@ -272,3 +272,55 @@ fn plant_data_trend_and_batch() {
         out.stdout
     );
 }
+
+/// A registration disturbed by a slow external disturbance is flagged and the diagnosis says
+/// so (the paper's §5.2: outliers explained by a disturbance present in that registration).
+#[test]
+fn trend_explains_a_disturbed_registration_with_the_diagnosis() {
+    let dir = temp_dir("diagnosed");
+    for k in 0..6u64 {
+        let disturbed = k == 3;
+        let scenario = Scenario {
+            valve: Box::new(Kano::params().s(4.0).j(1.0).check().unwrap()),
+            samples: 1500,
+            seed: 40 + k,
+            disturbances: if disturbed {
+                vec![datasets::simulate::Disturbance::Paper { a: 1.5 }]
+            } else {
+                Vec::new()
+            },
+            ..Scenario::default()
+        };
+        let sim = scenario.simulate().unwrap();
+        let f = std::fs::File::create(dir.join(format!("V2_2024{:02}01-0800.csv", k + 1))).unwrap();
+        sim.write_csv(f).unwrap();
+    }
+    let o = run(&["trend", dir.to_str().unwrap(), "--json"], b"");
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    let v: Value = serde_json::from_str(&o.stdout).unwrap();
+    let rows = v["combinations"][0]["registrations"].as_array().unwrap();
+    assert_eq!(rows.len(), 6);
+    for (k, row) in rows.iter().enumerate() {
+        let why: Vec<&str> = row["why"]
+            .as_array()
+            .map(|a| a.iter().filter_map(Value::as_str).collect())
+            .unwrap_or_default();
+        if row["flag"] != "ok" {
+            assert!(
+                why.first().is_some_and(|w| w.starts_with("diagnosis:")),
+                "row {k}: {why:?}"
+            );
+        }
+        if k == 3 {
+            assert!(
+                why.first()
+                    .is_some_and(|w| w.starts_with("diagnosis: disturbance")),
+                "the disturbed registration: flag {}, why {why:?}",
+                row["flag"]
+            );
+        } else {
+            assert_eq!(row["flag"], "ok", "row {k}: {why:?}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -238,9 +238,8 @@ pub(crate) fn increments(d: &LoopData) -> LoopData {
 /// disturbance, a drifting operating point, poor data). Used to say *why* a registration is
 /// doubtful or an outlier.
 ///
-/// This is the hook for the diagnosis capability (`stiction diagnose`, crate `discrepancy`):
-/// an implementation backed by it replaces [`FitEvidence`] in [`Plan::explainer`] without
-/// touching `trend` or `batch`.
+/// `trend` adds the diagnosis of each doubtful registration ([`diagnose_registration`]) in
+/// front of this evidence; the diagnosis runs only for the registrations that need it.
 pub(crate) trait ExplainFit {
     /// Sentences a plant engineer can read; empty when nothing stands out.
     fn explain(&self, d: &LoopData, q: &Quantification, notes: &[String]) -> Vec<String>;
@@ -322,6 +321,62 @@ impl ExplainFit for FitEvidence {
         }
         why
     }
+}
+
+/// The diagnosis (`discrepancy::diagnose`, as `stiction diagnose`) of one registration with
+/// one stiction x linear combination as baseline, in one sentence: what the model misses in
+/// that record and what the extension changes. Used by `trend` for its doubtful registrations.
+pub(crate) fn diagnose_registration(
+    reg: &Registration,
+    stiction: &str,
+    linear: &str,
+    plan: &Plan<'_>,
+) -> Result<String, String> {
+    let opts = plan.data.read_options(true, 30);
+    let d = datasets::read_path(&reg.path, &opts).map_err(|e| e.to_string())?;
+    let d = if reg.integrating { increments(&d) } else { d };
+    let pv = d.require_pv().map_err(|e| e.to_string())?;
+    let (lo, hi) =
+        d.op.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+    let span = hi - lo;
+    let fail = |f: crate::Failure| format!("{:#}", f.error());
+    let (identifier, id_entry) =
+        super::search_flags::build_identifier(linear, plan.search.orders.as_deref(), 0)
+            .map_err(fail)?;
+    let baseline = discrepancy::Baseline {
+        stiction: stiction_models::find_model(stiction).map_err(|e| e.to_string())?,
+        linear: id_entry,
+        orders: identifier
+            .orders()
+            .into_iter()
+            .filter(|(k, _)| *k != "delay")
+            .map(|(k, v)| (k.to_string(), v))
+            .collect(),
+        delay: 0,
+    };
+    let mut options = discrepancy::DiagnoseOptions::for_span(span);
+    options.search = plan.search.options(span).map_err(fail)?;
+    let problem = grid_search::Problem {
+        op: &d.op,
+        pv,
+        mv: d.mv.as_deref(),
+    };
+    let dg = discrepancy::diagnose(problem, &baseline, &options).map_err(|e| e.to_string())?;
+    Ok(match dg.chosen.and_then(|i| dg.findings.get(i)) {
+        Some(f) => {
+            let s = f.extended.as_ref().map_or(String::new(), |x| {
+                format!(", S {:.2} -> {:.2} %", dg.baseline.s, x.s)
+            });
+            format!(
+                "diagnosis: {} (validation F_PV {:+.1} points{s})",
+                f.cause, f.gain_fit_pv_val
+            )
+        }
+        None => "diagnosis: none (no extension explains this record significantly better)".into(),
+    })
 }
 
 /// Share of the variance of `r` carried by its moving average over `len/10` samples.

@@ -12,7 +12,8 @@ use stiction_models::find_model;
 
 use super::load::DataFlags;
 use super::registrations::{
-    evaluate, expand, median, ComboFit, FitEvidence, IntegratingFlag, Plan, Registration,
+    diagnose_registration, evaluate, expand, median, ComboFit, FitEvidence, IntegratingFlag, Plan,
+    Registration,
 };
 use super::search_flags::{build_identifier, SearchFlags};
 use crate::{data, usage, CmdResult, Streams};
@@ -77,6 +78,10 @@ pub struct Args {
     search: SearchFlags,
     #[command(flatten)]
     data: DataFlags,
+    /// Do not diagnose the weak and outlying registrations (faster; `why` then lists only the
+    /// evidence from the quantification itself).
+    #[arg(long)]
+    no_diagnose: bool,
     /// Print one JSON document.
     #[arg(long)]
     json: bool,
@@ -128,6 +133,12 @@ fn theil_sen(points: &[(f64, f64)]) -> Option<f64> {
 
 fn fit_at(r: &Registration, c: usize) -> Option<&ComboFit> {
     r.outcome.as_ref().ok()?.get(c)?.result.as_ref().ok()
+}
+
+/// The stiction and linear names of combination `c` (stiction-major order).
+fn combo_names(args: &Args, c: usize) -> (&str, &str) {
+    let n = args.linear.len().max(1);
+    (&args.stiction[c / n], &args.linear[c % n])
 }
 
 fn trend_of(regs: &[Registration], c: usize, min_fit: f64, names: (&str, &str)) -> ComboTrend {
@@ -307,6 +318,38 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         for li in &args.linear {
             trends.push(trend_of(&regs, c, args.min_fit, (st, li)));
             c += 1;
+        }
+    }
+    // Say why a registration is doubtful: the diagnosis of each weak or outlying one, first
+    // in its evidence (in parallel; skipped with --no-diagnose).
+    if !args.no_diagnose {
+        let jobs: Vec<(usize, usize)> = trends
+            .iter()
+            .enumerate()
+            .flat_map(|(c, t)| {
+                t.flags
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, f)| **f != Flag::Used)
+                    .map(move |(k, _)| (k, c))
+            })
+            .filter(|&(k, c)| fit_at(&regs[k], c).is_some())
+            .collect();
+        let found: Vec<((usize, usize), String)> = jobs
+            .par_iter()
+            .map(|&(k, c)| {
+                let (st, li) = combo_names(&args, c);
+                let why = diagnose_registration(&regs[k], st, li, &plan)
+                    .unwrap_or_else(|e| format!("diagnosis failed: {e}"));
+                ((k, c), why)
+            })
+            .collect();
+        for ((k, c), why) in found {
+            if let Ok(combos) = &mut regs[k].outcome {
+                if let Ok(f) = &mut combos[c].result {
+                    f.evidence.insert(0, why);
+                }
+            }
         }
     }
     let mean_of = |f: &dyn Fn(&ComboTrend) -> Option<f64>| {
