@@ -27,6 +27,14 @@ pub enum Criterion {
 }
 
 impl Criterion {
+    /// The other criterion (reported beside the ranking one).
+    pub fn other(self) -> Criterion {
+        match self {
+            Criterion::Prediction => Criterion::Simulation,
+            Criterion::Simulation => Criterion::Prediction,
+        }
+    }
+
     /// `prediction` or `simulation`.
     pub fn label(self) -> &'static str {
         match self {
@@ -152,7 +160,8 @@ pub struct Fits {
 }
 
 impl Fits {
-    fn rank(&self, c: Criterion) -> (f64, f64) {
+    /// The (identification, validation) F_PV under criterion `c`.
+    pub fn rank(&self, c: Criterion) -> (f64, f64) {
         match c {
             Criterion::Prediction => (self.pred_id, self.pred_val),
             Criterion::Simulation => (self.sim_id, self.sim_val),

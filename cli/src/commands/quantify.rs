@@ -234,20 +234,8 @@ pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
         .into_iter()
         .map(|(k, v)| (k.to_string(), json!(v)))
         .collect();
-    let (fit_id, fit_val, other_id, other_val) = match q.criterion {
-        grid_search::Criterion::Prediction => (
-            q.fits.pred_id,
-            q.fits.pred_val,
-            q.fits.sim_id,
-            q.fits.sim_val,
-        ),
-        grid_search::Criterion::Simulation => (
-            q.fits.sim_id,
-            q.fits.sim_val,
-            q.fits.pred_id,
-            q.fits.pred_val,
-        ),
-    };
+    let (fit_id, fit_val) = q.fits.rank(q.criterion);
+    let (other_id, other_val) = q.fits.rank(q.criterion.other());
     json!({
         "stiction_model": r.stiction.name,
         "linear_model": r.linear_name,
@@ -257,10 +245,11 @@ pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
         "fit_pv_id": fit_id,
         "fit_pv_val": fit_val,
         "fit_kind": q.criterion.label(),
-        "fit_pv_other": { "kind": match q.criterion {
-            grid_search::Criterion::Prediction => "simulation",
-            grid_search::Criterion::Simulation => "prediction",
-        }, "id": round(other_id, 6), "val": round(other_val, 6) },
+        "fit_pv_other": {
+            "kind": q.criterion.other().label(),
+            "id": round(other_id, 6),
+            "val": round(other_val, 6),
+        },
         "fit_mv": q.fits.mv,
         "fit_no_stiction": q.fit_no_stiction,
         "delay": r.delay,
@@ -355,20 +344,8 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         own.join(", ")
     )
     .map_err(data)?;
-    let (fid, fval, oid, oval) = match q.criterion {
-        grid_search::Criterion::Prediction => (
-            q.fits.pred_id,
-            q.fits.pred_val,
-            q.fits.sim_id,
-            q.fits.sim_val,
-        ),
-        grid_search::Criterion::Simulation => (
-            q.fits.sim_id,
-            q.fits.sim_val,
-            q.fits.pred_id,
-            q.fits.pred_val,
-        ),
-    };
+    let (fid, fval) = q.fits.rank(q.criterion);
+    let (oid, oval) = q.fits.rank(q.criterion.other());
     writeln!(
         out,
         "  F_PV id {:.2} %, val {:.2} %   (other fit: id {}, val {})   F_MV {}   no stiction: val {}",
@@ -502,10 +479,7 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         match r {
             Ok(r) => {
                 let q = &r.result;
-                let (fid, fval) = match q.criterion {
-                    grid_search::Criterion::Prediction => (q.fits.pred_id, q.fits.pred_val),
-                    grid_search::Criterion::Simulation => (q.fits.sim_id, q.fits.sim_val),
-                };
+                let (fid, fval) = q.fits.rank(q.criterion);
                 writeln!(
                     out,
                     "{:<10} {:<7} {:>6.2} {:>13} {:>6.2} {:>13} {:>9.2} {:>9.2} {:>7} {:>7.1}s",
