@@ -148,3 +148,26 @@ proptest! {
         prop_assert!(o.code == 0 || o.code == 1, "code {} {}", o.code, o.stderr);
     }
 }
+
+#[test]
+fn mat_struct_of_loops_needs_a_loop_path() {
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../datasets/tests/fixtures/loop_isdb.mat"
+    );
+    let args = ["valve", file, "--model", "kano", "--param", "S=1"];
+    let (code, msg) = err_line(&args, "");
+    assert_eq!(code, 1);
+    assert!(
+        msg.ends_with(
+            "loop_isdb.mat: 2 loops (cdata.chemicals.loop1, cdata.chemicals.loop2): select one \
+             (ReadOptions::mat_loop, --loop PATH)"
+        ),
+        "{msg}"
+    );
+    let mut with_loop = args.to_vec();
+    with_loop.extend(["--loop", "cdata.chemicals.loop2"]);
+    let o = run(&with_loop, b"");
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    assert!(o.stdout.starts_with("OP,MV\n40"), "{}", o.stdout);
+}

@@ -4,8 +4,10 @@
 //!   optionally SP, MV and time) from CSV into [`LoopData`], with explicit policies for empty
 //!   and NaN cells ([`GapPolicy`]) and one-line errors naming file, row and column
 //!   ([`DataError`]).
-//! * [`read_mat`] / [`read_mat_path`] read the same variables from MATLAB v5 files (numeric
-//!   vectors; structs are not supported by the `matfile` crate), [`read_path`] picks the reader
+//! * [`read_mat`] / [`read_mat_path`] read the same variables from MATLAB v5 files (top-level
+//!   vectors, or a struct-of-loops such as the International Stiction Database's
+//!   `cdata.<sector>.loop<N>`, selected by [`ReadOptions::mat_loop`]; [`list_mat_loops`] lists
+//!   them), [`read_path`] picks the reader
 //!   by extension, [`parse_registration_name`] reads valve and start time from a file name.
 //! * [`simulate`] is the closed-loop benchmark of the reference paper (§3.1, eqs. 10-12): an
 //!   ARMAX plant under a velocity-form PI controller with a sticky valve taken from any
@@ -29,7 +31,7 @@ mod registration;
 pub mod simulate;
 
 pub use error::DataError;
-pub use mat::{read_mat, read_mat_path};
+pub use mat::{list_mat_loops, read_mat, read_mat_path};
 pub use read::{read_csv, read_csv_path, GapPolicy, ReadOptions};
 pub use registration::{format_epoch, parse_registration_name, RegistrationName};
 

@@ -80,6 +80,10 @@ pub struct ReadOptions {
     pub min_rows: usize,
     /// Header name of the controller-mode column (`None` = `MODE`).
     pub mode: Option<String>,
+    /// MATLAB files only: path of the loop to read in a struct-of-loops file, such as
+    /// `cdata.chemicals.loop1` (`""` = the top-level variables); `None` = the top-level
+    /// variables when they form a loop, else the file's only loop (see [`crate::list_mat_loops`]).
+    pub mat_loop: Option<String>,
 }
 
 impl Default for ReadOptions {
@@ -94,6 +98,7 @@ impl Default for ReadOptions {
             gaps: GapPolicy::Refuse,
             min_rows: 3,
             mode: None,
+            mat_loop: None,
         }
     }
 }

@@ -34,6 +34,10 @@ pub struct DataFlags {
     /// segment is used (0 / MAN = manual; other numbers, AUTO, CAS = closed loop).
     #[arg(long, value_name = "NAME")]
     mode: Option<String>,
+    /// `.mat` files: the loop to read in a struct-of-loops file, e.g. `cdata.chemicals.loop1`
+    /// (needed when the file has several loops; the error lists them).
+    #[arg(long = "loop", value_name = "PATH")]
+    mat_loop: Option<String>,
 }
 
 impl DataFlags {
@@ -90,6 +94,7 @@ impl DataFlags {
             },
             min_rows,
             mode: flags.mode.clone(),
+            mat_loop: flags.mat_loop.clone(),
         }
     }
 }
