@@ -137,7 +137,10 @@ fn remaps_and_missing_variables() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    // 200 cases by default; `PROPTEST_CASES` (`cargo xtask proptest --cases N`) scales it.
+    #![proptest_config(ProptestConfig::with_cases(
+        std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(200)
+    ))]
 
     #[test]
     fn never_panics_on_corrupted_files(cut in 0usize..1800, flip in 0usize..1800, byte in any::<u8>()) {
