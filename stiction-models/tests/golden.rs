@@ -5,7 +5,10 @@
 //! The golden values are multiples of 0.5 and every operation that produces them is exact in
 //! binary floating point, so they are compared with `assert_eq!`.
 
-use stiction_models::{Direction, He, InitialState, Kano, KanoAsym, StictionError, StictionModel};
+mod common;
+use common::{he, kano, kano_asym};
+
+use stiction_models::{Direction, He, InitialState, StictionError, StictionModel};
 
 const GOLDEN_OP: [f64; 20] = [
     50.0, 50.5, 51.0, 52.0, 54.0, 56.0, 56.0, 56.5, 57.5, 58.0, 57.0, 55.0, 53.0, 52.0, 51.5, 52.0,
@@ -26,31 +29,6 @@ const GOLDEN_KANO_DOWN: [f64; 20] = [
     51.5, 51.5, 51.5, 51.5, 51.5, 54.5, 54.5, 54.5, 56.0, 56.5, 56.5, 56.5, 54.5, 53.5, 53.0, 53.0,
     53.0, 53.0, 53.0, 54.5,
 ];
-
-fn kano(s: f64, j: f64) -> Kano {
-    Kano::params()
-        .s(s)
-        .j(j)
-        .check()
-        .expect("valid Kano parameters")
-}
-
-fn he(fs: f64, fd: f64) -> He {
-    He::params()
-        .fs(fs)
-        .fd(fd)
-        .check()
-        .expect("valid He parameters")
-}
-
-fn kano_asym(d: f64, j_up: f64, j_dn: f64) -> KanoAsym {
-    KanoAsym::params()
-        .d(d)
-        .j_up(j_up)
-        .j_dn(j_dn)
-        .check()
-        .expect("valid kano-asym parameters")
-}
 
 // ---------------------------------------------------------------------------------------------
 // §8.1 golden vectors

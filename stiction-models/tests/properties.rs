@@ -7,6 +7,9 @@
 //! really occur and equivariance properties can be asserted with `==`. The number of cases
 //! follows `PROPTEST_CASES` (default 256).
 
+mod common;
+use common::{he, kano, kano_asym};
+
 use proptest::prelude::*;
 use stiction_models::{
     find_model, registry, run_valve, Direction, He, InitialState, Initialization, Kano, KanoAsym,
@@ -16,31 +19,6 @@ use stiction_models::{
 // ---------------------------------------------------------------------------------------------
 // Helpers and strategies
 // ---------------------------------------------------------------------------------------------
-
-fn kano(s: f64, j: f64) -> Kano {
-    Kano::params()
-        .s(s)
-        .j(j)
-        .check()
-        .expect("valid Kano parameters")
-}
-
-fn he(fs: f64, fd: f64) -> He {
-    He::params()
-        .fs(fs)
-        .fd(fd)
-        .check()
-        .expect("valid He parameters")
-}
-
-fn kano_asym(d: f64, j_up: f64, j_dn: f64) -> KanoAsym {
-    KanoAsym::params()
-        .d(d)
-        .j_up(j_up)
-        .j_dn(j_dn)
-        .check()
-        .expect("valid kano-asym parameters")
-}
 
 fn sim(model: &dyn StictionModel, op: &[f64], init: &InitialState) -> Vec<f64> {
     model.simulate(op, init).expect("finite OP and init")
