@@ -17,6 +17,7 @@ use clap::{Parser, Subcommand};
 mod commands;
 mod io;
 mod progress;
+mod reporting;
 
 pub use io::Streams;
 

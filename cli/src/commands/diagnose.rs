@@ -12,7 +12,11 @@ use stiction_models::find_model;
 use super::load::DataFlags;
 use super::quantify::{loop_data, quantify_json, Example, Run};
 use super::search_flags::{build_identifier, DelayFlag, SearchFlags};
-use crate::{data, usage, CmdResult, Streams};
+use crate::reporting::{self, ReportFlags, RunView};
+use crate::{data, usage, CmdResult, Failure, Streams};
+use datasets::LoopData;
+use discrepancy::Diagnosis;
+use report::{figures, Block, Report, Section};
 
 pub(crate) const AFTER_HELP: &str = "\
 Fits the baseline (default kano + arx with the paper's orders), characterises its residuals on
@@ -53,9 +57,8 @@ pub struct Args {
     /// Skip a cause (repeatable; for comparisons).
     #[arg(long, value_name = "CAUSE")]
     without: Vec<String>,
-    /// Write a report directory (not yet supported).
-    #[arg(long, value_name = "DIR")]
-    report: Option<PathBuf>,
+    #[command(flatten)]
+    report: ReportFlags,
     /// Print one JSON document.
     #[arg(long)]
     json: bool,
@@ -82,11 +85,6 @@ fn num(x: f64) -> Value {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    if args.report.is_some() {
-        return Err(usage(anyhow!(
-            "--report is not yet supported by diagnose (reports come with a later release); use --json"
-        )));
-    }
     let delay = match args.search.delay {
         DelayFlag::Fixed(d) => d,
         DelayFlag::Auto => {
@@ -98,7 +96,12 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let stiction = find_model(&args.stiction).map_err(usage)?;
     let (identifier, id_entry) =
         build_identifier(&args.linear, args.search.orders.as_deref(), delay)?;
-    let d = loop_data(args.file.as_deref(), args.example, &args.data, s)?;
+    let file = args.file.as_deref();
+    let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "diagnose", s);
+    let d = match loop_data(file, args.example, &args.data, s) {
+        Ok(d) => d,
+        Err(f) => return Err(refused(f, s)),
+    };
     let pv = d.require_pv().map_err(data)?;
     let span = {
         let (lo, hi) =
@@ -126,10 +129,14 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         pv,
         mv: d.mv.as_deref(),
     };
-    let mut dg = diagnose(problem, &baseline, &options).map_err(|e| match e {
-        discrepancy::DiagnoseError::UnknownCause { .. } => usage(e),
-        other => data(anyhow!("{}: {other}", d.source)),
-    })?;
+    let mut dg = match diagnose(problem, &baseline, &options) {
+        Ok(dg) => dg,
+        Err(e @ discrepancy::DiagnoseError::UnknownCause { .. }) => return Err(usage(e)),
+        Err(other) => return Err(refused(data(anyhow!("{}: {other}", d.source)), s)),
+    };
+    if args.report.report.is_some() {
+        diagnose_report(&d, &dg, &args.report, s)?;
+    }
     let init = args.search.init.label();
     let findings: Vec<Value> = dg
         .findings
@@ -238,4 +245,167 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         .map_err(data)?;
     }
     Ok(())
+}
+
+/// The report of `diagnose`: the verdict, the findings, the baseline's and the extended
+/// model's figures, and what the residuals show.
+fn diagnose_report(
+    d: &LoopData,
+    dg: &Diagnosis,
+    flags: &ReportFlags,
+    s: &mut Streams<'_>,
+) -> Result<(), Failure> {
+    let started = std::time::Instant::now();
+    let name = reporting::loop_name(d);
+    let rep_err = |e: report::ReportError| data(anyhow!("report: {e}"));
+    let base = RunView::of_fitted(&dg.baseline_fit);
+    let base_label = reporting::combo(&base);
+    let chosen = dg
+        .chosen
+        .and_then(|i| dg.findings.get(i))
+        .and_then(|f| f.fitted.as_ref().map(|x| (f, x)));
+    let mut findings = Section::new("Causes tested");
+    findings.push(Block::Paragraph(format!(
+        "Each cause is tested by fitting the model extended for it and comparing the \
+         validation fit with the baseline {base_label} by a likelihood ratio (LR) that must \
+         pass the threshold. Chosen cause: {}.",
+        dg.cause
+    )));
+    let rows = dg
+        .findings
+        .iter()
+        .map(|f| {
+            let (ext, s_, j_) = match &f.extended {
+                Some(e) => (
+                    format!("{} × {} d={}", e.stiction_model, e.linear_model, e.delay),
+                    format!("{:.2}", e.s),
+                    format!("{:.2}", e.j),
+                ),
+                None => (
+                    f.error.clone().unwrap_or_else(|| "-".into()),
+                    "-".into(),
+                    "-".into(),
+                ),
+            };
+            vec![
+                f.cause.to_string(),
+                format!("{:.2}", f.statistic),
+                format!("{:.1}", f.lr),
+                format!("{:.1}", f.threshold.abs()),
+                if f.significant { "yes" } else { "no" }.into(),
+                ext,
+                s_,
+                j_,
+                format!("{:+.2}", f.gain_fit_pv_val),
+                f.evidence.clone(),
+            ]
+        })
+        .collect();
+    findings.push(Block::Table {
+        header: [
+            "cause",
+            "statistic",
+            "LR",
+            "needed",
+            "significant",
+            "extension",
+            "S",
+            "J",
+            "ΔF_PV val",
+            "evidence",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    });
+    let mut sections = vec![findings];
+    let sig = reporting::signals(d, &name);
+    let mut baseline = Section::new(format!("Baseline: {base_label}"));
+    baseline.push(Block::Paragraph(reporting::verdict(
+        base.result,
+        &format!("baseline {base_label}"),
+    )));
+    baseline.push(reporting::facts(&base));
+    if let Some(sig) = &sig {
+        for f in reporting::run_figures(sig, &base, "baseline-")? {
+            baseline.push(Block::Figure(f));
+        }
+    }
+    sections.push(baseline);
+    if let Some(sig) = &sig {
+        let mut res = Section::new("Residuals");
+        let r = &dg.residuals;
+        res.push(Block::Facts(vec![
+            (
+                "Ljung-Box Q (limit)".into(),
+                format!("{:.1} ({:.1})", r.ljung_box_q, r.ljung_box_limit),
+            ),
+            (
+                "cross-correlation with past MV".into(),
+                format!("z = {:.2} at lag {}", r.cross_mv_z, r.cross_mv_lag),
+            ),
+            (
+                "low-frequency share of the simulation residual".into(),
+                format!("{:.2}", r.low_frequency_ratio),
+            ),
+            (
+                "mean residual moving up / down".into(),
+                format!(
+                    "{:.3} / {:.3} (t = {:.2})",
+                    r.mean_up, r.mean_down, r.direction_t
+                ),
+            ),
+        ]));
+        let ext = chosen.map(|(f, x)| {
+            (
+                RunView::of_fitted(x),
+                format!("{} ({})", reporting::combo(&RunView::of_fitted(x)), f.cause),
+            )
+        });
+        let ext_ref = ext.as_ref().map(|(v, l)| (v.result, l.as_str()));
+        res.push(Block::Figure(
+            figures::residual_trends(sig, (base.result, &base_label), ext_ref, "residuals")
+                .map_err(rep_err)?,
+        ));
+        res.push(Block::Figure(
+            figures::residual_spectrum(sig, (base.result, &base_label), ext_ref, "spectrum")
+                .map_err(rep_err)?,
+        ));
+        sections.push(res);
+        if let Some((f, x)) = chosen {
+            let view = RunView::of_fitted(x);
+            let label = reporting::combo(&view);
+            let mut sec = Section::new(format!("Extended model for {}: {label}", f.cause));
+            sec.push(Block::Paragraph(format!(
+                "{} The extension changes the validation F_PV by {:+.2} points, S by {:+.2} and \
+                 J by {:+.2} % of valve span.",
+                reporting::verdict(view.result, &label),
+                f.gain_fit_pv_val,
+                f.delta_s,
+                f.delta_j
+            )));
+            sec.push(reporting::facts(&view));
+            if let Some(fig) =
+                figures::disturbance(sig, view.result, &label, "disturbance").map_err(rep_err)?
+            {
+                sec.push(Block::Figure(fig));
+            }
+            for fig in reporting::run_figures(sig, &view, "extended-")? {
+                sec.push(Block::Figure(fig));
+            }
+            sections.push(sec);
+        }
+    }
+    let rep = Report {
+        title: format!("diagnose: loop {name}, {base_label}"),
+        subtitle: format!(
+            "{} · {} samples · stiction diagnose · cause: {}",
+            d.source,
+            d.len(),
+            dg.cause
+        ),
+        summary: vec![dg.summary.clone()],
+        sections,
+    };
+    reporting::write(&rep, flags, started, s)
 }

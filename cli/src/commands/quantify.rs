@@ -8,12 +8,14 @@ use datasets::simulate::Scenario;
 use datasets::LoopData;
 use grid_search::{estimate_delay, quantify, Problem, Quantification, SearchOptions};
 use linear_id::LinearIdentifier;
+use report::{Block, Report, Section};
 use serde_json::{json, Value};
 use stiction_models::{find_model, Kano, ModelEntry};
 
 use super::load::{load, DataFlags};
 use super::search_flags::{build_identifier, DelayFlag, SearchFlags};
 use crate::progress::Progress;
+use crate::reporting::{self, ReportFlags, RunView};
 use crate::{data, usage, CmdResult, Failure, Streams};
 
 /// Largest dead time tried by `--delay auto`, samples.
@@ -72,6 +74,8 @@ pub struct QuantifyArgs {
     /// Write the fit over the whole grid as CSV (for plotting).
     #[arg(long, value_name = "FILE")]
     surface: Option<PathBuf>,
+    #[command(flatten)]
+    report: ReportFlags,
     /// Print one JSON document.
     #[arg(long)]
     json: bool,
@@ -106,6 +110,8 @@ pub struct CompareArgs {
     search: SearchFlags,
     #[command(flatten)]
     data: DataFlags,
+    #[command(flatten)]
+    report: ReportFlags,
     /// Print one JSON document.
     #[arg(long)]
     json: bool,
@@ -284,10 +290,41 @@ fn fmt_fit(f: Option<f64>) -> String {
 }
 
 pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult {
-    let d = loop_data(args.file.as_deref(), args.example, &args.data, s)?;
-    let r = run_one(&args.stiction, &args.linear, &args.search, &d, s)?;
+    let file = args.file.as_deref();
+    let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "quantify", s);
+    let d = match loop_data(file, args.example, &args.data, s) {
+        Ok(d) => d,
+        Err(f) => return Err(refused(f, s)),
+    };
+    let r = match run_one(&args.stiction, &args.linear, &args.search, &d, s) {
+        Ok(r) => r,
+        Err(f) => return Err(refused(f, s)),
+    };
     if let Some(path) = &args.surface {
         write_surface(path, &r).map_err(data)?;
+    }
+    if args.report.report.is_some() {
+        let started = Instant::now();
+        let name = reporting::loop_name(&d);
+        let view = RunView::of_run(&r);
+        let mut result = Section::new("Result");
+        result.push(reporting::facts(&view));
+        for w in &r.result.warnings {
+            result.push(Block::Note(w.clone()));
+        }
+        let mut figs = Section::new("Figures");
+        if let Some(sig) = reporting::signals(&d, &name) {
+            for f in reporting::run_figures(&sig, &view, "")? {
+                figs.push(Block::Figure(f));
+            }
+        }
+        let rep = Report {
+            title: format!("quantify: loop {name}, {}", reporting::combo(&view)),
+            subtitle: format!("{} · {} samples · stiction quantify", d.source, d.len()),
+            summary: vec![reporting::verdict(&r.result, &reporting::combo(&view))],
+            sections: vec![result, figs],
+        };
+        reporting::write(&rep, &args.report, started, s)?;
     }
     if args.json {
         let mut v = quantify_json(&r, args.search.init.label());
@@ -433,12 +470,26 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
     for name in &args.linear {
         build_identifier(name, None, 0)?;
     }
-    let d = loop_data(args.file.as_deref(), args.example, &args.data, s)?;
+    let d = match loop_data(args.file.as_deref(), args.example, &args.data, s) {
+        Ok(d) => d,
+        Err(f) => {
+            return Err(reporting::refused(
+                args.file.as_deref(),
+                f,
+                &args.report,
+                "compare",
+                s,
+            ))
+        }
+    };
     let mut rows = Vec::new();
     for st in &args.stiction {
         for li in &args.linear {
             rows.push((st.clone(), li.clone(), run_one(st, li, &args.search, &d, s)));
         }
+    }
+    if args.report.report.is_some() {
+        compare_report(&args, &d, &rows, s)?;
     }
     if args.json {
         let mut results = Vec::new();
@@ -503,4 +554,122 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         }
     }
     Ok(())
+}
+
+/// The report of `compare`: the table, then each combination's numbers and figures.
+fn compare_report(
+    args: &CompareArgs,
+    d: &LoopData,
+    rows: &[(String, String, Result<Run, Failure>)],
+    s: &mut Streams<'_>,
+) -> Result<(), Failure> {
+    let started = Instant::now();
+    let name = reporting::loop_name(d);
+    let header = [
+        "stiction", "linear", "S", "S range", "J", "J range", "F_PV id", "F_PV val", "F_MV",
+        "time (s)",
+    ]
+    .map(String::from)
+    .to_vec();
+    let mut table = Vec::new();
+    let mut ok: Vec<&Run> = Vec::new();
+    for (st, li, r) in rows {
+        match r {
+            Ok(r) => {
+                let q = &r.result;
+                let (fid, fval) = q.fits.rank(q.criterion);
+                table.push(vec![
+                    st.clone(),
+                    li.clone(),
+                    format!("{:.2}", q.s),
+                    format!("{:.2}-{:.2}", q.interval.s[0], q.interval.s[1]),
+                    format!("{:.2}", q.j),
+                    format!("{:.2}-{:.2}", q.interval.j[0], q.interval.j[1]),
+                    format!("{fid:.2}"),
+                    format!("{fval:.2}"),
+                    fmt_fit(q.fits.mv),
+                    format!("{:.2}", r.elapsed_ms / 1e3),
+                ]);
+                ok.push(r);
+            }
+            Err(f) => {
+                let msg = format!("{:#}", f.error()).replace('\n', " ");
+                let mut row = vec![st.clone(), li.clone(), format!("error: {msg}")];
+                row.resize(header.len(), String::new());
+                table.push(row);
+            }
+        }
+    }
+    let mut summary = Vec::new();
+    let best = ok.iter().max_by(|a, b| {
+        a.result
+            .fits_score(a.result.criterion)
+            .total_cmp(&b.result.fits_score(b.result.criterion))
+    });
+    if let Some(b) = best {
+        summary.push(format!(
+            "Best validation fit: {}",
+            reporting::verdict(&b.result, &reporting::combo(&RunView::of_run(b)))
+        ));
+        let mut ss: Vec<f64> = ok.iter().map(|r| r.result.s).collect();
+        ss.sort_by(f64::total_cmp);
+        summary.push(format!(
+            "Across the {} combinations that ran, S ranges {:.2}-{:.2} % (median {:.2} %) and \
+             J {:.2}-{:.2} %; {} failed.",
+            ok.len(),
+            ss[0],
+            ss[ss.len() - 1],
+            ss[ss.len() / 2],
+            ok.iter().map(|r| r.result.j).fold(f64::INFINITY, f64::min),
+            ok.iter()
+                .map(|r| r.result.j)
+                .fold(f64::NEG_INFINITY, f64::max),
+            rows.len() - ok.len()
+        ));
+    } else {
+        summary.push("No combination could be fitted; the table gives each one's reason.".into());
+    }
+    let mut overview = Section::new("All combinations");
+    overview.push(Block::Paragraph(format!(
+        "S and J in % of valve span with their likelihood-ratio ranges; F_PV in % ({}), \
+         identification and validation; F_MV when MV is logged.",
+        args.search.criterion_label()
+    )));
+    overview.push(Block::Table {
+        header,
+        rows: table,
+    });
+    let mut sections = vec![overview];
+    let sig = reporting::signals(d, &name);
+    for r in &ok {
+        let view = RunView::of_run(r);
+        let mut sec = Section::new(reporting::combo(&view));
+        sec.push(Block::Paragraph(reporting::verdict(
+            &r.result,
+            &reporting::combo(&view),
+        )));
+        sec.push(reporting::facts(&view));
+        for w in &r.result.warnings {
+            sec.push(Block::Note(w.clone()));
+        }
+        if let Some(sig) = &sig {
+            let prefix = format!("{}-{}-", r.stiction.name, r.linear_name);
+            for f in reporting::run_figures(sig, &view, &prefix)? {
+                sec.push(Block::Figure(f));
+            }
+        }
+        sections.push(sec);
+    }
+    let rep = Report {
+        title: format!("compare: loop {name}"),
+        subtitle: format!(
+            "{} · {} samples · stiction compare ({} combinations)",
+            d.source,
+            d.len(),
+            rows.len()
+        ),
+        summary,
+        sections,
+    };
+    reporting::write(&rep, &args.report, started, s)
 }

@@ -63,6 +63,14 @@ pub(crate) enum CriterionFlag {
 
 impl SearchFlags {
     /// Search options for a record with OP span `span`.
+    /// The ranking criterion in words.
+    pub(crate) fn criterion_label(&self) -> &'static str {
+        match self.criterion {
+            CriterionFlag::Prediction => "one-step prediction",
+            CriterionFlag::Simulation => "free-run simulation",
+        }
+    }
+
     pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
         let grid = match self.step {
             Some(step) if step.is_finite() && step > 0.0 => GridPlan::Exhaustive { step },

@@ -1,0 +1,822 @@
+//! The figures of a report, built from a loop's signals and the results of a run.
+
+use grid_search::{Criterion, GridPlan, Quantification};
+use stiction_models::{run_valve, InitialState, Initialization, StictionModel};
+
+use crate::chart::{
+    palette, render_heatmap, render_lines, Cell, HeatMap, LineChart, Mark, Panel, Rule, Series,
+};
+use crate::ReportError;
+
+/// A rendered figure.
+#[derive(Debug, Clone)]
+pub struct Figure {
+    /// File stem (the SVG is written as `<name>.svg`); unique within a report.
+    pub name: String,
+    /// Caption under the figure: what is shown and how to read it.
+    pub caption: String,
+    /// The SVG document.
+    pub svg: String,
+}
+
+/// The measured signals of one loop, as the figures need them.
+#[derive(Debug, Clone, Copy)]
+pub struct LoopSignals<'a> {
+    /// Loop name for titles (file stem or example name).
+    pub name: &'a str,
+    /// Time from the first sample, s.
+    pub t: Option<&'a [f64]>,
+    /// Set point.
+    pub sp: Option<&'a [f64]>,
+    /// Process variable.
+    pub pv: &'a [f64],
+    /// Controller output, % of span.
+    pub op: &'a [f64],
+    /// Measured valve position, when logged.
+    pub mv: Option<&'a [f64]>,
+}
+
+/// The time axis of a loop: values and description with unit.
+struct TimeAxis {
+    x: Vec<f64>,
+    label: &'static str,
+    scale: f64,
+}
+
+impl TimeAxis {
+    fn of(sig: &LoopSignals<'_>) -> TimeAxis {
+        match sig.t {
+            Some(t) if t.len() == sig.op.len() && !t.is_empty() => {
+                let dur = t[t.len() - 1] - t[0];
+                let (label, scale) = if dur <= 3600.0 {
+                    ("time (s)", 1.0)
+                } else if dur <= 2.0 * 86400.0 {
+                    ("time (min)", 60.0)
+                } else {
+                    ("time (h)", 3600.0)
+                };
+                TimeAxis {
+                    x: t.iter().map(|v| v / scale).collect(),
+                    label,
+                    scale,
+                }
+            }
+            _ => TimeAxis {
+                x: (0..sig.op.len()).map(|i| i as f64).collect(),
+                label: "sample (-)",
+                scale: f64::NAN,
+            },
+        }
+    }
+
+    /// Sampling interval in s, when the record has times.
+    fn ts(&self) -> Option<f64> {
+        if !self.scale.is_finite() || self.x.len() < 2 {
+            return None;
+        }
+        let n = self.x.len();
+        let dt = (self.x[n - 1] - self.x[0]) * self.scale / (n - 1) as f64;
+        (dt > 0.0).then_some(dt)
+    }
+
+    fn at(&self, i: usize) -> f64 {
+        self.x.get(i).copied().unwrap_or(f64::NAN)
+    }
+}
+
+/// `loop — model` for titles.
+fn title(kind: &str, sig: &LoopSignals<'_>, model: &str) -> String {
+    format!("{kind}: loop {}, {model}", sig.name)
+}
+
+fn split_rule(axis: &TimeAxis, split: usize) -> Rule {
+    Rule {
+        at: axis.at(split),
+        name: "start of validation data".into(),
+        color: palette::RED,
+        vertical: true,
+    }
+}
+
+fn criterion_words(c: Criterion) -> &'static str {
+    match c {
+        Criterion::Prediction => "one-step prediction",
+        Criterion::Simulation => "free-run simulation",
+    }
+}
+
+/// Time trends of SP, PV, OP with the model's PV and MV (the paper's Figs. 12-16).
+pub fn time_trends(
+    sig: &LoopSignals<'_>,
+    q: &Quantification,
+    model: &str,
+    name: &str,
+) -> Result<Figure, ReportError> {
+    let axis = TimeAxis::of(sig);
+    let mut pv_panel = Panel {
+        y_label: "PV (engineering units)".into(),
+        caption: "process variable".into(),
+        ..Panel::default()
+    };
+    if let Some(sp) = sig.sp {
+        pv_panel.series.push(Series {
+            mark: Mark::Dashed,
+            ..Series::from_xy("SP", &axis.x, sp, palette::GREY)
+        });
+    }
+    pv_panel.series.push(Series::from_xy(
+        "PV measured",
+        &axis.x,
+        sig.pv,
+        palette::BLACK,
+    ));
+    pv_panel.series.push(Series::from_xy(
+        "PV model, free-run simulation",
+        &axis.x,
+        &q.pv_sim,
+        palette::BLUE,
+    ));
+    if q.criterion == Criterion::Prediction {
+        pv_panel.series.push(Series::from_xy(
+            "PV model, one-step prediction",
+            &axis.x,
+            &q.pv_pred,
+            palette::ORANGE,
+        ));
+    }
+    pv_panel.rules.push(split_rule(&axis, q.split_index));
+    let mut op_panel = Panel {
+        y_label: "OP, MV (% of valve span)".into(),
+        caption: "controller output and valve position".into(),
+        ..Panel::default()
+    };
+    op_panel
+        .series
+        .push(Series::from_xy("OP", &axis.x, sig.op, palette::BLACK));
+    if let Some(mv) = sig.mv {
+        op_panel
+            .series
+            .push(Series::from_xy("MV measured", &axis.x, mv, palette::GREEN));
+    }
+    op_panel.series.push(Series::from_xy(
+        "MV estimated",
+        &axis.x,
+        &q.mv_est,
+        palette::BLUE,
+    ));
+    op_panel.rules.push(split_rule(&axis, q.split_index));
+    let svg = render_lines(&LineChart {
+        title: title("Time trends", sig, model),
+        x_label: axis.label.into(),
+        panels: vec![pv_panel, op_panel],
+        side_by_side: false,
+        size: (960, 620),
+    })?;
+    Ok(Figure {
+        name: name.into(),
+        caption: format!(
+            "Measured SP, PV and OP with the model's PV (free-run simulation from the estimated \
+             MV{}) and the estimated valve position MV. The model is identified left of the red \
+             line and scored right of it (validation F_PV {:.1} %, {}).",
+            if q.criterion == Criterion::Prediction {
+                ", and the one-step prediction that ranks the grid"
+            } else {
+                ""
+            },
+            q.fits_score(q.criterion),
+            criterion_words(q.criterion)
+        ),
+        svg,
+    })
+}
+
+/// MV(OP) of `model` for a slow sine sweep over `[lo, hi]`: the model's signature.
+fn signature(model: &dyn StictionModel, lo: f64, hi: f64) -> Vec<(f64, f64)> {
+    let (c, a) = ((lo + hi) / 2.0, (hi - lo) / 2.0);
+    let n = 800;
+    let op: Vec<f64> = (0..n)
+        .map(|k| c - a * (2.0 * std::f64::consts::PI * k as f64 / 400.0).cos())
+        .collect();
+    match run_valve(model, &op, &Initialization::In1(InitialState::default())) {
+        // The second cycle: the first may still show the initial state.
+        Ok(run) => op[400..]
+            .iter()
+            .copied()
+            .zip(run.mv[400..].iter().copied())
+            .collect(),
+        Err(_) => Vec::new(),
+    }
+}
+
+/// PV(OP) and MV(OP) phase plots with the fitted model's signature (Figs. 2, 3, 11, 18).
+pub fn phase_plots(
+    sig: &LoopSignals<'_>,
+    q: &Quantification,
+    model: &str,
+    name: &str,
+) -> Result<Figure, ReportError> {
+    let k0 = q.fits.valid_from.min(sig.op.len());
+    let xy = |y: &[f64]| -> Vec<(f64, f64)> {
+        sig.op[k0..]
+            .iter()
+            .copied()
+            .zip(y[k0.min(y.len())..].iter().copied())
+            .collect()
+    };
+    let pv_panel = Panel {
+        y_label: "PV (engineering units)".into(),
+        caption: "PV(OP)".into(),
+        series: vec![
+            Series {
+                mark: Mark::Line(1),
+                ..Series::line("measured", xy(sig.pv), palette::BLACK)
+            },
+            Series::line("model, free-run simulation", xy(&q.pv_sim), palette::BLUE),
+        ],
+        ..Panel::default()
+    };
+    let (lo, hi) = sig.op[k0..]
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    // Sweep wide enough for the valve to slip in both directions.
+    let half = ((hi - lo) / 2.0).max(0.6 * q.s.max(0.0) + 0.5);
+    let mid = (lo + hi) / 2.0;
+    let mut mv_series = Vec::new();
+    if let Some(mv) = sig.mv {
+        mv_series.push(Series::line("MV measured", xy(mv), palette::GREEN));
+    }
+    mv_series.push(Series::line(
+        "MV estimated from OP",
+        xy(&q.mv_est),
+        palette::BLUE,
+    ));
+    mv_series.push(Series {
+        mark: Mark::Line(2),
+        ..Series::line(
+            format!("signature, S = {:.2}, J = {:.2}", q.s, q.j),
+            signature(q.stiction.as_ref(), mid - half, mid + half),
+            palette::RED,
+        )
+    });
+    let mv_panel = Panel {
+        y_label: "MV (% of valve span)".into(),
+        caption: "MV(OP)".into(),
+        series: mv_series,
+        ..Panel::default()
+    };
+    let svg = render_lines(&LineChart {
+        title: title("Phase plots", sig, model),
+        x_label: "OP (% of valve span)".into(),
+        panels: vec![pv_panel, mv_panel],
+        side_by_side: true,
+        size: (1060, 480),
+    })?;
+    Ok(Figure {
+        name: name.into(),
+        caption: format!(
+            "Left: PV against OP, measured and simulated by the model. Right: the estimated valve \
+             position against OP and the fitted model's signature for a slow sweep (red): the \
+             horizontal stretches are the valve stuck (deadband + stickband S = {:.2}), the \
+             vertical jumps the slip J = {:.2}, in % of valve span.",
+            q.s, q.j
+        ),
+        svg,
+    })
+}
+
+fn on_lattice(v: f64, step: f64) -> bool {
+    let r = v / step;
+    (r - r.round()).abs() < 1e-6
+}
+
+/// The fit surface over (S, J) as a heat map with the optimum and its region.
+pub fn fit_surface(
+    q: &Quantification,
+    loop_name: &str,
+    model: &str,
+    name: &str,
+) -> Result<Figure, ReportError> {
+    let c = q.criterion;
+    let (coarse, fine) = match q.grid {
+        GridPlan::Exhaustive { step } => (step, step),
+        GridPlan::CoarseToFine { coarse, fine, .. } => (coarse, fine),
+    };
+    // Refined nodes: a parameter off the coarse lattice; the refinement box is their extent.
+    let mut bbox = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    if fine < coarse {
+        for n in &q.surface {
+            if n.params.iter().any(|&p| !on_lattice(p, coarse)) {
+                bbox = (
+                    bbox.0.min(n.s),
+                    bbox.1.max(n.s),
+                    bbox.2.min(n.j),
+                    bbox.3.max(n.j),
+                );
+            }
+        }
+    }
+    let tol = 1e-9 * coarse.max(1e-12);
+    let inside = |s: f64, j: f64| {
+        s >= bbox.0 - tol && s <= bbox.1 + tol && j >= bbox.2 - tol && j <= bbox.3 + tol
+    };
+    let mut values: Vec<f64> = q
+        .surface
+        .iter()
+        .map(|n| n.score(c))
+        .filter(|v| v.is_finite())
+        .collect();
+    values.sort_by(f64::total_cmp);
+    let best = q.fits_score(c);
+    let lo = if values.is_empty() {
+        best - 1.0
+    } else {
+        let p10 = values[values.len() / 10];
+        p10.max(best - 50.0).min(best - 0.5)
+    };
+    let mut cells: Vec<Cell> = q
+        .surface
+        .iter()
+        .map(|n| {
+            let size = if inside(n.s, n.j) { fine } else { coarse };
+            let v = n.score(c);
+            Cell {
+                x: n.s,
+                y: n.j,
+                w: size,
+                h: size,
+                value: v.is_finite().then_some(v),
+            }
+        })
+        .collect();
+    // Large cells first, then the better fits on top.
+    cells.sort_by(|a, b| {
+        b.w.total_cmp(&a.w).then(
+            a.value
+                .unwrap_or(f64::NEG_INFINITY)
+                .total_cmp(&b.value.unwrap_or(f64::NEG_INFINITY)),
+        )
+    });
+    let s_max = q
+        .surface
+        .iter()
+        .map(|n| n.s)
+        .fold(q.s, f64::max)
+        .max(coarse);
+    let j_max = q
+        .surface
+        .iter()
+        .map(|n| n.j)
+        .fold(q.j, f64::max)
+        .max(coarse);
+    let j_min = q.surface.iter().map(|n| n.j).fold(0.0, f64::min);
+    let iv = q.interval;
+    let region: Vec<(f64, f64)> = q
+        .surface
+        .iter()
+        .filter(|n| n.score(c) >= iv.fit_threshold)
+        .map(|n| (n.s, n.j))
+        .collect();
+    let mut overlay = Vec::new();
+    if iv.s[1] > iv.s[0] || iv.j[1] > iv.j[0] {
+        let (s0, s1, j0, j1) = (iv.s[0], iv.s[1], iv.j[0], iv.j[1]);
+        overlay.push(Series::marked(
+            format!(
+                "{:.0} % region: S {:.2}-{:.2}, J {:.2}-{:.2}",
+                100.0 * iv.confidence,
+                s0,
+                s1,
+                j0,
+                j1
+            ),
+            vec![(s0, j0), (s1, j0), (s1, j1), (s0, j1), (s0, j0)],
+            Mark::Dashed,
+            palette::RED,
+        ));
+    }
+    overlay.push(Series::marked(
+        format!("nodes in the region ({})", region.len()),
+        region,
+        Mark::Dots(2),
+        RGB_WHITE,
+    ));
+    overlay.push(Series::marked(
+        format!("optimum S = {:.2}, J = {:.2}", q.s, q.j),
+        vec![(q.s, q.j)],
+        Mark::Crosses,
+        palette::RED,
+    ));
+    let pad = coarse;
+    let svg = render_heatmap(&HeatMap {
+        title: format!("Fit surface: loop {loop_name}, {model}"),
+        x_label: "S (% of valve span)".into(),
+        y_label: "J (% of valve span)".into(),
+        value_label: format!("validation F_PV, {} (%)", criterion_words(c)),
+        cells,
+        range: (lo, best),
+        overlay,
+        x_range: (-pad / 2.0, s_max + pad / 2.0),
+        y_range: (j_min - pad / 2.0, j_max + pad / 2.0),
+        size: (820, 620),
+    })?;
+    Ok(Figure {
+        name: name.into(),
+        caption: format!(
+            "Validation F_PV ({}) of every grid node over the equivalent S and J ({} nodes, {} \
+             skipped, grey). Colours below {:.1} % are clipped. The cross marks the optimum, the \
+             dashed box the range of the nodes not significantly worse ({:.0} % likelihood-ratio \
+             region, F_PV ≥ {:.2} %).",
+            criterion_words(c),
+            q.surface.len(),
+            q.nodes_skipped,
+            lo,
+            100.0 * iv.confidence,
+            iv.fit_threshold
+        ),
+        svg,
+    })
+}
+
+const RGB_WHITE: plotters::style::RGBColor = plotters::style::RGBColor(255, 255, 255);
+
+/// One-step residuals `pv - pv_pred` (NaN where there is no prediction).
+pub fn residuals(pv: &[f64], q: &Quantification) -> Vec<f64> {
+    pv.iter()
+        .zip(&q.pv_pred)
+        .map(|(y, p)| y - p)
+        .collect::<Vec<_>>()
+}
+
+/// Residuals of the baseline and (when one was found) the extended model over time.
+pub fn residual_trends(
+    sig: &LoopSignals<'_>,
+    base: (&Quantification, &str),
+    extended: Option<(&Quantification, &str)>,
+    name: &str,
+) -> Result<Figure, ReportError> {
+    let axis = TimeAxis::of(sig);
+    let mut panel = Panel {
+        y_label: "PV residual (engineering units)".into(),
+        caption: "one-step prediction residual, PV measured - PV predicted".into(),
+        ..Panel::default()
+    };
+    panel.series.push(Series::from_xy(
+        format!("baseline {}", base.1),
+        &axis.x,
+        &residuals(sig.pv, base.0),
+        palette::BLACK,
+    ));
+    if let Some((q, label)) = extended {
+        panel.series.push(Series::from_xy(
+            format!("extended {label}"),
+            &axis.x,
+            &residuals(sig.pv, q),
+            palette::BLUE,
+        ));
+    }
+    panel.rules.push(split_rule(&axis, base.0.split_index));
+    let model = match extended {
+        Some((_, l)) => format!("{} vs {l}", base.1),
+        None => base.1.to_string(),
+    };
+    let svg = render_lines(&LineChart {
+        title: title("Residuals", sig, &model),
+        x_label: axis.label.into(),
+        panels: vec![panel],
+        side_by_side: false,
+        size: (960, 380),
+    })?;
+    Ok(Figure {
+        name: name.into(),
+        caption: "What the model gets wrong: the one-step prediction residuals of the baseline \
+                  model and of the extended model, over the whole record (validation right of \
+                  the red line). Slow drifts and oscillations left in the residuals are \
+                  structure the model has not captured."
+            .into(),
+        svg,
+    })
+}
+
+/// Welch power spectral density (Hann window, 50 % overlap) in dB of `x`, with frequency in
+/// cycles per sample. Non-finite samples are dropped; the mean is removed per segment.
+pub fn welch_db(x: &[f64]) -> Vec<(f64, f64)> {
+    let x: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    let n = x.len();
+    if n < 16 {
+        return Vec::new();
+    }
+    let seg = 256.min(n / 2).max(16);
+    let hop = seg / 2;
+    let w: Vec<f64> = (0..seg)
+        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / seg as f64).cos())
+        .collect();
+    let wss: f64 = w.iter().map(|v| v * v).sum();
+    let bins = seg / 2 + 1;
+    let mut psd = vec![0.0; bins];
+    let mut count = 0usize;
+    let mut start = 0;
+    while start + seg <= n {
+        let s = &x[start..start + seg];
+        let mean = s.iter().sum::<f64>() / seg as f64;
+        for (k, p) in psd.iter_mut().enumerate() {
+            let (mut re, mut im) = (0.0, 0.0);
+            let om = 2.0 * std::f64::consts::PI * k as f64 / seg as f64;
+            for (i, (&v, &wi)) in s.iter().zip(&w).enumerate() {
+                let a = (v - mean) * wi;
+                let ph = om * i as f64;
+                re += a * ph.cos();
+                im -= a * ph.sin();
+            }
+            *p += (re * re + im * im) / wss;
+        }
+        count += 1;
+        start += hop;
+    }
+    psd.iter()
+        .enumerate()
+        .skip(1)
+        .map(|(k, p)| {
+            let v = p / count as f64;
+            (k as f64 / seg as f64, 10.0 * v.max(1e-300).log10())
+        })
+        .collect()
+}
+
+/// Spectrum of the validation residuals of the baseline and the extended model.
+pub fn residual_spectrum(
+    sig: &LoopSignals<'_>,
+    base: (&Quantification, &str),
+    extended: Option<(&Quantification, &str)>,
+    name: &str,
+) -> Result<Figure, ReportError> {
+    let axis = TimeAxis::of(sig);
+    let (x_label, fscale) = match axis.ts() {
+        Some(ts) => ("frequency (mHz)", 1000.0 / ts),
+        None => ("frequency (cycles/sample)", 1.0),
+    };
+    let val = |q: &Quantification| {
+        let r = residuals(sig.pv, q);
+        welch_db(&r[q.split_index.min(r.len())..])
+            .into_iter()
+            .map(|(f, p)| (f * fscale, p))
+            .collect::<Vec<_>>()
+    };
+    let mut panel = Panel {
+        y_label: "power spectral density (dB)".into(),
+        caption: "residual spectrum, validation data".into(),
+        ..Panel::default()
+    };
+    panel.series.push(Series::line(
+        format!("baseline {}", base.1),
+        val(base.0),
+        palette::BLACK,
+    ));
+    if let Some((q, label)) = extended {
+        panel.series.push(Series::line(
+            format!("extended {label}"),
+            val(q),
+            palette::BLUE,
+        ));
+    }
+    let model = match extended {
+        Some((_, l)) => format!("{} vs {l}", base.1),
+        None => base.1.to_string(),
+    };
+    let svg = render_lines(&LineChart {
+        title: title("Residual spectrum", sig, &model),
+        x_label: x_label.into(),
+        panels: vec![panel],
+        side_by_side: false,
+        size: (960, 380),
+    })?;
+    Ok(Figure {
+        name: name.into(),
+        caption: "Welch spectrum (Hann window, 50 % overlap) of the one-step residuals on the \
+                  validation data. White residuals give a flat spectrum; a peak is an \
+                  oscillation the model does not explain, a rise at low frequency a slow \
+                  disturbance."
+            .into(),
+        svg,
+    })
+}
+
+/// The disturbance η̂ estimated by an extended (EARX/EARMAX) model over the identification
+/// data, or `None` when the model has no disturbance term.
+pub fn disturbance(
+    sig: &LoopSignals<'_>,
+    q: &Quantification,
+    model: &str,
+    name: &str,
+) -> Result<Option<Figure>, ReportError> {
+    let Some(eta) = q.linear.disturbance() else {
+        return Ok(None);
+    };
+    let axis = TimeAxis::of(sig);
+    let end = q.split_index.min(axis.x.len());
+    let start = end.saturating_sub(eta.len());
+    let skip = q.linear.first_sample();
+    let pts: Vec<(f64, f64)> = eta
+        .iter()
+        .enumerate()
+        .skip(skip)
+        .map(|(i, &v)| (axis.at(start + i), v))
+        .collect();
+    let svg = render_lines(&LineChart {
+        title: title("Estimated disturbance", sig, model),
+        x_label: axis.label.into(),
+        panels: vec![Panel {
+            y_label: "disturbance η (PV engineering units)".into(),
+            caption: "time-varying disturbance term of the extended model".into(),
+            series: vec![Series::line("η estimated", pts, palette::PURPLE)],
+            ..Panel::default()
+        }],
+        side_by_side: false,
+        size: (960, 340),
+    })?;
+    Ok(Some(Figure {
+        name: name.into(),
+        caption: "The nonstationary disturbance η̂ the extended model estimates alongside the \
+                  process model, on the identification data (PV units, around the PV mean)."
+            .into(),
+        svg,
+    }))
+}
+
+/// How a registration counts in a trend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrendStatus {
+    /// Used in the trend.
+    Used,
+    /// Validation fit too low.
+    Weak,
+    /// Outside the band around the median.
+    Outlier,
+}
+
+/// One registration in a trend of S.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrendPoint {
+    /// Days since the Unix epoch (or the registration index when undated).
+    pub day: f64,
+    /// Estimated S, % of valve span.
+    pub s: f64,
+    /// The region's S range.
+    pub interval: Option<[f64; 2]>,
+    /// How it counts.
+    pub status: TrendStatus,
+}
+
+/// A fitted trend line: S = level at `day0` + slope·(day - day0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrendLine {
+    /// Reference day.
+    pub day0: f64,
+    /// S at `day0`.
+    pub s0: f64,
+    /// Slope, % per day.
+    pub slope: f64,
+}
+
+/// S over repeated registrations (the paper's Figs. 15, 19, 21).
+pub fn s_trend(
+    valve: &str,
+    model: &str,
+    points: &[TrendPoint],
+    threshold: f64,
+    line: Option<TrendLine>,
+    dated: bool,
+    name: &str,
+) -> Result<Figure, ReportError> {
+    let first = points.iter().map(|p| p.day).fold(f64::INFINITY, f64::min);
+    let x = |d: f64| if dated { d - first } else { d };
+    let mut series = Vec::new();
+    for (status, label, color, mark) in [
+        (TrendStatus::Used, "S, used", palette::BLUE, Mark::Dots(4)),
+        (
+            TrendStatus::Weak,
+            "S, weak fit (not used)",
+            palette::GREY,
+            Mark::Rings(4),
+        ),
+        (
+            TrendStatus::Outlier,
+            "S, outlier (not used)",
+            palette::ORANGE,
+            Mark::Rings(5),
+        ),
+    ] {
+        let sel: Vec<&TrendPoint> = points.iter().filter(|p| p.status == status).collect();
+        if sel.is_empty() {
+            continue;
+        }
+        series.push(Series {
+            name: label.into(),
+            points: sel.iter().map(|p| (x(p.day), p.s)).collect(),
+            mark,
+            color,
+            bars: sel
+                .iter()
+                .filter_map(|p| p.interval.map(|iv| (x(p.day), iv[0], iv[1])))
+                .collect(),
+        });
+    }
+    if let Some(l) = line {
+        let last = points
+            .iter()
+            .map(|p| p.day)
+            .fold(f64::NEG_INFINITY, f64::max);
+        series.push(Series::line(
+            format!("trend {:+.3} % per 30 days", 30.0 * l.slope),
+            [first, last]
+                .iter()
+                .map(|&d| (x(d), l.s0 + l.slope * (d - l.day0)))
+                .collect(),
+            palette::GREEN,
+        ));
+    }
+    let panel = Panel {
+        y_label: "S (% of valve span)".into(),
+        caption: String::new(),
+        series,
+        rules: vec![Rule {
+            at: threshold,
+            name: format!("maintenance threshold {threshold:.2} %"),
+            color: palette::RED,
+            vertical: false,
+        }],
+        y_range: None,
+        x_range: None,
+        x_label: String::new(),
+    };
+    let svg = render_lines(&LineChart {
+        title: format!("S over registrations: valve {valve}, {model}"),
+        x_label: if dated {
+            "days since the first registration (d)".into()
+        } else {
+            "registration (-)".into()
+        },
+        panels: vec![panel],
+        side_by_side: false,
+        size: (960, 420),
+    })?;
+    Ok(Figure {
+        name: name.into(),
+        caption: "Estimated stiction S of each registration with its likelihood-ratio range \
+                  (bars). Filled: used in the trend; hollow: left out (weak validation fit, or \
+                  outside the band around the median). The green line is the Theil-Sen trend \
+                  of the used registrations."
+            .into(),
+        svg,
+    })
+}
+
+/// The raw columns of a file the reader refused, against the row number.
+pub fn raw_signals(
+    loop_name: &str,
+    columns: &[(String, Vec<f64>)],
+    name: &str,
+) -> Result<Figure, ReportError> {
+    let colors = [
+        palette::BLACK,
+        palette::BLUE,
+        palette::ORANGE,
+        palette::GREEN,
+        palette::PURPLE,
+        palette::GREY,
+    ];
+    let panels = columns
+        .iter()
+        .zip(colors.iter().cycle())
+        .map(|((col, v), &color)| Panel {
+            y_label: format!("{col} (as logged)"),
+            caption: String::new(),
+            series: vec![Series::line(
+                col.clone(),
+                v.iter().enumerate().map(|(i, &y)| (i as f64, y)).collect(),
+                color,
+            )],
+            ..Panel::default()
+        })
+        .collect::<Vec<_>>();
+    let h = (160 * panels.len() as u32 + 80).clamp(300, 1100);
+    let svg = render_lines(&LineChart {
+        title: format!("Raw data: loop {loop_name}, not analysed"),
+        x_label: "row (-)".into(),
+        panels,
+        side_by_side: false,
+        size: (960, h),
+    })?;
+    Ok(Figure {
+        name: name.into(),
+        caption: "The file's numeric columns as logged, against the row number (cells that are \
+                  not numbers are left out). The data were refused for the reason above."
+            .into(),
+        svg,
+    })
+}

@@ -1,0 +1,39 @@
+//! Pictures of a stiction run and the self-contained HTML report.
+//!
+//! * [`chart`]: line/point panels and a heat map on plotters, written as SVG (text measured
+//!   with an embedded font, so the layout is the same on every machine) and rasterised to
+//!   PNG by resvg when asked.
+//! * [`figures`]: the paper's figures from our results: time trends of SP, PV, OP with the
+//!   estimated PV and MV (Figs. 12-16), PV(OP) and MV(OP) phase plots with the fitted
+//!   model's signature (Figs. 2, 3, 11, 18), the fit surface over (S, J) with the optimum and
+//!   its region, the residuals of the baseline and extended models of a diagnosis with their
+//!   spectrum and the estimated disturbance η̂, and S over repeated registrations
+//!   (Figs. 15, 19, 21).
+//! * [`html`]: one `index.html` per run with the numbers, the plots inline (no network, no
+//!   script) and the summary, plus each plot as its own file.
+//!
+//! Every figure's title names the loop and the model; every axis has its unit; every chart
+//! has a legend.
+
+pub mod chart;
+pub mod figures;
+pub mod html;
+
+pub use figures::{Figure, LoopSignals, TrendPoint, TrendStatus};
+pub use html::{Block, Report, Section, WriteOptions, Written};
+
+/// What can go wrong while drawing or writing a report.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// plotters or resvg refused a figure.
+    #[error("plot: {0}")]
+    Plot(String),
+    /// A file could not be written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
