@@ -16,7 +16,10 @@ use super::registrations::{
     Registration,
 };
 use super::search_flags::{build_identifier, SearchFlags};
+use crate::reporting::ReportFlags;
 use crate::{data, usage, CmdResult, Streams};
+use report::figures::TrendLine;
+use report::{figures, Block, Report, Section, TrendPoint, TrendStatus};
 
 /// Default maintenance threshold on S, % of valve span (see `docs/PLANT_DATA.md`).
 pub(crate) const DEFAULT_THRESHOLD: f64 = 1.6;
@@ -82,6 +85,8 @@ pub struct Args {
     /// evidence from the quantification itself).
     #[arg(long)]
     no_diagnose: bool,
+    #[command(flatten)]
+    report: ReportFlags,
     /// Print one JSON document.
     #[arg(long)]
     json: bool,
@@ -370,6 +375,9 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         half = args.threshold / 2.0
     );
 
+    if args.report.report.is_some() {
+        trend_report(&args, &valve, &regs, &trends, (verdict, &reason, &rule), s)?;
+    }
     if args.json {
         let combos: Vec<Value> = trends
             .iter()
@@ -502,6 +510,129 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     writeln!(out, "\nverdict: {verdict}: {reason}").map_err(data)?;
     writeln!(out, "rule: {rule}").map_err(data)?;
     Ok(())
+}
+
+/// The report of `trend`: the verdict, then per combination S over the registrations and
+/// the table behind it.
+fn trend_report(
+    args: &Args,
+    valve: &str,
+    regs: &[Registration],
+    trends: &[ComboTrend],
+    (verdict, reason, rule): (&str, &str, &str),
+    s: &mut Streams<'_>,
+) -> Result<(), crate::Failure> {
+    let started = std::time::Instant::now();
+    let dated = regs.iter().all(|r| r.start.is_some());
+    let day = |k: usize, r: &Registration| match (dated, r.start) {
+        (true, Some(t)) => t / 86400.0,
+        _ => (k + 1) as f64,
+    };
+    let mut sections = Vec::new();
+    for (c, t) in trends.iter().enumerate() {
+        let model = format!("{} × {}", t.stiction, t.linear);
+        let mut sec = Section::new(model.clone());
+        let mut points = Vec::new();
+        let mut rows = Vec::new();
+        for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
+            let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
+            match r.outcome.as_ref().map(|o| &o[c].result) {
+                Err(e) | Ok(Err(e)) => rows.push(vec![
+                    (k + 1).to_string(),
+                    time,
+                    "-".into(),
+                    "-".into(),
+                    "-".into(),
+                    "-".into(),
+                    "error".into(),
+                    format!("{}: {e}", r.file),
+                ]),
+                Ok(Ok(f)) => {
+                    let status = match flag {
+                        Flag::Used => TrendStatus::Used,
+                        Flag::Weak | Flag::Error => TrendStatus::Weak,
+                        Flag::Outlier => TrendStatus::Outlier,
+                    };
+                    points.push(TrendPoint {
+                        day: day(k, r),
+                        s: f.s,
+                        interval: Some(f.s_range),
+                        status,
+                    });
+                    rows.push(vec![
+                        (k + 1).to_string(),
+                        time,
+                        format!("{:.2}", f.s),
+                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
+                        format!("{:.2}", f.j),
+                        format!("{:.1}", f.fit_val),
+                        flag.label().into(),
+                        if *flag == Flag::Used {
+                            String::new()
+                        } else {
+                            f.evidence.join("; ")
+                        },
+                    ]);
+                }
+            }
+        }
+        // The Theil-Sen line through the used points: slope, and the median intercept.
+        let line = t.slope_30d.filter(|_| dated).and_then(|m30| {
+            let slope = m30 / 30.0;
+            let used: Vec<&TrendPoint> = points
+                .iter()
+                .filter(|p| p.status == TrendStatus::Used)
+                .collect();
+            let day0 = used.first()?.day;
+            let icpt: Vec<f64> = used.iter().map(|p| p.s - slope * (p.day - day0)).collect();
+            Some(TrendLine {
+                day0,
+                s0: median(&icpt),
+                slope,
+            })
+        });
+        sec.push(Block::Paragraph(format!(
+            "Level (median S of the usable registrations) {}; trend {}; latest usable S {}.",
+            t.level.map_or("-".into(), |v| format!("{v:.2} %")),
+            t.slope_30d
+                .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
+            t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
+        )));
+        if !points.is_empty() {
+            let fig = figures::s_trend(
+                valve,
+                &model,
+                &points,
+                args.threshold,
+                line,
+                dated,
+                &format!("{}-{}-s-trend", t.stiction, t.linear),
+            )
+            .map_err(|e| data(anyhow!("report: {e}")))?;
+            sec.push(Block::Figure(fig));
+        }
+        sec.push(Block::Table {
+            header: ["#", "time", "S", "S range", "J", "F_PV val", "flag", "why"]
+                .map(String::from)
+                .to_vec(),
+            rows,
+        });
+        sections.push(sec);
+    }
+    let mut rules = Section::new("How the verdict is reached");
+    rules.push(Block::Paragraph(rule.to_string()));
+    sections.push(rules);
+    let rep = Report {
+        title: format!("trend: valve {valve}"),
+        subtitle: format!(
+            "{} registration(s) · stiction trend · threshold {} % of valve span",
+            regs.len(),
+            args.threshold
+        ),
+        summary: vec![format!("Verdict: {verdict}. {reason}")],
+        sections,
+    };
+    crate::reporting::write(&rep, &args.report, started, s)
 }
 
 #[cfg(test)]
