@@ -230,13 +230,18 @@ pub(crate) fn facts(r: &RunView<'_>) -> Block {
 }
 
 /// The figures of one run: time trends, phase plots, fit surface. `prefix` keeps the file
-/// names of several runs apart.
+/// names of several runs apart; `role` (e.g. `baseline`) is added to the model in the titles.
 pub(crate) fn run_figures(
     sig: &LoopSignals<'_>,
     r: &RunView<'_>,
     prefix: &str,
+    role: &str,
 ) -> Result<Vec<Figure>, Failure> {
-    let model = combo(r);
+    let model = if role.is_empty() {
+        combo(r)
+    } else {
+        format!("{}, {role}", combo(r))
+    };
     let q = r.result;
     let rep = |e: report::ReportError| data(anyhow!("report: {e}"));
     Ok(vec![

@@ -685,9 +685,10 @@ mod tests {
 
     #[test]
     fn ticks_have_the_decimals_the_range_needs() {
-        assert_eq!(tick(0.30000000000000004, 1.0), "0.30");
+        assert_eq!(tick(0.30000000000000004, 1.0), "0.3");
+        assert_eq!(tick(0.30000000000000004, 0.5), "0.30");
         assert_eq!(tick(12.0, 100.0), "12");
-        assert_eq!(tick(-0.0001, 1.0), "0.00");
+        assert_eq!(tick(-0.0001, 1.0), "0.0");
         assert_eq!(tick(1.5e-7, 1e-6), "1.50e-7");
     }
 }

@@ -11,6 +11,8 @@
 //!   (Figs. 15, 19, 21).
 //! * [`html`]: one `index.html` per run with the numbers, the plots inline (no network, no
 //!   script) and the summary, plus each plot as its own file.
+//! * [`inspect`]: reads a figure's SVG back (title, panels, axis descriptions, legend, series)
+//!   for structure snapshots and for checking that every plot says what it shows.
 //!
 //! Every figure's title names the loop and the model; every axis has its unit; every chart
 //! has a legend.
@@ -18,6 +20,7 @@
 pub mod chart;
 pub mod figures;
 pub mod html;
+pub mod inspect;
 
 pub use figures::{Figure, LoopSignals, TrendPoint, TrendStatus};
 pub use html::{Block, Report, Section, WriteOptions, Written};

@@ -6,11 +6,13 @@
 //! | `proptest [--cases N]` | the property tests at scale (`PROPTEST_CASES=N`, default 10000) |
 //! | `bench [ARGS...]` | the divan benchmarks of every crate (`cargo bench --workspace`) |
 //! | `reproduce [--runs N] [--out DIR] [--only ...]` | the paper's §3 simulation study, the criterion study and the recovery rates ([`reproduce`]) |
+//! | `report-check [--out DIR] [--plant DIR] [--html FILE...]` | the CLI's HTML reports (`--report DIR`) opened in headless Chromium and checked, screenshots saved ([`browser`]) |
 
 use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 
+mod browser;
 mod reproduce;
 
 const USAGE: &str = "\
@@ -23,12 +25,18 @@ tasks:
   reproduce [--runs N] [--out DIR] [--only table1|table2|fig5|fig6|fig7|criterion|recovery]
                        the paper's simulation study (§3) next to the paper's numbers, CSVs in DIR
                        (default runs 10, out target/reproduce); `reproduce --help` for all options
+  report-check [--out DIR] [--plant DIR] [--html FILE...]
+                       build the CLI, write its HTML reports (--report) into DIR (default
+                       target/report-check) and check them in headless Chromium (console errors,
+                       broken images, empty plots), screenshots next to each page; --plant also
+                       diagnoses every CSV in DIR; `report-check --help` for details
 
 examples:
   cargo xtask test
   cargo xtask proptest --cases 50000
   cargo xtask bench
-  cargo xtask reproduce --runs 10 --only table1,table2";
+  cargo xtask reproduce --runs 10 --only table1,table2
+  cargo xtask report-check --plant ../shared/data/plant";
 
 fn main() {
     if let Err(e) = run() {
@@ -50,6 +58,7 @@ fn run() -> Result<()> {
         "bench" => bench(rest),
         "reproduce" => reproduce_release(rest),
         "suite" => suite(rest),
+        "report-check" => browser::report_check(rest),
         "help" | "--help" | "-h" => {
             println!("{USAGE}");
             Ok(())

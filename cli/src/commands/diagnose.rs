@@ -327,7 +327,7 @@ fn diagnose_report(
     )));
     baseline.push(reporting::facts(&base));
     if let Some(sig) = &sig {
-        for f in reporting::run_figures(sig, &base, "baseline-")? {
+        for f in reporting::run_figures(sig, &base, "baseline-", "baseline")? {
             baseline.push(Block::Figure(f));
         }
     }
@@ -390,7 +390,12 @@ fn diagnose_report(
             {
                 sec.push(Block::Figure(fig));
             }
-            for fig in reporting::run_figures(sig, &view, "extended-")? {
+            for fig in reporting::run_figures(
+                sig,
+                &view,
+                "extended-",
+                &format!("extended for {}", f.cause),
+            )? {
                 sec.push(Block::Figure(fig));
             }
             sections.push(sec);

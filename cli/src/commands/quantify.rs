@@ -314,7 +314,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         }
         let mut figs = Section::new("Figures");
         if let Some(sig) = reporting::signals(&d, &name) {
-            for f in reporting::run_figures(&sig, &view, "")? {
+            for f in reporting::run_figures(&sig, &view, "", "")? {
                 figs.push(Block::Figure(f));
             }
         }
@@ -654,7 +654,7 @@ fn compare_report(
         }
         if let Some(sig) = &sig {
             let prefix = format!("{}-{}-", r.stiction.name, r.linear_name);
-            for f in reporting::run_figures(sig, &view, &prefix)? {
+            for f in reporting::run_figures(sig, &view, &prefix, "")? {
                 sec.push(Block::Figure(f));
             }
         }
