@@ -277,7 +277,7 @@ pub(crate) fn write(
 
 /// The numeric columns of a delimited text file, read leniently (non-numbers become NaN), for
 /// showing data the reader refused. At most six columns, the loop's own first.
-fn raw_columns(path: &Path) -> Option<Vec<(String, Vec<f64>)>> {
+pub(crate) fn raw_columns(path: &Path) -> Option<Vec<(String, Vec<f64>)>> {
     let text = std::fs::read_to_string(path).ok()?;
     let first = text.lines().next()?;
     let delim = [b',', b';', b'\t']

@@ -619,6 +619,30 @@ fn trend_report(
         });
         sections.push(sec);
     }
+    // Registrations the reader refused: the reason and the raw columns (the first few).
+    let refused: Vec<(&Registration, &String)> = regs
+        .iter()
+        .filter_map(|r| r.outcome.as_ref().err().map(|e| (r, e)))
+        .collect();
+    if !refused.is_empty() {
+        let mut sec = Section::new(format!("Refused registrations ({})", refused.len()));
+        for (k, (r, e)) in refused.iter().enumerate() {
+            sec.push(Block::Note(format!("{}: {e}", r.file)));
+            if k >= 4 {
+                continue;
+            }
+            let stem = r
+                .path
+                .file_stem()
+                .map_or_else(|| r.file.clone(), |s| s.to_string_lossy().into_owned());
+            if let Some(cols) = crate::reporting::raw_columns(&r.path) {
+                let fig = figures::raw_signals(&stem, &cols, &format!("raw-{}", k + 1))
+                    .map_err(|e| data(anyhow!("report: {e}")))?;
+                sec.push(Block::Figure(fig));
+            }
+        }
+        sections.push(sec);
+    }
     let mut rules = Section::new("How the verdict is reached");
     rules.push(Block::Paragraph(rule.to_string()));
     sections.push(rules);
