@@ -144,13 +144,9 @@ pub(crate) fn verdict(q: &Quantification, label: &str) -> String {
     }
 }
 
-/// The numbers of one run as name/value pairs.
-pub(crate) fn facts(r: &RunView<'_>) -> Block {
-    let q = r.result;
-    let (fid, fval) = q.fits.rank(q.criterion);
-    let (oid, oval) = q.fits.rank(q.criterion.other());
-    let own: Vec<String> = r
-        .stiction
+/// The best model's own parameters and derived values, `name = value` (3 decimals).
+pub(crate) fn own_params(entry: &ModelEntry, q: &Quantification) -> Vec<String> {
+    entry
         .params
         .iter()
         .zip(q.stiction.param_values())
@@ -161,7 +157,15 @@ pub(crate) fn facts(r: &RunView<'_>) -> Block {
                 .into_iter()
                 .map(|(k, v)| format!("{k} = {v:.3}")),
         )
-        .collect();
+        .collect()
+}
+
+/// The numbers of one run as name/value pairs.
+pub(crate) fn facts(r: &RunView<'_>) -> Block {
+    let q = r.result;
+    let (fid, fval) = q.fits.rank(q.criterion);
+    let (oid, oval) = q.fits.rank(q.criterion.other());
+    let own = own_params(r.stiction, q);
     let orders: Vec<String> = r
         .identifier
         .orders()

@@ -356,19 +356,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         q.criterion.label()
     )
     .map_err(data)?;
-    let own: Vec<String> = r
-        .stiction
-        .params
-        .iter()
-        .zip(q.stiction.param_values())
-        .map(|(p, v)| format!("{} = {v:.3}", p.name))
-        .chain(
-            q.stiction
-                .derived_values()
-                .into_iter()
-                .map(|(k, v)| format!("{k} = {v:.3}")),
-        )
-        .collect();
+    let own = reporting::own_params(r.stiction, q);
     writeln!(
         out,
         "  S = {:.2} %  [{:.2}, {:.2}]    J = {:.2} %  [{:.2}, {:.2}]    ({})",
