@@ -445,6 +445,14 @@ pub fn fit_surface(
 
 const RGB_WHITE: plotters::style::RGBColor = plotters::style::RGBColor(255, 255, 255);
 
+/// `baseline vs extended` (or the baseline alone) for the titles of the residual figures.
+fn pair_label(base: &str, extended: Option<&str>) -> String {
+    match extended {
+        Some(l) => format!("{base} vs {l}"),
+        None => base.to_string(),
+    }
+}
+
 /// One-step residuals `pv - pv_pred` (NaN where there is no prediction).
 pub fn residuals(pv: &[f64], q: &Quantification) -> Vec<f64> {
     pv.iter()
@@ -481,10 +489,7 @@ pub fn residual_trends(
         ));
     }
     panel.rules.push(split_rule(&axis, base.0.split_index));
-    let model = match extended {
-        Some((_, l)) => format!("{} vs {l}", base.1),
-        None => base.1.to_string(),
-    };
+    let model = pair_label(base.1, extended.map(|e| e.1));
     let svg = render_lines(&LineChart {
         title: title("Residuals", sig, &model),
         x_label: axis.label.into(),
@@ -584,10 +589,7 @@ pub fn residual_spectrum(
             palette::BLUE,
         ));
     }
-    let model = match extended {
-        Some((_, l)) => format!("{} vs {l}", base.1),
-        None => base.1.to_string(),
-    };
+    let model = pair_label(base.1, extended.map(|e| e.1));
     let svg = render_lines(&LineChart {
         title: title("Residual spectrum", sig, &model),
         x_label: x_label.into(),
