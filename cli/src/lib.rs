@@ -33,7 +33,12 @@ pub use io::Streams;
     after_help = "Examples:\n  \
         stiction models\n  \
         stiction simulate --valve kano --param S=9 --param J=3 -o loop.csv\n  \
-        stiction valve loop.csv --model kano --param S=9 --param J=3"
+        stiction quantify loop.csv\n  \
+        stiction compare --example paper\n\n\
+        Exit status: 0 success; 1 bad data or a failed computation (one line naming the file, \
+        row and column); 2 bad usage.\n\
+        JSON: --json prints exactly one JSON document on standard output; its keys are listed \
+        in docs/CLI.md."
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -110,11 +115,14 @@ pub(crate) fn usage<E: Into<anyhow::Error>>(e: E) -> Failure {
 pub fn run() -> ExitCode {
     let stdin = std::io::stdin();
     let stdout = std::io::stdout();
-    let stderr = std::io::stderr();
+    // Standard error is NOT locked for the whole run: the progress bar (indicatif) draws on it
+    // from worker threads, and a lock held by the main thread while it waits for those
+    // workers is a deadlock (the run hung at a terminal). Each write locks it briefly.
+    let mut stderr = std::io::stderr();
     let mut streams = Streams {
         stdin: &mut stdin.lock(),
         stdout: &mut stdout.lock(),
-        stderr: &mut stderr.lock(),
+        stderr: &mut stderr,
         progress: std::io::IsTerminal::is_terminal(&std::io::stderr()),
     };
     let code = run_from(std::env::args_os(), &mut streams);
@@ -161,12 +169,29 @@ where
         Err(f) if is_broken_pipe(f.error()) => 0,
         Err(f) => {
             let _ = streams.stdout.flush();
-            // One line: the chain of causes joined with ": ".
-            let msg = format!("{:#}", f.error()).replace('\n', " ");
+            let msg = one_line(f.error());
             let _ = writeln!(streams.stderr, "error: {msg}");
             f.code()
         }
     }
+}
+
+/// One line: the chain of causes joined with ": ", leaving out a cause whose text the line
+/// already says (an IO error wrapped with its own message would otherwise read "No such file
+/// or directory (os error 2): No such file or directory (os error 2)").
+pub(crate) fn one_line(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string().replace('\n', " ");
+        if text.is_empty() || msg.contains(&text) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&text);
+    }
+    msg
 }
 
 /// A closed stdout (`stiction ... | head`) ends the run quietly, as other Unix tools do.
@@ -180,6 +205,22 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         });
         io.is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
+}
+
+/// `x` rounded to the resolution of a grid with step `step` (three decimals finer than the
+/// step), so JSON says `0.3`, not `0.30000000000000004`, for a node at three steps of 0.1.
+pub(crate) fn on_grid(x: f64, step: f64) -> f64 {
+    if !x.is_finite() || !(step.is_finite() && step > 0.0) {
+        return x;
+    }
+    let decimals = (-step.log10()).ceil().clamp(0.0, 12.0) as i32 + 3;
+    let f = 10f64.powi(decimals);
+    let r = (x * f).round() / f;
+    if r.is_finite() {
+        r
+    } else {
+        x
+    }
 }
 
 /// Read all of `r` (for `FILE` = `-`).

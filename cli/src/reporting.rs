@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::anyhow;
 use datasets::LoopData;
-use grid_search::{Quantification, NEGLIGIBLE_S};
+use grid_search::{Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 use report::{figures, Block, Figure, LoopSignals, Report, Section, WriteOptions};
 
 use crate::commands::quantify::Run;
@@ -17,6 +17,7 @@ use stiction_models::ModelEntry;
 
 /// The report flags.
 #[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Report options")]
 pub struct ReportFlags {
     /// Write a report to DIR: index.html (self-contained: numbers, plots inline, summary) and
     /// each plot as DIR/<name>.svg.
@@ -108,7 +109,9 @@ fn opt2(x: Option<f64>) -> String {
     x.map_or_else(|| "-".into(), f2)
 }
 
-/// One sentence on what a quantification says about the valve.
+/// One sentence on what a quantification says about the valve, with how far to trust it. The
+/// levels are [`grid_search::trust`]'s, the only place they are defined: "the valve sticks"
+/// only for S >= [`HARMFUL_S`] with no doubt; a slight S or a doubtful estimate says so.
 pub(crate) fn verdict(q: &Quantification, label: &str) -> String {
     let (_, val) = q.fits.rank(q.criterion);
     let fit = format!(
@@ -119,28 +122,72 @@ pub(crate) fn verdict(q: &Quantification, label: &str) -> String {
             grid_search::Criterion::Simulation => "free-run simulation",
         }
     );
-    if q.s <= NEGLIGIBLE_S {
-        format!(
-            "{label}: no stiction found (S = {:.2} % of valve span, below {NEGLIGIBLE_S} %); {fit}.",
+    let v = q.verdict();
+    let region = format!(
+        "S = {:.2} % of valve span (deadband + stickband; {:.0} % region {:.2}-{:.2}), J = {:.2} % (region {:.2}-{:.2})",
+        q.s,
+        100.0 * q.interval.confidence,
+        q.interval.s[0],
+        q.interval.s[1],
+        q.j,
+        q.interval.j[0],
+        q.interval.j[1]
+    );
+    let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
+    match v.severity {
+        Severity::Negligible if doubts.is_empty() => format!(
+            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %); {fit}.",
             q.s
-        )
-    } else {
-        let hurts = if q.s >= 1.0 {
-            " A deadband and stickband of 1 % or more already degrades control."
-        } else {
-            ""
-        };
-        format!(
-            "{label}: the valve sticks with S = {:.2} % of valve span (deadband + stickband; \
-             {:.0} % region {:.2}-{:.2}) and slips by J = {:.2} % (region {:.2}-{:.2}); {fit}.{hurts}",
+        ),
+        Severity::Negligible => format!(
+            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %), but the evidence is weak: {}; {fit}.",
             q.s,
-            100.0 * q.interval.confidence,
-            q.interval.s[0],
-            q.interval.s[1],
-            q.j,
-            q.interval.j[0],
-            q.interval.j[1]
-        )
+            doubts.join("; ")
+        ),
+        _ if !doubts.is_empty() => format!(
+            "{label}: estimated {region}, but the evidence is weak: {}; {fit}. Do not act on this estimate alone: look at the figures, or repeat the registration.",
+            doubts.join("; ")
+        ),
+        Severity::Slight => format!(
+            "{label}: slight stiction, {region}; {fit}. Below the {HARMFUL_S} % at which stiction degrades control."
+        ),
+        Severity::Harmful => {
+            let maintenance = if q.s >= MAINTENANCE_S {
+                format!(
+                    " It is at or above the {MAINTENANCE_S} % maintenance threshold of `stiction trend`."
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                "{label}: the valve sticks, {region}; {fit}. Stiction of {HARMFUL_S} % or more degrades control.{maintenance}"
+            )
+        }
+    }
+}
+
+/// The verdict in a few words, for the text output (`verdict: ...`).
+pub(crate) fn verdict_line(q: &Quantification) -> String {
+    let v = q.verdict();
+    if !v.doubts.is_empty() && v.severity != Severity::Negligible {
+        let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
+        return format!(
+            "S = {:.2} % is not to be trusted alone: {}",
+            q.s,
+            doubts.join("; ")
+        );
+    }
+    match v.severity {
+        Severity::Negligible => format!("no stiction found (S at most {NEGLIGIBLE_S} %)"),
+        Severity::Slight => {
+            format!("slight stiction (S between {NEGLIGIBLE_S} and {HARMFUL_S} %)")
+        }
+        Severity::Harmful if q.s >= MAINTENANCE_S => format!(
+            "the valve sticks (S of {HARMFUL_S} % or more degrades control; at or above the {MAINTENANCE_S} % maintenance threshold)"
+        ),
+        Severity::Harmful => {
+            format!("the valve sticks (S of {HARMFUL_S} % or more degrades control)")
+        }
     }
 }
 
@@ -331,31 +378,42 @@ pub(crate) fn refused(
     let (Some(_), Some(path)) = (&flags.report, file) else {
         return failure;
     };
+    // A file that is not there (or not a file) has nothing to show: no page, only the error.
+    if path.as_os_str() != "-" && !path.is_file() {
+        return failure;
+    }
     let started = Instant::now();
     let stem = path.file_stem().map_or_else(
         || path.display().to_string(),
         |s| s.to_string_lossy().into(),
     );
-    let msg = format!("{:#}", failure.error());
+    let msg = crate::one_line(failure.error());
     let mut sec = Section::new("Why the data were refused");
     sec.push(Block::Note(msg.clone()));
-    sec.push(Block::Paragraph(
-        "The data were not analysed: the estimate would not be trustworthy. The figure shows \
-         the columns as logged so the problem can be seen; see `stiction --help` for the \
-         column and gap options."
-            .into(),
-    ));
+    let mut figure = None;
     if path.as_os_str() != "-" {
         if let Some(cols) = raw_columns(path) {
             match figures::raw_signals(&stem, &cols, "raw") {
-                Ok(f) => {
-                    sec.push(Block::Figure(f));
-                }
+                Ok(f) => figure = Some(f),
                 Err(e) => {
                     sec.push(Block::Note(format!("the raw data could not be drawn: {e}")));
                 }
             }
         }
+    }
+    sec.push(Block::Paragraph(if figure.is_some() {
+        "The data were not analysed: the estimate would not be trustworthy. The figure shows \
+         the columns as logged so the problem can be seen; see `stiction --help` for the \
+         column and gap options."
+            .into()
+    } else {
+        "The data were not analysed: the estimate would not be trustworthy. No column of the \
+         file could be read as numbers to draw; see `stiction --help` for the column and gap \
+         options."
+            .into()
+    }));
+    if let Some(f) = figure {
+        sec.push(Block::Figure(f));
     }
     let rep = Report {
         title: format!("{command}: loop {stem} refused"),

@@ -294,7 +294,8 @@ impl Cause for NoStiction {
         Evidence {
             statistic: loss,
             text: format!(
-                "Removing the stiction (S = J = 0) costs a likelihood ratio of {loss:.1} on validation data (validation F_PV {} without stiction against {:.2} with it).",
+                "Removing the stiction (the best valve with S at most {} %) costs a likelihood ratio of {loss:.1} on validation data (validation F_PV {} without stiction against {:.2} with it).",
+                grid_search::NEGLIGIBLE_S,
                 q.fit_no_stiction
                     .map_or("-".to_string(), |f| format!("{f:.2}")),
                 ctx.baseline.fit_val()
@@ -394,7 +395,7 @@ inventory::submit! {
 inventory::submit! {
     CauseEntry {
         name: "no-stiction",
-        description: "the oscillation is not the valve's: a linear valve (S = J = 0) explains PV as well",
+        description: "the oscillation is not the valve's: a valve with negligible stiction (S <= 0.2 %) explains PV as well",
         statistic: "likelihood-ratio loss of removing the stiction parameters",
         build: || Box::new(NoStiction),
     }

@@ -444,8 +444,32 @@ pub fn diagnose(
     baseline: &Baseline,
     options: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
+    diagnose_with_progress(problem, baseline, options, None)
+}
+
+/// Progress of a diagnosis: `(done, total, what is being fitted now)`, steps being the
+/// baseline and each cause tested.
+pub type DiagnoseProgress<'a> = &'a (dyn Fn(usize, usize, &str) + Sync);
+
+/// [`diagnose`], reporting each step (the baseline, then each cause) to `progress`.
+pub fn diagnose_with_progress(
+    problem: Problem<'_>,
+    baseline: &Baseline,
+    options: &DiagnoseOptions,
+    progress: Option<DiagnoseProgress<'_>>,
+) -> Result<Diagnosis, DiagnoseError> {
     let started = Instant::now();
     let known = registry();
+    let steps = 1 + known
+        .iter()
+        .filter(|e| !options.disabled.iter().any(|d| d == e.name))
+        .count();
+    let tell = |done: usize, what: &str| {
+        if let Some(p) = progress {
+            p(done, steps, what);
+        }
+    };
+    tell(0, "baseline");
     for d in &options.disabled {
         if !known.iter().any(|e| e.name == d) {
             return Err(DiagnoseError::UnknownCause {
@@ -490,10 +514,13 @@ pub fn diagnose(
     let (bs, bj) = (base.result.s, base.result.j);
     let mut findings = Vec::new();
     let mut overriding = Vec::new();
+    let mut done = 1;
     for entry in known {
         if options.disabled.iter().any(|d| d == entry.name) {
             continue;
         }
+        tell(done, entry.name);
+        done += 1;
         let cause = (entry.build)();
         if !cause.applies(&ctx) {
             continue;
@@ -612,6 +639,8 @@ pub fn diagnose(
     })
 }
 
+/// The summary: the actionable sentence first (which model to use and its S, J), then the
+/// evidence for the cause, then what the baseline and its residuals show.
 fn summarise(
     base: &Fitted,
     res: &ResidualAnalysis,
@@ -619,8 +648,8 @@ fn summarise(
     chosen: Option<usize>,
 ) -> String {
     let b = base.summary();
-    let mut s = format!(
-        "The baseline {} + {} (dead time {}) estimates S = {:.2} %, J = {:.2} % and explains {:.1} % of PV on validation data (free-run simulation {:.1} %). {} ",
+    let baseline = format!(
+        "The baseline {} + {} (dead time {}) estimates S = {:.2} %, J = {:.2} % and explains {:.1} % of PV on validation data (free-run simulation {:.1} %). {}",
         b.stiction_model,
         b.linear_model,
         b.delay,
@@ -631,36 +660,50 @@ fn summarise(
         res.describe()
     );
     match chosen {
+        Some(i) if findings[i].cause == "no-stiction" => {
+            let f = &findings[i];
+            let e = f.extended.as_ref();
+            format!(
+                "Cause: no-stiction. The oscillation is not the valve's: a valve with negligible stiction (S at most {} %; fitted S = {:.2} %, J = {:.2} %) explains PV as well as the stiction model (likelihood-ratio cost {:.1}, below {:.2}); look for the cause elsewhere (tuning, an external oscillation, the process). {} {baseline}",
+                grid_search::NEGLIGIBLE_S,
+                e.map_or(f64::NAN, |e| e.s),
+                e.map_or(f64::NAN, |e| e.j),
+                -f.lr,
+                f.threshold.abs(),
+                f.evidence,
+            )
+        }
         Some(i) => {
             let f = &findings[i];
             let e = f.extended.as_ref();
-            s.push_str(&format!(
-                "Cause: {}. {} The extension {} + {} (dead time {}) changes validation F_PV by {:+.2} points (likelihood ratio {:.0} against the {}, threshold {:.0}) and moves the estimate to S = {:.2} %, J = {:.2} % (ΔS {:+.2}, ΔJ {:+.2}); use it instead of the baseline.",
+            format!(
+                "Cause: {}. Use the extension {} + {} (dead time {}) instead of the baseline: S = {:.2} %, J = {:.2} % (ΔS {:+.2}, ΔJ {:+.2} against the baseline); it changes validation F_PV by {:+.2} points (likelihood ratio {:.0} against the {}, threshold {:.0}). {} {baseline}",
                 f.cause,
-                f.evidence,
                 e.map_or("-", |e| e.stiction_model),
                 e.map_or("-", |e| e.linear_model),
                 e.map_or(0, |e| e.delay),
+                e.map_or(f64::NAN, |e| e.s),
+                e.map_or(f64::NAN, |e| e.j),
+                f.delta_s,
+                f.delta_j,
                 f.gain_fit_pv_val,
                 f.lr,
                 f.reference,
                 f.threshold.abs(),
-                e.map_or(f64::NAN, |e| e.s),
-                e.map_or(f64::NAN, |e| e.j),
-                f.delta_s,
-                f.delta_j
-            ));
+                f.evidence,
+            )
         }
         None => {
             let tested: Vec<String> = findings
                 .iter()
                 .map(|f| format!("{} (LR {:.0} vs {:.0})", f.cause, f.lr, f.threshold.abs()))
                 .collect();
-            s.push_str(&format!(
-                "Cause: none. No extension gains significantly on validation data ({}); the baseline estimate stands.",
+            format!(
+                "Cause: none. The baseline estimate stands (S = {:.2} %, J = {:.2} %): no extension gains significantly on validation data ({}). {baseline}",
+                b.s,
+                b.j,
                 tested.join(", ")
-            ));
+            )
         }
     }
-    s
 }

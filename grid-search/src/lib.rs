@@ -15,11 +15,13 @@
 
 pub mod grid;
 mod search;
+pub mod trust;
 
 pub use search::{
     evaluate_nodes, quantify, quantify_from_surface, Criterion, Fits, GridPlan, Interval, NodeFit,
-    Problem, Quantification, SearchOptions, NEGLIGIBLE_S,
+    Problem, Quantification, SearchOptions,
 };
+pub use trust::{Doubt, Severity, Verdict, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 
 pub use linear_id;
 pub use stiction_models;

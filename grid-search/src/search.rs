@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use stiction_models::{run_valve_with, Initialization, ModelEntry, StictionModel, ValveScratch};
 
+use crate::trust::{self, Doubt, NEGLIGIBLE_S};
 use crate::{grid, SearchError};
 
 /// Which PV estimate ranks the nodes.
@@ -258,14 +259,22 @@ pub struct Quantification {
     pub fit_no_stiction: Option<f64>,
     /// Wall time of the search, ms.
     pub elapsed_ms: f64,
-    /// What limits the estimate, in words (empty when S and J are well determined).
+    /// What limits the estimate, in words (empty when S and J are well determined): the
+    /// [`doubts`](Self::doubts) as text, then the caller's notes.
     pub warnings: Vec<String>,
+    /// What limits the estimate, typed (see [`crate::trust`]).
+    pub doubts: Vec<Doubt>,
 }
 
 impl Quantification {
     /// The validation fit of the best node under `c`.
     pub fn fits_score(&self, c: Criterion) -> f64 {
         self.fits.rank(c).1
+    }
+
+    /// What the estimate says about the valve and how far to trust it.
+    pub fn verdict(&self) -> trust::Verdict {
+        trust::assess(self.s, &self.doubts)
     }
 }
 
@@ -281,11 +290,6 @@ fn nice_step_at_most(x: f64) -> f64 {
         .find(|v| *v <= x * (1.0 + 1e-12))
         .unwrap_or(decade)
 }
-
-/// Stiction this small (S, % of valve span) counts as none: the paper names S ≈ 1 % as the
-/// level that hurts, and the exact node S = J = 0 is sometimes skipped (for instance when the
-/// identified model at that node is unstable) while its neighbours are not.
-pub const NEGLIGIBLE_S: f64 = 0.2;
 
 /// χ² quantile for `p` degrees of freedom (1-4) at the usual levels; other levels fall back
 /// to the Wilson–Hilferty approximation.
@@ -762,10 +766,12 @@ fn finish<I: LinearIdentifier + ?Sized>(
         .filter_map(|nf| nf.outcome.as_ref().ok().map(|f| f.rank(crit).1))
         .filter(|f| f.is_finite())
         .reduce(f64::max);
-    let mut warnings = warnings(&surface, &interval, &fits, span, crit);
+    let doubts = doubts(&surface, &interval, &fits, span, crit, skipped);
+    let mut warnings: Vec<String> = doubts.iter().map(ToString::to_string).collect();
     warnings.extend(notes);
     Ok(Quantification {
         warnings,
+        doubts,
         stiction,
         s: eq.s,
         j: eq.j,
@@ -816,38 +822,50 @@ fn reversals(x: &[f64], band: f64) -> usize {
     count
 }
 
-fn warnings(
+fn doubts(
     nodes: &[NodeFit],
     interval: &Interval,
     fits: &Fits,
     span: f64,
     c: Criterion,
-) -> Vec<String> {
+    skipped: usize,
+) -> Vec<Doubt> {
     let mut w = Vec::new();
     let zero_in_region = nodes
         .iter()
         .any(|n| n.params.iter().all(|&v| v == 0.0) && n.score(c) >= interval.fit_threshold);
     if zero_in_region {
-        w.push(
-            "a valve without stiction (S = J = 0) explains PV as well (it is inside the region): no evidence of stiction"
-                .into(),
-        );
+        w.push(Doubt::NoEvidence);
     }
     if interval.s[1] - interval.s[0] > 0.25 * span {
-        w.push(format!(
-            "S is poorly determined: the region spans {:.2} to {:.2} % (OP span {:.2} %)",
-            interval.s[0], interval.s[1], span
-        ));
+        w.push(Doubt::SPoorlyDetermined {
+            lo: interval.s[0],
+            hi: interval.s[1],
+            span,
+        });
     }
     let j_width = interval.j[1] - interval.j[0];
     if j_width > 0.5 * interval.s[1].max(1e-12) && j_width > 0.5 {
-        w.push(format!(
-            "J is poorly determined: the region spans {:.2} to {:.2} %",
-            interval.j[0], interval.j[1]
-        ));
+        w.push(Doubt::JPoorlyDetermined {
+            lo: interval.j[0],
+            hi: interval.j[1],
+        });
     }
     if fits.init_fell_back {
-        w.push("the valve model's initial state never washed out (In.3 fell back to In.2)".into());
+        w.push(Doubt::InitFellBack);
+    }
+    let (id, val) = fits.rank(c);
+    if val < trust::WEAK_FIT {
+        w.push(Doubt::WeakFit { val });
+    }
+    if (id - val).abs() > trust::FIT_DISAGREEMENT {
+        w.push(Doubt::FitsDisagree { id, val });
+    }
+    if skipped as f64 > trust::MOSTLY_SKIPPED * nodes.len() as f64 {
+        w.push(Doubt::MostlySkipped {
+            skipped,
+            total: nodes.len(),
+        });
     }
     w
 }

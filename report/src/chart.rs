@@ -336,14 +336,26 @@ fn draw_panel(
                     .chain(bars().flat_map(|b| [b.1, b.2]))
                     .chain(panel.rules.iter().filter(|r| !r.vertical).map(|r| r.at)),
             )
-            // Head room for the legend in the upper right corner.
-            .map(|(lo, hi)| (lo, hi + (hi - lo) * 0.07 * entries as f64))
         })
         .unwrap_or((0.0, 1.0));
+    // The legend sits in a strip right of the plotting area, never on the data: wide enough
+    // for the longest label (12 px text, about 6.6 px a character, plus the glyph).
+    let longest = panel
+        .rules
+        .iter()
+        .map(|r| r.name.chars().count())
+        .chain(panel.series.iter().map(|s| s.name.chars().count()))
+        .max()
+        .unwrap_or(0);
+    let legend_w = if entries > 0 {
+        (longest as f64 * 6.6 + 44.0).clamp(90.0, 280.0) as u32
+    } else {
+        0
+    };
     let mut builder = ChartBuilder::on(area);
     builder
         .margin(8)
-        .margin_right(16)
+        .margin_right(16 + legend_w)
         .x_label_area_size(44)
         .y_label_area_size(70);
     if !panel.caption.is_empty() {
@@ -448,9 +460,10 @@ fn draw_panel(
         }
     }
     if legend {
+        let plot_w = chart.plotting_area().dim_in_pixel().0 as i32;
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(SeriesLabelPosition::Coordinate(plot_w + 10, 0))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
             .label_font((FONT, 12))

@@ -44,6 +44,16 @@ struct TimeAxis {
 }
 
 impl TimeAxis {
+    /// The unit of the axis in words (`s`, `min`, `h`, `samples`).
+    fn label_unit(&self) -> &'static str {
+        match self.label {
+            "time (s)" => "s",
+            "time (min)" => "min",
+            "time (h)" => "h",
+            _ => "samples",
+        }
+    }
+
     fn of(sig: &LoopSignals<'_>) -> TimeAxis {
         match sig.t {
             Some(t) if t.len() == sig.op.len() && !t.is_empty() => {
@@ -641,11 +651,18 @@ pub fn disturbance(
         side_by_side: false,
         size: (960, 340),
     })?;
+    let span = |k: usize| axis.at(k.min(axis.x.len().saturating_sub(1)));
+    let (from, to) = (span(start + skip), span(end.saturating_sub(1)));
     Ok(Some(Figure {
         name: name.into(),
-        caption: "The nonstationary disturbance η̂ the extended model estimates alongside the \
-                  process model, on the identification data (PV units, around the PV mean)."
-            .into(),
+        caption: format!(
+            "The nonstationary disturbance η̂ the extended model estimates alongside the process \
+             model (PV units, around the PV mean). It covers {from:.0}-{to:.0} {} only: η̂ is \
+             estimated on the identification data, which starts where the valve model's initial \
+             state has washed out (and after the regression's first lags) and ends where the \
+             validation data begin; on the validation data the model predicts without it.",
+            axis.label_unit()
+        ),
         svg,
     }))
 }

@@ -15,6 +15,8 @@ pub enum Block {
     Paragraph(String),
     /// A highlighted note (warnings, refusals).
     Note(String),
+    /// The verdict a person acts on: one prominent box, the first thing a section says.
+    Verdict(String),
     /// A bulleted list.
     List(Vec<String>),
     /// A table: header and rows (cells as text).
@@ -109,14 +111,29 @@ h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.25em;margin-top:1.8em;\
 border-bottom:1px solid #ddd;padding-bottom:.2em}.sub{color:#555;margin-top:0}\
 .summary{background:#f4f7fb;border-left:4px solid #1f77b4;padding:.6em 1em}\
 .note{background:#fff6e5;border-left:4px solid #e67814;padding:.5em 1em}\
+.verdict{background:#fff;border:2px solid #1a1a1a;border-radius:6px;padding:.7em 1em;\
+font-size:1.15em;font-weight:600;margin:1em 0}\
 table{border-collapse:collapse;margin:.8em 0;font-size:.92em}\
-th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}\
+th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right;vertical-align:top}\
 th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}\
+td.t,th.t{text-align:left}td.nw{white-space:nowrap}\
 dl.facts{display:grid;grid-template-columns:max-content auto;gap:.15em 1.2em}\
 dl.facts dt{color:#555}dl.facts dd{margin:0}\
 figure{margin:1.2em 0}figure svg{max-width:100%;height:auto;display:block}\
 figcaption{font-size:.9em;color:#444;margin-top:.3em}\
 footer{margin-top:3em;color:#777;font-size:.85em}";
+
+/// Whether a table cell reads as a number or a numeric range (`1.20`, `-0.5`, `0.10-0.30`,
+/// `-`, empty): such columns are right-aligned.
+fn numeric_cell(c: &str) -> bool {
+    let c = c.trim();
+    c.is_empty()
+        || c == "-"
+        || c.parse::<f64>().is_ok()
+        || c.split_once('-').is_some_and(|(a, b)| {
+            !a.is_empty() && a.trim().parse::<f64>().is_ok() && b.trim().parse::<f64>().is_ok()
+        })
+}
 
 /// The SVG document without an XML prolog, for inlining.
 fn inline_svg(svg: &str) -> &str {
@@ -157,6 +174,9 @@ impl Report {
                     Block::Note(p) => {
                         let _ = writeln!(h, "<p class=\"note\">{}</p>", escape(p));
                     }
+                    Block::Verdict(p) => {
+                        let _ = writeln!(h, "<p class=\"verdict\">{}</p>", escape(p));
+                    }
                     Block::List(items) => {
                         h.push_str("<ul>\n");
                         for i in items {
@@ -165,15 +185,41 @@ impl Report {
                         h.push_str("</ul>\n");
                     }
                     Block::Table { header, rows } => {
+                        // Numbers right-aligned, text left-aligned (by column: a column is
+                        // text when any of its cells is); short cells (dates, ranges) never
+                        // wrap.
+                        let text_col: Vec<bool> = (0..header.len())
+                            .map(|i| {
+                                rows.iter()
+                                    .any(|r| r.get(i).is_some_and(|c| !numeric_cell(c)))
+                            })
+                            .collect();
                         h.push_str("<table>\n<tr>");
-                        for c in header {
-                            let _ = write!(h, "<th>{}</th>", escape(c));
+                        for (i, c) in header.iter().enumerate() {
+                            let class = if text_col.get(i) == Some(&true) {
+                                " class=\"t\""
+                            } else {
+                                ""
+                            };
+                            let _ = write!(h, "<th{class}>{}</th>", escape(c));
                         }
                         h.push_str("</tr>\n");
                         for r in rows {
                             h.push_str("<tr>");
-                            for c in r {
-                                let _ = write!(h, "<td>{}</td>", escape(c));
+                            for (i, c) in r.iter().enumerate() {
+                                let mut classes = Vec::new();
+                                if text_col.get(i) == Some(&true) {
+                                    classes.push("t");
+                                }
+                                if c.chars().count() <= 24 {
+                                    classes.push("nw");
+                                }
+                                let class = if classes.is_empty() {
+                                    String::new()
+                                } else {
+                                    format!(" class=\"{}\"", classes.join(" "))
+                                };
+                                let _ = write!(h, "<td{class}>{}</td>", escape(c));
                             }
                             h.push_str("</tr>\n");
                         }

@@ -6,6 +6,7 @@
 //! | `proptest [--cases N]` | the property tests at scale (`PROPTEST_CASES=N`, default 10000) |
 //! | `bench [ARGS...]` | the divan benchmarks of every crate (`cargo bench --workspace`) |
 //! | `reproduce [--runs N] [--out DIR] [--only ...]` | the paper's §3 simulation study, the criterion study and the recovery rates ([`reproduce`]) |
+//! | `suite [--size N]` | the hidden-effect suite of `diagnose` at full size (release build) |
 //! | `report-check [--out DIR] [--plant DIR] [--html FILE...]` | the CLI's HTML reports (`--report DIR`) opened in headless Chromium and checked, screenshots saved ([`browser`]) |
 
 use std::process::Command;
@@ -22,6 +23,8 @@ tasks:
   test                 formatting check + the fast test suite (what CI runs)
   proptest [--cases N] property tests at scale (default N = 10000)
   bench [ARGS...]      benchmarks (divan); ARGS go to the bench binaries, e.g. `cargo xtask bench kano`
+  suite [--size N]     the hidden-effect suite of `diagnose` at full size (N loops per effect,
+                       default 24; docs/DIAGNOSE.md)
   reproduce [--runs N] [--out DIR] [--only table1|table2|fig5|fig6|fig7|criterion|recovery]
                        the paper's simulation study (§3) next to the paper's numbers, CSVs in DIR
                        (default runs 10, out target/reproduce); `reproduce --help` for all options
@@ -35,6 +38,7 @@ examples:
   cargo xtask test
   cargo xtask proptest --cases 50000
   cargo xtask bench
+  cargo xtask suite --size 24
   cargo xtask reproduce --runs 10 --only table1,table2
   cargo xtask report-check --plant ../shared/data/plant";
 
@@ -82,18 +86,38 @@ fn status(cmd: &mut Command) -> Result<()> {
     Ok(())
 }
 
+/// One line per phase on standard error, so a first run (which compiles the whole workspace
+/// for several minutes on two cores) shows where it is.
+fn phase(n: usize, of: usize, what: &str) {
+    eprintln!("xtask test [{n}/{of}]: {what}");
+}
+
 fn test(rest: &[String]) -> Result<()> {
+    let started = std::time::Instant::now();
     let fmt_available = cargo()
         .args(["fmt", "--version"])
         .output()
         .map(|o| o.status.success())
         .unwrap_or(false);
+    phase(1, 3, "formatting check (cargo fmt --all --check)");
     if fmt_available {
         status(cargo().args(["fmt", "--all", "--check"]))?;
     } else {
         eprintln!("xtask: rustfmt is not installed; skipping the formatting check");
     }
-    status(cargo().args(["test", "--workspace"]).args(rest))
+    phase(
+        2,
+        3,
+        "building the tests (the first build compiles every crate: several minutes on 2 cores)",
+    );
+    status(cargo().args(["test", "--workspace", "--no-run"]).args(rest))?;
+    phase(3, 3, "running the fast test suite");
+    status(cargo().args(["test", "--workspace"]).args(rest))?;
+    eprintln!(
+        "xtask test: all phases passed in {:.0} s",
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 fn proptest(rest: &[String]) -> Result<()> {

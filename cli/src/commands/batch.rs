@@ -167,7 +167,11 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let mut exclude: Vec<PathBuf> = args.labels.iter().cloned().collect();
     exclude.extend(jsonl.iter().cloned());
     exclude.extend(csv_path.iter().cloned());
-    let mut files = expand(&args.paths, &exclude).map_err(usage)?;
+    let (mut files, not_loops) =
+        expand(&args.paths, &exclude, args.data.op_column()).map_err(usage)?;
+    for (f, why) in &not_loops {
+        let _ = writeln!(s.stderr, "note: skipped {}: {why}", f.display());
+    }
     if let Some(v) = &args.valve {
         files.retain(|f| {
             datasets::parse_registration_name(&super::registrations::file_name(f)).valve == *v
@@ -281,12 +285,13 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
                         match &c.result {
                             Ok(fit) => {
                                 row["status"] = json!("ok");
-                                row["S"] = json!(fit.s);
-                                row["S_lo"] = json!(fit.s_range[0]);
-                                row["S_hi"] = json!(fit.s_range[1]);
-                                row["J"] = json!(fit.j);
-                                row["J_lo"] = json!(fit.j_range[0]);
-                                row["J_hi"] = json!(fit.j_range[1]);
+                                let g = |x: f64| crate::on_grid(x, fit.step);
+                                row["S"] = json!(g(fit.s));
+                                row["S_lo"] = json!(g(fit.s_range[0]));
+                                row["S_hi"] = json!(g(fit.s_range[1]));
+                                row["J"] = json!(g(fit.j));
+                                row["J_lo"] = json!(g(fit.j_range[0]));
+                                row["J_hi"] = json!(g(fit.j_range[1]));
                                 row["fit_pv_val"] = json!(fit.fit_val);
                                 row["fit_no_stiction"] = fit.json["fit_no_stiction"].clone();
                                 row["why"] = json!(fit.evidence);

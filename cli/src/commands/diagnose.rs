@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use discrepancy::{diagnose, Baseline, DiagnoseOptions, Fitted};
+use discrepancy::{diagnose_with_progress, Baseline, DiagnoseOptions, Fitted};
 use grid_search::Problem;
 use serde_json::{json, Value};
 use stiction_models::find_model;
@@ -27,7 +27,7 @@ the extension's extra parameters (docs/DIAGNOSE.md):
   disturbance          external nonstationary disturbance -> EARX / EARMAX
   asymmetric-stiction  friction differs by direction      -> kano-asym
   time-delay           unmodelled dead time               -> the delay estimated
-  no-stiction          the oscillation is not the valve's -> S = J = 0
+  no-stiction          the oscillation is not the valve's -> S <= 0.2 % (negligible)
 Otherwise the cause is `none` and the baseline stands.
 
 Examples:
@@ -129,7 +129,16 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         pv,
         mv: d.mv.as_deref(),
     };
-    let mut dg = match diagnose(problem, &baseline, &options) {
+    let bar = crate::progress::Progress::since(
+        s.progress,
+        "diagnose",
+        "steps",
+        std::time::Instant::now(),
+    );
+    let tick = |done: usize, total: usize, _what: &str| bar.update(done, total);
+    let outcome = diagnose_with_progress(problem, &baseline, &options, Some(&tick));
+    bar.finish();
+    let mut dg = match outcome {
         Ok(dg) => dg,
         Err(e @ discrepancy::DiagnoseError::UnknownCause { .. }) => return Err(usage(e)),
         Err(other) => return Err(refused(data(anyhow!("{}: {other}", d.source)), s)),
@@ -191,20 +200,29 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         dg.elapsed_ms / 1e3
     )
     .map_err(data)?;
-    writeln!(out, "cause: {}", dg.cause).map_err(data)?;
+    writeln!(out, "cause: {}", action_line(&dg)).map_err(data)?;
     writeln!(out).map_err(data)?;
     writeln!(out, "{}", dg.summary).map_err(data)?;
     writeln!(out).map_err(data)?;
     writeln!(
         out,
-        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7} {:>7} {:>9}",
-        "cause", "statistic", "LR", "needed", "signif.", "extension", "S", "J", "ΔF_PV val"
+        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>8}",
+        "cause",
+        "statistic",
+        "LR",
+        "needed",
+        "signif.",
+        "model fitted",
+        "S",
+        "J",
+        "F_PV val",
+        "ΔF_PV"
     )
     .map_err(data)?;
     let b = &dg.baseline;
     writeln!(
         out,
-        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7.2} {:>7.2} {:>9}",
+        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7.2} {:>7.2} {:>9.2} {:>8}",
         "(baseline)",
         "-",
         "-",
@@ -213,25 +231,28 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         format!("{} + {} d={}", b.stiction_model, b.linear_model, b.delay),
         b.s,
         b.j,
-        format!("{:.2}", b.fit_pv_val)
+        b.fit_pv_val,
+        "-"
     )
     .map_err(data)?;
     for f in &dg.findings {
-        let (ext, s_, j_) = match &f.extended {
+        let (ext, s_, j_, fv) = match &f.extended {
             Some(e) => (
                 format!("{} + {} d={}", e.stiction_model, e.linear_model, e.delay),
                 format!("{:.2}", e.s),
                 format!("{:.2}", e.j),
+                format!("{:.2}", e.fit_pv_val),
             ),
             None => (
                 f.error.clone().unwrap_or_else(|| "-".into()),
+                "-".into(),
                 "-".into(),
                 "-".into(),
             ),
         };
         writeln!(
             out,
-            "{:<20} {:>9.2} {:>11.1} {:>8.1} {:>8}  {:<22} {:>7} {:>7} {:>+9.2}",
+            "{:<20} {:>9.2} {:>11.1} {:>8.1} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>+8.2}",
             f.cause,
             f.statistic,
             f.lr,
@@ -240,11 +261,40 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             ext,
             s_,
             j_,
+            fv,
             f.gain_fit_pv_val
         )
         .map_err(data)?;
     }
+    writeln!(
+        out,
+        "S, J: the fitted model's (no-stiction: the best valve with S at most {} %); F_PV val: its validation fit; ΔF_PV: against the baseline.",
+        grid_search::NEGLIGIBLE_S
+    )
+    .map_err(data)?;
     Ok(())
+}
+
+/// The one line to act on: the cause and the model to use, with its S and J.
+fn action_line(dg: &Diagnosis) -> String {
+    let chosen = dg.chosen.and_then(|i| dg.findings.get(i));
+    match chosen {
+        Some(f) if f.cause == "no-stiction" => format!(
+            "no-stiction: the oscillation is not the valve's (a valve with negligible stiction, fitted S = {:.2} %, explains PV as well); look elsewhere",
+            f.extended.as_ref().map_or(f64::NAN, |e| e.s)
+        ),
+        Some(f) => match &f.extended {
+            Some(e) => format!(
+                "{}: use {} + {} (dead time {}): S = {:.2} %, J = {:.2} % (validation F_PV {:+.2} points over the baseline)",
+                f.cause, e.stiction_model, e.linear_model, e.delay, e.s, e.j, f.gain_fit_pv_val
+            ),
+            None => f.cause.to_string(),
+        },
+        None => format!(
+            "none: the baseline stands, S = {:.2} %, J = {:.2} %",
+            dg.baseline.s, dg.baseline.j
+        ),
+    }
 }
 
 /// The report of `diagnose`: the verdict, the findings, the baseline's and the extended
@@ -318,12 +368,15 @@ fn diagnose_report(
         .to_vec(),
         rows,
     });
-    let mut sections = vec![findings];
+    let mut verdict = Section::new("Verdict");
+    verdict.push(Block::Verdict(format!("Cause: {}.", action_line(dg))));
+    let mut sections = vec![verdict];
+    let mut later = vec![findings];
     let sig = reporting::signals(d, &name);
     let mut baseline = Section::new(format!("Baseline: {base_label}"));
     baseline.push(Block::Paragraph(reporting::verdict(
         base.result,
-        &format!("baseline {base_label}"),
+        &format!("Before the diagnosis, the baseline {base_label}"),
     )));
     baseline.push(reporting::facts(&base));
     if let Some(sig) = &sig {
@@ -331,7 +384,7 @@ fn diagnose_report(
             baseline.push(Block::Figure(f));
         }
     }
-    sections.push(baseline);
+    later.push(baseline);
     if let Some(sig) = &sig {
         let mut res = Section::new("Residuals");
         let r = &dg.residuals;
@@ -371,7 +424,7 @@ fn diagnose_report(
             figures::residual_spectrum(sig, (base.result, &base_label), ext_ref, "spectrum")
                 .map_err(rep_err)?,
         ));
-        sections.push(res);
+        later.push(res);
         if let Some((f, x)) = chosen {
             let view = RunView::of_fitted(x);
             let label = reporting::combo(&view);
@@ -401,6 +454,8 @@ fn diagnose_report(
             sections.push(sec);
         }
     }
+    // The verdict and the model to use first; then how it was reached.
+    sections.extend(later);
     let rep = Report {
         title: format!("diagnose: loop {name}, {base_label}"),
         subtitle: format!(

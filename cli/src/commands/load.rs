@@ -8,6 +8,7 @@ use crate::{data, read_all, Failure, Streams};
 
 /// Column remaps and the gap policy, shared by every command that reads data.
 #[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Data options (columns, gaps, controller mode)")]
 pub struct DataFlags {
     /// Name of the PV column (default `PV`, case-insensitive).
     #[arg(long, value_name = "NAME")]
@@ -44,6 +45,10 @@ impl DataFlags {
     /// Use column `name` as OP.
     pub(crate) fn set_op(&mut self, name: String) {
         self.op = Some(name);
+    }
+    /// The OP column's name (`OP` unless remapped).
+    pub(crate) fn op_column(&self) -> &str {
+        self.op.as_deref().unwrap_or("OP")
     }
     /// Use column `name` as PV.
     pub(crate) fn set_pv(&mut self, name: String) {

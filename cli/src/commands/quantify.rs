@@ -151,13 +151,15 @@ pub(crate) struct Run {
     pub elapsed_ms: f64,
 }
 
-/// Run one stiction × linear combination on `d`.
+/// Run one stiction × linear combination on `d`. The progress bar (on a terminal) appears once
+/// `since` is a second old and its label starts with `step` (e.g. `compare 3/10: `).
 pub(crate) fn run_one(
     stiction: &str,
     linear: &str,
     flags: &SearchFlags,
     d: &LoopData,
     s: &mut Streams<'_>,
+    (since, step): (Instant, &str),
 ) -> Result<Run, Failure> {
     let started = Instant::now();
     let entry = find_model(stiction).map_err(usage)?;
@@ -199,7 +201,12 @@ pub(crate) fn run_one(
         }
     };
     let (identifier, id_entry) = build_identifier(linear, flags.orders.as_deref(), delay)?;
-    let bar = Progress::new(s.progress, &format!("{} + {}", entry.name, id_entry.name));
+    let bar = Progress::since(
+        s.progress,
+        &format!("{step}{} + {}", entry.name, id_entry.name),
+        "nodes",
+        since,
+    );
     let tick = |done: usize, total: usize| bar.update(done, total);
     let result = quantify(entry, identifier.as_ref(), problem, &options, Some(&tick))
         .map_err(|e| data(anyhow!("{}: {e}", d.source)))?;
@@ -227,12 +234,14 @@ fn round(x: f64, digits: i32) -> Value {
 /// The contract's quantify object.
 pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
     let q = &r.result;
+    let step = q.grid.step();
+    let g = |x: f64| crate::on_grid(x, step);
     let mut params = serde_json::Map::new();
     for (spec, v) in r.stiction.params.iter().zip(q.stiction.param_values()) {
-        params.insert(spec.name.to_string(), json!(v));
+        params.insert(spec.name.to_string(), json!(g(v)));
     }
     for (name, v) in q.stiction.derived_values() {
-        params.insert(name.to_string(), json!(v));
+        params.insert(name.to_string(), json!(g(v)));
     }
     let orders: serde_json::Map<String, Value> = r
         .identifier
@@ -245,8 +254,8 @@ pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
     json!({
         "stiction_model": r.stiction.name,
         "linear_model": r.linear_name,
-        "S": q.s,
-        "J": q.j,
+        "S": g(q.s),
+        "J": g(q.j),
         "params": params,
         "fit_pv_id": fit_id,
         "fit_pv_val": fit_val,
@@ -262,7 +271,7 @@ pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
         "delay_scan": r.delay_scan.as_ref().map(|d| d.scores.iter().map(|(k, f)| json!({"delay": k, "fit_pv_val": round(*f, 6)})).collect::<Vec<_>>()),
         "orders": orders,
         "interval": {
-            "S": q.interval.s, "J": q.interval.j, "nodes": q.interval.nodes,
+            "S": q.interval.s.map(g), "J": q.interval.j.map(g), "nodes": q.interval.nodes,
             "fit_threshold": round(q.interval.fit_threshold, 6), "confidence": q.interval.confidence,
         },
         "grid": {
@@ -296,7 +305,14 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         Ok(d) => d,
         Err(f) => return Err(refused(f, s)),
     };
-    let r = match run_one(&args.stiction, &args.linear, &args.search, &d, s) {
+    let r = match run_one(
+        &args.stiction,
+        &args.linear,
+        &args.search,
+        &d,
+        s,
+        (Instant::now(), ""),
+    ) {
         Ok(r) => r,
         Err(f) => return Err(refused(f, s)),
     };
@@ -309,6 +325,10 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         let view = RunView::of_run(&r);
         let mut result = Section::new("Result");
         result.push(reporting::facts(&view));
+        result.push(Block::Paragraph(format!(
+            "Verdict: {}.",
+            reporting::verdict_line(&r.result)
+        )));
         for w in &r.result.warnings {
             result.push(Block::Note(w.clone()));
         }
@@ -394,8 +414,14 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         r.elapsed_ms
     )
     .map_err(data)?;
-    for w in &q.warnings {
-        writeln!(out, "  note: {w}").map_err(data)?;
+    writeln!(out, "  verdict: {}", reporting::verdict_line(q)).map_err(data)?;
+    for (i, w) in q.warnings.iter().enumerate() {
+        let kind = if i < q.doubts.len() {
+            "warning"
+        } else {
+            "note"
+        };
+        writeln!(out, "  {kind}: {w}").map_err(data)?;
     }
     Ok(())
 }
@@ -471,9 +497,13 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         }
     };
     let mut rows = Vec::new();
+    let started = Instant::now();
+    let total = args.stiction.len() * args.linear.len();
     for st in &args.stiction {
         for li in &args.linear {
-            rows.push((st.clone(), li.clone(), run_one(st, li, &args.search, &d, s)));
+            let step = format!("compare {}/{total}: ", rows.len() + 1);
+            let r = run_one(st, li, &args.search, &d, s, (started, &step));
+            rows.push((st.clone(), li.clone(), r));
         }
     }
     if args.report.report.is_some() {
@@ -485,7 +515,7 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         for (st, li, r) in &rows {
             match r {
                 Ok(r) => results.push(quantify_json(r, args.search.init.label())),
-                Err(f) => errors.push(json!({"stiction_model": st, "linear_model": li, "error": format!("{:#}", f.error())})),
+                Err(f) => errors.push(json!({"stiction_model": st, "linear_model": li, "error": crate::one_line(f.error())})),
             }
         }
         let doc = json!({"source": d.source, "results": results, "errors": errors});
@@ -536,7 +566,7 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
                 .map_err(data)?;
             }
             Err(f) => {
-                let msg = format!("{:#}", f.error()).replace('\n', " ");
+                let msg = crate::one_line(f.error());
                 writeln!(out, "{st:<10} {li:<7} error: {msg}").map_err(data)?;
             }
         }
@@ -581,7 +611,7 @@ fn compare_report(
                 ok.push(r);
             }
             Err(f) => {
-                let msg = format!("{:#}", f.error()).replace('\n', " ");
+                let msg = crate::one_line(f.error());
                 let mut row = vec![st.clone(), li.clone(), format!("error: {msg}")];
                 row.resize(header.len(), String::new());
                 table.push(row);

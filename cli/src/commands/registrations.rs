@@ -50,14 +50,52 @@ impl IntegratingFlag {
     }
 }
 
+/// Whether a delimited text file in a folder looks like a loop registration: its header names
+/// the OP column `op` (case-insensitive). A folder's `labels.csv` or a results table does not,
+/// and is skipped with a note instead of becoming a valve or an error row. `.mat` files are
+/// always taken (their reader lists the loops inside).
+fn looks_like_loop(f: &Path, op: &str) -> Result<(), String> {
+    let is_text = f
+        .extension()
+        .is_some_and(|e| !e.eq_ignore_ascii_case("mat"));
+    if !is_text {
+        return Ok(());
+    }
+    let Ok(file) = std::fs::File::open(f) else {
+        return Ok(()); // the reader says why, in the file's row
+    };
+    let mut first = String::new();
+    let _ = std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(std::io::Read::take(file, 64 * 1024)),
+        &mut first,
+    );
+    let found = first
+        .trim_start_matches('\u{feff}')
+        .split([',', ';', '\t'])
+        .any(|c| c.trim().trim_matches('"').eq_ignore_ascii_case(op));
+    if found {
+        Ok(())
+    } else {
+        Err(format!(
+            "no {op} column in its header, not a loop registration"
+        ))
+    }
+}
+
 /// Expand files and directories into registration files (directories: their files with a
-/// known extension, sorted by name, minus `exclude`).
-pub(crate) fn expand(paths: &[PathBuf], exclude: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+/// known extension whose header names the OP column `op`, sorted by name, minus `exclude`);
+/// the files of a directory left out as not being loops are returned with the reason.
+pub(crate) fn expand(
+    paths: &[PathBuf],
+    exclude: &[PathBuf],
+    op: &str,
+) -> anyhow::Result<(Vec<PathBuf>, Vec<(PathBuf, String)>)> {
     let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
         (Ok(x), Ok(y)) => x == y,
         _ => a == b,
     };
     let mut out = Vec::new();
+    let mut skipped = Vec::new();
     for p in paths {
         if p.is_dir() {
             let mut files: Vec<PathBuf> = std::fs::read_dir(p)
@@ -72,14 +110,19 @@ pub(crate) fn expand(paths: &[PathBuf], exclude: &[PathBuf]) -> anyhow::Result<V
                 .filter(|f| !exclude.iter().any(|x| same(f, x)))
                 .collect();
             files.sort();
-            out.extend(files);
+            for f in files {
+                match looks_like_loop(&f, op) {
+                    Ok(()) => out.push(f),
+                    Err(why) => skipped.push((f, why)),
+                }
+            }
         } else if p.exists() {
             out.push(p.clone());
         } else {
             anyhow::bail!("{}: no such file or directory", p.display());
         }
     }
-    Ok(out)
+    Ok((out, skipped))
 }
 
 /// The base name of a path, for rows and messages.
@@ -102,6 +145,8 @@ pub(crate) struct ComboFit {
     pub json: Value,
     pub s: f64,
     pub s_range: [f64; 2],
+    /// The grid's finest step (JSON numbers are rounded to its resolution, `crate::on_grid`).
+    pub step: f64,
     pub j: f64,
     pub j_range: [f64; 2],
     pub fit_val: f64,
@@ -183,9 +228,16 @@ pub(crate) fn evaluate(path: &Path, plan: &Plan<'_>) -> Registration {
                 stderr: &mut err,
                 progress: false,
             };
-            let result = run_one(st, li, plan.search, &used, &mut quiet)
-                .map(|r| fit_of(&r, &used, &reg.notes, plan))
-                .map_err(|f| format!("{:#}", f.error()).replace('\n', " "));
+            let result = run_one(
+                st,
+                li,
+                plan.search,
+                &used,
+                &mut quiet,
+                (std::time::Instant::now(), ""),
+            )
+            .map(|r| fit_of(&r, &used, &reg.notes, plan))
+            .map_err(|f| crate::one_line(f.error()));
             combos.push(ComboOutcome {
                 stiction: st.clone(),
                 linear: li.clone(),
@@ -206,6 +258,7 @@ fn fit_of(r: &Run, d: &LoopData, notes: &[String], plan: &Plan<'_>) -> ComboFit 
         s_range: q.interval.s,
         j: q.j,
         j_range: q.interval.j,
+        step: q.grid.step(),
         fit_val,
         evidence: plan.explainer.explain(d, q, notes),
         json,
@@ -342,7 +395,7 @@ pub(crate) fn diagnose_registration(
                 (l.min(v), h.max(v))
             });
     let span = hi - lo;
-    let fail = |f: crate::Failure| format!("{:#}", f.error());
+    let fail = |f: crate::Failure| crate::one_line(f.error());
     let (identifier, id_entry) =
         super::search_flags::build_identifier(linear, plan.search.orders.as_deref(), 0)
             .map_err(fail)?;

@@ -27,8 +27,35 @@ pub(crate) fn parse_delay(s: &str) -> Result<DelayFlag, String> {
         .map_err(|_| format!("expected a number of samples or `auto`, got {s:?}"))
 }
 
+/// `--split`: a decimal or `a/b`, strictly between 0 and 1.
+pub(crate) fn parse_split(s: &str) -> Result<f64, String> {
+    let v = match s.split_once('/') {
+        Some((a, b)) => {
+            let a: f64 = a
+                .trim()
+                .parse()
+                .map_err(|_| format!("{s:?} is not a fraction"))?;
+            let b: f64 = b
+                .trim()
+                .parse()
+                .map_err(|_| format!("{s:?} is not a fraction"))?;
+            a / b
+        }
+        None => s
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{s:?} is not a number"))?,
+    };
+    if v.is_finite() && v > 0.0 && v < 1.0 {
+        Ok(v)
+    } else {
+        Err(format!("{s}: expected a fraction strictly between 0 and 1"))
+    }
+}
+
 /// Grid and identification options.
 #[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Search options")]
 pub(crate) struct SearchFlags {
     /// Orders of the linear model: values in the identifier's order (e.g. `2,2` for arx n,m;
     /// `2,2,2` for armax n,m,p) or NAME=VALUE pairs (`n=3,m=2`). Default: the paper's.
@@ -47,8 +74,9 @@ pub(crate) struct SearchFlags {
     /// Fit that ranks the grid nodes: one-step `prediction` or free-run `simulation`.
     #[arg(long, value_enum, default_value = "prediction")]
     pub criterion: CriterionFlag,
-    /// Fraction of the record used for identification (the rest validates).
-    #[arg(long, value_name = "F", default_value = "0.6666666666666666")]
+    /// Fraction of the record used for identification (the rest validates): a decimal or a
+    /// fraction such as `3/4`.
+    #[arg(long, value_name = "F", default_value = "2/3", value_parser = parse_split)]
     pub split: f64,
 }
 

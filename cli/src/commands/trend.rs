@@ -22,9 +22,9 @@ use report::figures::TrendLine;
 use report::{figures, Block, Report, Section, TrendPoint, TrendStatus};
 
 /// Default maintenance threshold on S, % of valve span (see `docs/PLANT_DATA.md`).
-pub(crate) const DEFAULT_THRESHOLD: f64 = 1.6;
+pub(crate) const DEFAULT_THRESHOLD: f64 = grid_search::MAINTENANCE_S;
 /// Default minimum validation fit for a registration to count, %.
-pub(crate) const DEFAULT_MIN_FIT: f64 = 50.0;
+pub(crate) const DEFAULT_MIN_FIT: f64 = grid_search::trust::WEAK_FIT;
 
 pub(crate) const AFTER_HELP: &str = "\
 Every registration (file) of one valve is quantified with every stiction x linear
@@ -257,7 +257,10 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             args.threshold
         )));
     }
-    let files = expand(&args.paths, &[]).map_err(usage)?;
+    let (files, not_loops) = expand(&args.paths, &[], args.data.op_column()).map_err(usage)?;
+    for (f, why) in &not_loops {
+        let _ = writeln!(s.stderr, "note: skipped {}: {why}", f.display());
+    }
     let mut by_valve: std::collections::BTreeMap<String, Vec<PathBuf>> = Default::default();
     for f in files {
         let name = super::registrations::file_name(&f);
@@ -398,10 +401,11 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
                         match r.outcome.as_ref().map(|o| &o[c].result) {
                             Err(e) | Ok(Err(e)) => row["error"] = json!(e),
                             Ok(Ok(f)) => {
-                                row["S"] = json!(f.s);
-                                row["S_range"] = json!(f.s_range);
-                                row["J"] = json!(f.j);
-                                row["J_range"] = json!(f.j_range);
+                                let g = |x: f64| crate::on_grid(x, f.step);
+                                row["S"] = json!(g(f.s));
+                                row["S_range"] = json!(f.s_range.map(g));
+                                row["J"] = json!(g(f.j));
+                                row["J_range"] = json!(f.j_range.map(g));
                                 row["fit_pv_val"] = json!(f.fit_val);
                                 row["why"] = json!(f.evidence);
                                 row["quantify"] = f.json.clone();
@@ -646,6 +650,11 @@ fn trend_report(
     let mut rules = Section::new("How the verdict is reached");
     rules.push(Block::Paragraph(rule.to_string()));
     sections.push(rules);
+    // The verdict first, in its own box, then why.
+    let mut first = Section::new("Verdict");
+    first.push(Block::Verdict(format!("Verdict: {verdict}.")));
+    first.push(Block::Paragraph(reason.to_string()));
+    sections.insert(0, first);
     let rep = Report {
         title: format!("trend: valve {valve}"),
         subtitle: format!(
@@ -653,7 +662,7 @@ fn trend_report(
             regs.len(),
             args.threshold
         ),
-        summary: vec![format!("Verdict: {verdict}. {reason}")],
+        summary: Vec::new(),
         sections,
     };
     crate::reporting::write(&rep, &args.report, started, s)
