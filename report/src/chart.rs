@@ -303,6 +303,17 @@ fn style(color: RGBColor, width: u32) -> ShapeStyle {
     }
 }
 
+/// What a legend entry shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Glyph {
+    /// A line series.
+    Line,
+    /// Points (dots, rings, crosses).
+    Dot,
+    /// A dashed reference line.
+    Rule,
+}
+
 fn draw_panel(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
     panel: &Panel,
@@ -352,10 +363,13 @@ fn draw_panel(
     } else {
         0
     };
-    let mut builder = ChartBuilder::on(area);
+    let (w, _) = area.dim_in_pixel();
+    let legend_w = legend_w.min(w / 3);
+    let (plot_area, legend_area) = area.split_horizontally((w - legend_w) as i32);
+    let mut builder = ChartBuilder::on(&plot_area);
     builder
         .margin(8)
-        .margin_right(16 + legend_w)
+        .margin_right(16)
         .x_label_area_size(44)
         .y_label_area_size(70);
     if !panel.caption.is_empty() {
@@ -385,7 +399,8 @@ fn draw_panel(
         .bold_line_style(RGBColor(215, 215, 215))
         .draw()
         .map_err(|e| err("mesh", e))?;
-    let mut legend = false;
+    // Legend entries: drawn after the data, in their own strip (see below).
+    let mut entries: Vec<(String, RGBColor, Glyph)> = Vec::new();
     for rule in &panel.rules {
         let pts = if rule.vertical {
             vec![(rule.at, y_range.0), (rule.at, y_range.1)]
@@ -395,10 +410,8 @@ fn draw_panel(
         let c = rule.color;
         chart
             .draw_series(DashedLineSeries::new(pts, 6, 4, style(c, 1)))
-            .map_err(|e| err("rule", e))?
-            .label(rule.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style(c, 1)));
-        legend = true;
+            .map_err(|e| err("rule", e))?;
+        entries.push((rule.name.clone(), c, Glyph::Rule));
     }
     for s in &panel.series {
         let c = s.color;
@@ -430,21 +443,13 @@ fn draw_panel(
                     .draw_series(run.iter().map(|&p| Cross::new(p, 6, style(c, 2))))
                     .map_err(|e| err("crosses", e))?,
             };
+            let _ = anno;
             if first {
-                let mark = s.mark;
-                anno.label(s.name.clone()).legend(move |(x, y)| match mark {
-                    Mark::Dots(_) | Mark::Rings(_) | Mark::Crosses => {
-                        EmptyElement::at((x, y))
-                            + Circle::new((9, 0), 3, c.filled())
-                            + PathElement::new(vec![(0, 0), (0, 0)], style(c, 1))
-                    }
-                    _ => {
-                        EmptyElement::at((x, y))
-                            + Circle::new((0, 0), 0, c.filled())
-                            + PathElement::new(vec![(0, 0), (18, 0)], style(c, 2))
-                    }
-                });
-                legend = true;
+                let glyph = match s.mark {
+                    Mark::Dots(_) | Mark::Rings(_) | Mark::Crosses => Glyph::Dot,
+                    _ => Glyph::Line,
+                };
+                entries.push((s.name.clone(), c, glyph));
                 first = false;
             }
         }
@@ -459,11 +464,34 @@ fn draw_panel(
             }
         }
     }
-    if legend {
-        let plot_w = chart.plotting_area().dim_in_pixel().0 as i32;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::Coordinate(plot_w + 10, 0))
+    if !entries.is_empty() {
+        // A chart without axes in the strip right of the plot holds the legend box, top
+        // aligned with the plotting area.
+        let top = 8 + if panel.caption.is_empty() { 0 } else { 24 };
+        let mut lc = ChartBuilder::on(&legend_area)
+            .margin_top(top)
+            .margin_left(4)
+            .margin_right(8)
+            .build_cartesian_2d(0f64..1f64, 0f64..1f64)
+            .map_err(|e| err("legend", e))?;
+        for (name, c, glyph) in entries {
+            lc.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+                .map_err(|e| err("legend", e))?
+                .label(name)
+                .legend(move |(x, y)| {
+                    let (r, path, w) = match glyph {
+                        Glyph::Dot => (3, vec![(0, 0), (0, 0)], 1),
+                        Glyph::Line => (0, vec![(0, 0), (18, 0)], 2),
+                        Glyph::Rule => (0, vec![(0, 0), (18, 0)], 1),
+                    };
+                    let dx = if glyph == Glyph::Dot { 9 } else { 0 };
+                    EmptyElement::at((x, y))
+                        + Circle::new((dx, 0), r, c.filled())
+                        + PathElement::new(path, style(c, w))
+                });
+        }
+        lc.configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
             .label_font((FONT, 12))
