@@ -370,6 +370,7 @@ fn diagnose_report(
     });
     let mut verdict = Section::new("Verdict");
     verdict.push(Block::Verdict(format!("Cause: {}.", action_line(dg))));
+    verdict.push(Block::Paragraph(dg.summary.clone()));
     let mut sections = vec![verdict];
     let mut later = vec![findings];
     let sig = reporting::signals(d, &name);
@@ -464,7 +465,7 @@ fn diagnose_report(
             d.len(),
             dg.cause
         ),
-        summary: vec![dg.summary.clone()],
+        summary: Vec::new(),
         sections,
     };
     reporting::write(&rep, flags, started, s)

@@ -419,6 +419,13 @@ pub(crate) fn diagnose_registration(
     };
     let dg = discrepancy::diagnose(problem, &baseline, &options).map_err(|e| e.to_string())?;
     Ok(match dg.chosen.and_then(|i| dg.findings.get(i)) {
+        Some(f) if f.cause == "no-stiction" => format!(
+            "diagnosis: no-stiction (a valve with negligible stiction, S {} % at most {} %, explains PV as well as S {:.2} %: validation F_PV {:+.1} points)",
+            f.extended.as_ref().map_or("-".into(), |x| format!("{:.2}", x.s)),
+            grid_search::NEGLIGIBLE_S,
+            dg.baseline.s,
+            f.gain_fit_pv_val
+        ),
         Some(f) => {
             let s = f.extended.as_ref().map_or(String::new(), |x| {
                 format!(", S {:.2} -> {:.2} %", dg.baseline.s, x.s)
