@@ -9,10 +9,8 @@ use datasets::LoopData;
 use grid_search::{Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 use report::{figures, Block, Figure, LoopSignals, Report, Section, WriteOptions};
 
-use crate::commands::quantify::Run;
 use crate::{data, Failure, Streams};
 use discrepancy::Fitted;
-use linear_id::LinearIdentifier;
 use stiction_models::ModelEntry;
 
 /// The report flags.
@@ -57,44 +55,9 @@ pub(crate) fn signals<'a>(d: &'a LoopData, name: &'a str) -> Option<LoopSignals<
     })
 }
 
-/// What the report needs of a fitted combination (a quantify run or a diagnosis fit).
-pub(crate) struct RunView<'a> {
-    pub stiction: &'static ModelEntry,
-    pub linear_name: &'a str,
-    pub identifier: &'a dyn LinearIdentifier,
-    pub delay: usize,
-    pub result: &'a Quantification,
-    pub elapsed_ms: f64,
-}
-
-impl<'a> RunView<'a> {
-    /// View of a quantify run.
-    pub(crate) fn of_run(r: &'a Run) -> RunView<'a> {
-        RunView {
-            stiction: r.stiction,
-            linear_name: r.linear_name,
-            identifier: r.identifier.as_ref(),
-            delay: r.delay,
-            result: &r.result,
-            elapsed_ms: r.elapsed_ms,
-        }
-    }
-    /// View of a diagnosis fit.
-    pub(crate) fn of_fitted(f: &'a Fitted) -> RunView<'a> {
-        RunView {
-            stiction: f.stiction,
-            linear_name: f.linear,
-            identifier: f.identifier.as_ref(),
-            delay: f.delay,
-            result: &f.result,
-            elapsed_ms: f.elapsed_ms,
-        }
-    }
-}
-
 /// `kano × arx`.
-pub(crate) fn combo(r: &RunView<'_>) -> String {
-    format!("{} × {}", r.stiction.name, r.linear_name)
+pub(crate) fn combo(r: &Fitted) -> String {
+    format!("{} × {}", r.stiction.name, r.linear)
 }
 
 fn f2(x: f64) -> String {
@@ -208,8 +171,8 @@ pub(crate) fn own_params(entry: &ModelEntry, q: &Quantification) -> Vec<String> 
 }
 
 /// The numbers of one run as name/value pairs.
-pub(crate) fn facts(r: &RunView<'_>) -> Block {
-    let q = r.result;
+pub(crate) fn facts(r: &Fitted) -> Block {
+    let q = &r.result;
     let (fid, fval) = q.fits.rank(q.criterion);
     let (oid, oval) = q.fits.rank(q.criterion.other());
     let own = own_params(r.stiction, q);
@@ -239,7 +202,7 @@ pub(crate) fn facts(r: &RunView<'_>) -> Block {
             "linear model".into(),
             format!(
                 "{} ({}), dead time {} samples",
-                r.linear_name,
+                r.linear,
                 orders.join(", "),
                 r.delay
             ),
@@ -284,7 +247,7 @@ pub(crate) fn facts(r: &RunView<'_>) -> Block {
 /// names of several runs apart; `role` (e.g. `baseline`) is added to the model in the titles.
 pub(crate) fn run_figures(
     sig: &LoopSignals<'_>,
-    r: &RunView<'_>,
+    r: &Fitted,
     prefix: &str,
     role: &str,
 ) -> Result<Vec<Figure>, Failure> {
@@ -293,7 +256,7 @@ pub(crate) fn run_figures(
     } else {
         format!("{}, {role}", combo(r))
     };
-    let q = r.result;
+    let q = &r.result;
     let rep = |e: report::ReportError| data(anyhow!("report: {e}"));
     Ok(vec![
         figures::time_trends(sig, q, &model, &format!("{prefix}trends")).map_err(rep)?,

@@ -92,7 +92,9 @@ impl Cause for AsymmetricStiction {
         let started = Instant::now();
         let entry = find_model("kano-asym")?;
         let linear = find_identifier(ctx.baseline.linear)?;
-        let identifier = ctx.baseline_spec.identifier(linear, ctx.baseline.delay)?;
+        let identifier = ctx
+            .combination(entry, linear, ctx.baseline.delay)
+            .identifier(ctx.baseline.delay)?;
         let q = &ctx.baseline.result;
         let fine = ctx.options.search.grid.step();
         let snap = |v: f64| (v / fine).round() * fine;
@@ -232,17 +234,7 @@ impl Cause for TimeDelay {
     }
     fn extend(&self, ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         let spec = ctx.baseline_spec;
-        let build = |d: usize| -> Result<Box<dyn LinearIdentifier>, IdError> {
-            spec.identifier(spec.linear, d).map_err(|e| match e {
-                DiagnoseError::Identifier(e) => e,
-                other => IdError::InvalidOrder {
-                    identifier: spec.linear.name,
-                    name: "delay".into(),
-                    value: d as f64,
-                    expected: other.to_string(),
-                },
-            })
-        };
+        let build = |d: usize| -> Result<Box<dyn LinearIdentifier>, IdError> { spec.identifier(d) };
         let scan = estimate_delay(
             spec.stiction,
             &build,
@@ -253,10 +245,10 @@ impl Cause for TimeDelay {
         let best = scan
             .scores
             .iter()
-            .filter(|(d, _)| *d != spec.delay)
+            .filter(|(d, _)| *d != spec.fixed_delay())
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(d, _)| *d)
-            .unwrap_or(spec.delay + 1);
+            .unwrap_or(spec.fixed_delay() + 1);
         let mut fitted = ctx.quantify(spec.stiction, spec.linear, best)?;
         fitted.delay_scan = Some(scan);
         let lr = ctx.lr(ctx.baseline.fit_val(), fitted.fit_val());
@@ -305,7 +297,7 @@ impl Cause for NoStiction {
     fn extend(&self, ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         let started = Instant::now();
         let spec = ctx.baseline_spec;
-        let identifier = spec.identifier(spec.linear, ctx.baseline.delay)?;
+        let identifier = spec.identifier(ctx.baseline.delay)?;
         let zero = vec![0.0; spec.stiction.params.len()];
         // The valve without stiction: every node of negligible stiction on the fine lattice
         // (the exact S = J = 0 node alone can be skipped, e.g. for an unstable model).

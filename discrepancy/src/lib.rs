@@ -21,10 +21,12 @@ mod residuals;
 use std::fmt;
 use std::time::Instant;
 
-use grid_search::{quantify, DelayScan, GridPlan, Problem, Quantification, SearchOptions};
-use linear_id::{find_identifier, IdentifierEntry, LinearIdentifier};
+use grid_search::{GridPlan, Problem, SearchOptions};
+use linear_id::IdentifierEntry;
 use serde::Serialize;
 use stiction_models::ModelEntry;
+
+pub use monitoring::{Combination, FitSummary, Fitted};
 
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
@@ -73,125 +75,23 @@ pub enum DiagnoseError {
     },
 }
 
-/// The model a diagnosis starts from.
-#[derive(Debug, Clone)]
-pub struct Baseline {
-    /// Stiction model (registry entry).
-    pub stiction: &'static ModelEntry,
-    /// Linear identifier (registry entry).
-    pub linear: &'static IdentifierEntry,
-    /// Orders as `NAME=value` pairs (missing ones take the identifier's defaults).
-    pub orders: Vec<(String, f64)>,
-    /// Dead time, samples.
-    pub delay: usize,
-}
-
-impl Baseline {
-    /// Kano + ARX(2, 2), dead time 0: the paper's default.
-    pub fn paper() -> Result<Baseline, DiagnoseError> {
-        Ok(Baseline {
-            stiction: stiction_models::find_model("kano")?,
-            linear: find_identifier("arx")?,
-            orders: Vec::new(),
-            delay: 0,
-        })
-    }
-
-    /// Build the identifier with `linear` (or the baseline's own) and dead time `delay`.
-    pub fn identifier(
-        &self,
-        linear: &'static IdentifierEntry,
-        delay: usize,
-    ) -> Result<Box<dyn LinearIdentifier>, DiagnoseError> {
-        let mut pairs: Vec<(String, f64)> = self
-            .orders
-            .iter()
-            .filter(|(k, _)| k != "delay" && linear.orders.iter().any(|o| o.name == k))
-            .cloned()
-            .collect();
-        if linear.orders.iter().any(|o| o.name == "delay") {
-            pairs.push(("delay".into(), delay as f64));
-        }
-        Ok((linear.build)(&pairs)?)
-    }
-}
-
-/// A fitted Hammerstein model: what was searched and what was found.
-#[derive(Debug)]
-pub struct Fitted {
-    /// Stiction model.
-    pub stiction: &'static ModelEntry,
-    /// Linear identifier's registered name.
-    pub linear: &'static str,
-    /// The identifier (orders and dead time).
-    pub identifier: Box<dyn LinearIdentifier>,
-    /// Dead time, samples.
-    pub delay: usize,
-    /// The dead-time scan, when the dead time was estimated.
-    pub delay_scan: Option<DelayScan>,
-    /// The search result.
-    pub result: Quantification,
-    /// Wall time, ms.
-    pub elapsed_ms: f64,
-}
-
-/// The numbers of a [`Fitted`] model that a diagnosis reports (serialisable).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FitSummary {
-    /// Stiction model name.
-    pub stiction_model: &'static str,
-    /// Linear model name.
-    pub linear_model: &'static str,
-    /// Equivalent S.
-    #[serde(rename = "S")]
-    pub s: f64,
-    /// Equivalent J.
-    #[serde(rename = "J")]
-    pub j: f64,
-    /// The stiction model's own parameters, in registry order.
-    pub params: Vec<(&'static str, f64)>,
-    /// Dead time.
-    pub delay: usize,
-    /// F_PV of the ranking criterion, identification window.
-    pub fit_pv_id: f64,
-    /// F_PV of the ranking criterion, validation window.
-    pub fit_pv_val: f64,
-    /// Free-run simulation F_PV, validation window.
-    pub fit_sim_val: f64,
-}
-
-impl Fitted {
-    /// The reported numbers.
-    pub fn summary(&self) -> FitSummary {
-        let q = &self.result;
-        let (id, val) = match q.criterion {
-            grid_search::Criterion::Prediction => (q.fits.pred_id, q.fits.pred_val),
-            grid_search::Criterion::Simulation => (q.fits.sim_id, q.fits.sim_val),
-        };
-        FitSummary {
-            stiction_model: self.stiction.name,
-            linear_model: self.linear,
-            s: q.s,
-            j: q.j,
-            params: self
-                .stiction
-                .params
-                .iter()
-                .map(|p| p.name)
-                .zip(q.stiction.param_values())
-                .collect(),
-            delay: self.delay,
-            fit_pv_id: id,
-            fit_pv_val: val,
-            fit_sim_val: q.fits.sim_val,
+impl From<monitoring::MonitoringError> for DiagnoseError {
+    fn from(e: monitoring::MonitoringError) -> Self {
+        match e {
+            monitoring::MonitoringError::Stiction(e) => DiagnoseError::Stiction(e),
+            monitoring::MonitoringError::Identification(e) => DiagnoseError::Identifier(e),
+            monitoring::MonitoringError::Search(e) => DiagnoseError::Search(e),
+            other => DiagnoseError::NoValidNode {
+                model: "combination".into(),
+                reason: other.to_string(),
+            },
         }
     }
-
-    /// Validation F_PV of the ranking criterion.
-    pub fn fit_val(&self) -> f64 {
-        self.result.fits_score(self.result.criterion)
-    }
 }
+
+/// The model a diagnosis starts from: a [`Combination`] with a fixed dead time (its grid and
+/// search options are the diagnosis's, [`DiagnoseOptions::search`]).
+pub type Baseline = Combination;
 
 /// What a cause computes from the baseline's residuals and the data, before any refit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -251,31 +151,44 @@ impl Context<'_> {
         self.n_val() * (sse(fit_a) / sse(fit_b)).ln()
     }
 
-    /// Quantify with `stiction` × `identifier` on the baseline's grid plan.
+    /// Quantify with `stiction` × `linear` and dead time `delay` on the diagnosis's grid plan
+    /// (the baseline's orders).
     pub fn quantify(
         &self,
         stiction: &'static ModelEntry,
         linear: &'static IdentifierEntry,
         delay: usize,
     ) -> Result<Fitted, DiagnoseError> {
-        let started = Instant::now();
-        let identifier = self.baseline_spec.identifier(linear, delay)?;
-        let result = quantify(
-            stiction,
-            identifier.as_ref(),
-            self.problem,
-            &self.options.search,
-            None,
-        )?;
-        Ok(Fitted {
-            stiction,
-            linear: linear.name,
-            identifier,
-            delay,
-            delay_scan: None,
-            result,
-            elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
-        })
+        Ok(self
+            .combination(stiction, linear, delay)
+            .run(self.problem, None)?)
+    }
+
+    /// The baseline's combination with another stiction model, identifier and dead time, on
+    /// the diagnosis's grid and search options.
+    pub fn combination(
+        &self,
+        stiction: &'static ModelEntry,
+        linear: &'static IdentifierEntry,
+        delay: usize,
+    ) -> Combination {
+        diagnosis_combination(self.baseline_spec, self.options, stiction, linear, delay)
+    }
+}
+
+/// `baseline` with another stiction model, identifier and dead time, searched with the
+/// diagnosis's options.
+fn diagnosis_combination(
+    baseline: &Baseline,
+    options: &DiagnoseOptions,
+    stiction: &'static ModelEntry,
+    linear: &'static IdentifierEntry,
+    delay: usize,
+) -> Combination {
+    Combination {
+        grid: Some(options.search.grid),
+        search: options.search,
+        ..baseline.with(stiction, linear, delay)
     }
 }
 
@@ -480,23 +393,15 @@ pub fn diagnose_with_progress(
     }
     let span = span_of(problem.op);
     let t0 = Instant::now();
-    let identifier = baseline.identifier(baseline.linear, baseline.delay)?;
-    let result = quantify(
+    let mut base = diagnosis_combination(
+        baseline,
+        options,
         baseline.stiction,
-        identifier.as_ref(),
-        problem,
-        &options.search,
-        None,
-    )?;
-    let base = Fitted {
-        stiction: baseline.stiction,
-        linear: baseline.linear.name,
-        identifier,
-        delay: baseline.delay,
-        delay_scan: None,
-        result,
-        elapsed_ms: t0.elapsed().as_secs_f64() * 1e3,
-    };
+        baseline.linear,
+        baseline.fixed_delay(),
+    )
+    .run(problem, None)?;
+    base.elapsed_ms = t0.elapsed().as_secs_f64() * 1e3;
     // Residual series of the baseline at its best node.
     let residuals = {
         let q = &base.result;

@@ -16,9 +16,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use datasets::simulate::{Controller, Disturbance, Plant, PlantPreset, PlantSpec, Scenario};
-use grid_search::{quantify, Criterion, GridPlan, Problem, SearchOptions};
+use grid_search::{Criterion, Problem, SearchOptions};
 use rayon::prelude::*;
-use stiction_models::{find_model, Kano};
+use stiction_models::Kano;
 
 /// Every linear model of the paper, in the paper's table order.
 const MODELS: [&str; 5] = ["arx", "armax", "ss", "earx", "earmax"];
@@ -235,30 +235,25 @@ fn run_job(job: &Job) -> Result<Outcome> {
         ..Scenario::default()
     };
     let sim = scenario.simulate()?;
-    let (lo, hi) = sim
-        .op
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-            (l.min(v), h.max(v))
-        });
-    let options = SearchOptions {
-        grid: GridPlan::for_span(hi - lo),
-        criterion: job.criterion,
-        ..SearchOptions::default()
-    };
-    let identifier = (linear_id::find_identifier(&job.model)?.build)(&job.orders)?;
-    let kano = find_model("kano")?;
-    let q = quantify(
-        kano,
-        identifier.as_ref(),
-        Problem {
-            op: &sim.op,
-            pv: &sim.pv,
-            mv: Some(&sim.mv),
+    // The paper's combination: Kano × the job's identifier, default grid for the span.
+    let combination = monitoring::Combination {
+        orders: job.orders.clone(),
+        search: SearchOptions {
+            criterion: job.criterion,
+            ..SearchOptions::default()
         },
-        &options,
-        None,
-    )?;
+        ..monitoring::Combination::named("kano", &job.model)?
+    };
+    let q = combination
+        .run(
+            Problem {
+                op: &sim.op,
+                pv: &sim.pv,
+                mv: Some(&sim.mv),
+            },
+            None,
+        )?
+        .result;
     let w = linear_id::frequency_grid(linear_id::E_G_GRID_POINTS);
     let e_g = linear_id::e_g(
         &true_response(&job.plant.plant(), &w),

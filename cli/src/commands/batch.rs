@@ -402,7 +402,12 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             .collect();
         let npos = scores.iter().filter(|x| x.1).count();
         match roc(&scores) {
-            Some((auc, thr, tpr, fpr)) => writeln!(
+            Some(monitoring::Roc {
+                auc,
+                threshold: thr,
+                tpr,
+                fpr,
+            }) => writeln!(
                 out,
                 "labels ({st} + {li}, {} labelled rows: {npos} stiction, {} no-stiction): ROC AUC of S = {auc:.3}; best threshold S >= {thr:.2} % (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
                 scores.len(),

@@ -4,15 +4,14 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use discrepancy::{diagnose_with_progress, Baseline, DiagnoseOptions, Fitted};
+use discrepancy::{diagnose_with_progress, DiagnoseOptions};
 use grid_search::Problem;
 use serde_json::{json, Value};
-use stiction_models::find_model;
 
 use super::load::DataFlags;
-use super::quantify::{loop_data, quantify_json, Example, Run};
-use super::search_flags::{build_identifier, DelayFlag, SearchFlags};
-use crate::reporting::{self, ReportFlags, RunView};
+use super::quantify::{loop_data, quantify_json, Example};
+use super::search_flags::{DelayFlag, SearchFlags};
+use crate::reporting::{self, ReportFlags};
 use crate::{data, usage, CmdResult, Failure, Streams};
 use datasets::LoopData;
 use discrepancy::Diagnosis;
@@ -64,18 +63,6 @@ pub struct Args {
     json: bool,
 }
 
-fn to_run(f: Fitted) -> Run {
-    Run {
-        stiction: f.stiction,
-        linear_name: f.linear,
-        identifier: f.identifier,
-        delay: f.delay,
-        delay_scan: f.delay_scan,
-        result: f.result,
-        elapsed_ms: f.elapsed_ms,
-    }
-}
-
 fn num(x: f64) -> Value {
     if x.is_finite() {
         json!(x)
@@ -93,9 +80,17 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             )))
         }
     };
-    let stiction = find_model(&args.stiction).map_err(usage)?;
-    let (identifier, id_entry) =
-        build_identifier(&args.linear, args.search.orders.as_deref(), delay)?;
+    let mut baseline = args.search.combination(&args.stiction, &args.linear)?;
+    // The baseline's orders in full (defaults filled in), so that an extension with another
+    // identifier inherits the orders they share.
+    baseline.orders = baseline
+        .identifier(delay)
+        .map_err(usage)?
+        .orders()
+        .into_iter()
+        .filter(|(k, _)| *k != "delay")
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
     let file = args.file.as_deref();
     let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "diagnose", s);
     let d = match loop_data(file, args.example, &args.data, s) {
@@ -103,27 +98,9 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         Err(f) => return Err(refused(f, s)),
     };
     let pv = d.require_pv().map_err(data)?;
-    let span = {
-        let (lo, hi) =
-            d.op.iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                    (l.min(v), h.max(v))
-                });
-        hi - lo
-    };
-    let mut options = DiagnoseOptions::for_span(span);
-    options.search = args.search.options(span)?;
+    let mut options = DiagnoseOptions::for_span(monitoring::span_of(&d.op));
+    options.search = args.search.options(monitoring::span_of(&d.op))?;
     options.disabled = args.without.clone();
-    let baseline = Baseline {
-        stiction,
-        linear: id_entry,
-        orders: identifier
-            .orders()
-            .into_iter()
-            .map(|(k, v)| (k.to_string(), v))
-            .collect(),
-        delay,
-    };
     let problem = Problem {
         op: &d.op,
         pv,
@@ -151,7 +128,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         .findings
         .iter_mut()
         .map(|f| {
-            let ext = f.fitted.take().map(|x| quantify_json(&to_run(x), init));
+            let ext = f.fitted.take().map(|x| quantify_json(&x, init));
             json!({
                 "cause": f.cause,
                 "evidence": f.evidence,
@@ -173,7 +150,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         .and_then(|i| findings.get(i))
         .map_or(Value::Null, |f| f["extended"].clone());
     if args.json {
-        let baseline_json = quantify_json(&to_run(dg.baseline_fit), init);
+        let baseline_json = quantify_json(&dg.baseline_fit, init);
         let v = json!({
             "source": d.source,
             "baseline": baseline_json,
@@ -308,7 +285,7 @@ fn diagnose_report(
     let started = std::time::Instant::now();
     let name = reporting::loop_name(d);
     let rep_err = |e: report::ReportError| data(anyhow!("report: {e}"));
-    let base = RunView::of_fitted(&dg.baseline_fit);
+    let base = &dg.baseline_fit;
     let base_label = reporting::combo(&base);
     let chosen = dg
         .chosen
@@ -376,7 +353,7 @@ fn diagnose_report(
     let sig = reporting::signals(d, &name);
     let mut baseline = Section::new(format!("Baseline: {base_label}"));
     baseline.push(Block::Paragraph(reporting::verdict(
-        base.result,
+        &base.result,
         &format!("Before the diagnosis, the baseline {base_label}"),
     )));
     baseline.push(reporting::facts(&base));
@@ -410,37 +387,32 @@ fn diagnose_report(
                 ),
             ),
         ]));
-        let ext = chosen.map(|(f, x)| {
-            (
-                RunView::of_fitted(x),
-                format!("{} ({})", reporting::combo(&RunView::of_fitted(x)), f.cause),
-            )
-        });
-        let ext_ref = ext.as_ref().map(|(v, l)| (v.result, l.as_str()));
+        let ext = chosen.map(|(f, x)| (x, format!("{} ({})", reporting::combo(&x), f.cause)));
+        let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
         res.push(Block::Figure(
-            figures::residual_trends(sig, (base.result, &base_label), ext_ref, "residuals")
+            figures::residual_trends(sig, (&base.result, &base_label), ext_ref, "residuals")
                 .map_err(rep_err)?,
         ));
         res.push(Block::Figure(
-            figures::residual_spectrum(sig, (base.result, &base_label), ext_ref, "spectrum")
+            figures::residual_spectrum(sig, (&base.result, &base_label), ext_ref, "spectrum")
                 .map_err(rep_err)?,
         ));
         later.push(res);
         if let Some((f, x)) = chosen {
-            let view = RunView::of_fitted(x);
+            let view = x;
             let label = reporting::combo(&view);
             let mut sec = Section::new(format!("Extended model for {}: {label}", f.cause));
             sec.push(Block::Paragraph(format!(
                 "{} The extension changes the validation F_PV by {:+.2} points, S by {:+.2} and \
                  J by {:+.2} % of valve span.",
-                reporting::verdict(view.result, &label),
+                reporting::verdict(&view.result, &label),
                 f.gain_fit_pv_val,
                 f.delta_s,
                 f.delta_j
             )));
             sec.push(reporting::facts(&view));
             if let Some(fig) =
-                figures::disturbance(sig, view.result, &label, "disturbance").map_err(rep_err)?
+                figures::disturbance(sig, &view.result, &label, "disturbance").map_err(rep_err)?
             {
                 sec.push(Block::Figure(fig));
             }

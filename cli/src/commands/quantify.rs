@@ -6,20 +6,16 @@ use std::time::Instant;
 use anyhow::{anyhow, Context};
 use datasets::simulate::Scenario;
 use datasets::LoopData;
-use grid_search::{estimate_delay, quantify, Problem, Quantification, SearchOptions};
-use linear_id::LinearIdentifier;
+use grid_search::Problem;
 use report::{Block, Report, Section};
 use serde_json::{json, Value};
-use stiction_models::{find_model, Kano, ModelEntry};
+use stiction_models::{find_model, Kano};
 
 use super::load::{load, DataFlags};
-use super::search_flags::{build_identifier, DelayFlag, SearchFlags};
+use super::search_flags::{build_identifier, SearchFlags};
 use crate::progress::Progress;
-use crate::reporting::{self, ReportFlags, RunView};
+use crate::reporting::{self, ReportFlags};
 use crate::{data, usage, CmdResult, Failure, Streams};
-
-/// Largest dead time tried by `--delay auto`, samples.
-pub(crate) const MAX_AUTO_DELAY: usize = 10;
 
 pub(crate) const QUANTIFY_HELP: &str = "\
 The grid covers the model's parameters from 0 to the OP span (the triangle J <= S for kano).
@@ -140,16 +136,8 @@ pub(crate) fn loop_data(
     }
 }
 
-/// Everything about one quantification run, for printing.
-pub(crate) struct Run {
-    pub stiction: &'static ModelEntry,
-    pub linear_name: &'static str,
-    pub identifier: Box<dyn LinearIdentifier>,
-    pub delay: usize,
-    pub delay_scan: Option<grid_search::DelayScan>,
-    pub result: Quantification,
-    pub elapsed_ms: f64,
-}
+/// Everything about one quantification run, for printing: the workflow library's result.
+pub(crate) use monitoring::Fitted as Run;
 
 /// Run one stiction × linear combination on `d`. The progress bar (on a terminal) appears once
 /// `since` is a second old and its label starts with `step` (e.g. `compare 3/10: `).
@@ -161,65 +149,26 @@ pub(crate) fn run_one(
     s: &mut Streams<'_>,
     (since, step): (Instant, &str),
 ) -> Result<Run, Failure> {
-    let started = Instant::now();
-    let entry = find_model(stiction).map_err(usage)?;
+    let combination = flags.combination(stiction, linear)?;
     let pv = d.require_pv().map_err(data)?;
     let problem = Problem {
         op: &d.op,
         pv,
         mv: d.mv.as_deref(),
     };
-    let span = {
-        let (lo, hi) =
-            d.op.iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                    (l.min(v), h.max(v))
-                });
-        hi - lo
-    };
-    let options: SearchOptions = flags.options(span)?;
-    // Check the identifier and its orders once (bad usage), whatever the delay.
-    let (_, id_entry) = build_identifier(linear, flags.orders.as_deref(), 0)?;
-    let (delay, delay_scan) = match flags.delay {
-        DelayFlag::Fixed(d) => (d, None),
-        DelayFlag::Auto => {
-            let orders = flags.orders.clone();
-            let name = id_entry.name;
-            let build = move |d: usize| {
-                build_identifier(name, orders.as_deref(), d)
-                    .map(|(id, _)| id)
-                    .map_err(|_| linear_id::IdError::InvalidOrder {
-                        identifier: name,
-                        name: "delay".into(),
-                        value: d as f64,
-                        expected: "a dead time this identifier accepts".into(),
-                    })
-            };
-            let scan =
-                estimate_delay(entry, &build, problem, &options, MAX_AUTO_DELAY).map_err(data)?;
-            (scan.delay, Some(scan))
-        }
-    };
-    let (identifier, id_entry) = build_identifier(linear, flags.orders.as_deref(), delay)?;
     let bar = Progress::since(
         s.progress,
-        &format!("{step}{} + {}", entry.name, id_entry.name),
+        &format!(
+            "{step}{} + {}",
+            combination.stiction.name, combination.linear.name
+        ),
         "nodes",
         since,
     );
     let tick = |done: usize, total: usize| bar.update(done, total);
-    let result = quantify(entry, identifier.as_ref(), problem, &options, Some(&tick))
-        .map_err(|e| data(anyhow!("{}: {e}", d.source)))?;
+    let run = combination.run(problem, Some(&tick));
     bar.finish();
-    Ok(Run {
-        stiction: entry,
-        linear_name: id_entry.name,
-        identifier,
-        delay,
-        delay_scan,
-        result,
-        elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
-    })
+    run.map_err(|e| data(anyhow!("{}: {e}", d.source)))
 }
 
 fn round(x: f64, digits: i32) -> Value {
@@ -253,7 +202,7 @@ pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
     let (other_id, other_val) = q.fits.rank(q.criterion.other());
     json!({
         "stiction_model": r.stiction.name,
-        "linear_model": r.linear_name,
+        "linear_model": r.linear,
         "S": g(q.s),
         "J": g(q.j),
         "params": params,
@@ -322,7 +271,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     if args.report.report.is_some() {
         let started = Instant::now();
         let name = reporting::loop_name(&d);
-        let view = RunView::of_run(&r);
+        let view = &r;
         let mut result = Section::new("Result");
         result.push(reporting::facts(&view));
         result.push(Block::Paragraph(format!(
@@ -370,7 +319,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         "{}: {} + {} ({}), {}, {delay_note}, ranked by one-step {}",
         d.source,
         r.stiction.name,
-        r.linear_name,
+        r.linear,
         orders.join(", "),
         args.search.init.label(),
         q.criterion.label()
@@ -627,7 +576,7 @@ fn compare_report(
     if let Some(b) = best {
         summary.push(format!(
             "Best validation fit: {}",
-            reporting::verdict(&b.result, &reporting::combo(&RunView::of_run(b)))
+            reporting::verdict(&b.result, &reporting::combo(&b))
         ));
         let mut ss: Vec<f64> = ok.iter().map(|r| r.result.s).collect();
         ss.sort_by(f64::total_cmp);
@@ -660,7 +609,7 @@ fn compare_report(
     let mut sections = vec![overview];
     let sig = reporting::signals(d, &name);
     for r in &ok {
-        let view = RunView::of_run(r);
+        let view = r;
         let mut sec = Section::new(reporting::combo(&view));
         sec.push(Block::Paragraph(reporting::verdict(
             &r.result,
@@ -671,7 +620,7 @@ fn compare_report(
             sec.push(Block::Note(w.clone()));
         }
         if let Some(sig) = &sig {
-            let prefix = format!("{}-{}-", r.stiction.name, r.linear_name);
+            let prefix = format!("{}-{}-", r.stiction.name, r.linear);
             for f in reporting::run_figures(sig, &view, &prefix, "")? {
                 sec.push(Block::Figure(f));
             }

@@ -408,7 +408,9 @@ pub(crate) fn diagnose_registration(
             .filter(|(k, _)| *k != "delay")
             .map(|(k, v)| (k.to_string(), v))
             .collect(),
-        delay: 0,
+        delay: monitoring::Delay::Fixed(0),
+        grid: None,
+        search: grid_search::SearchOptions::default(),
     };
     let mut options = discrepancy::DiagnoseOptions::for_span(span);
     options.search = plan.search.options(span).map_err(fail)?;
@@ -462,70 +464,11 @@ fn slow_fraction(r: &[f64]) -> Option<f64> {
     Some(vma / var)
 }
 
-/// Median of a non-empty slice.
-pub(crate) fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
-}
-
-/// Area under the ROC curve of `scores` for `positive` labels (ties count one half), and the
-/// threshold maximising Youden's J = TPR − FPR (flag when score ≥ threshold) with its TPR and
-/// FPR. `None` without both classes.
-pub(crate) fn roc(scores: &[(f64, bool)]) -> Option<(f64, f64, f64, f64)> {
-    let pos: Vec<f64> = scores.iter().filter(|s| s.1).map(|s| s.0).collect();
-    let neg: Vec<f64> = scores.iter().filter(|s| !s.1).map(|s| s.0).collect();
-    if pos.is_empty() || neg.is_empty() {
-        return None;
-    }
-    let mut wins = 0.0;
-    for p in &pos {
-        for n in &neg {
-            wins += if p > n {
-                1.0
-            } else if p == n {
-                0.5
-            } else {
-                0.0
-            };
-        }
-    }
-    let auc = wins / (pos.len() * neg.len()) as f64;
-    let mut cuts: Vec<f64> = scores.iter().map(|s| s.0).collect();
-    cuts.sort_by(f64::total_cmp);
-    cuts.dedup();
-    let mut best = (f64::NEG_INFINITY, 0.0, 0.0, 0.0);
-    for c in cuts {
-        let tpr = pos.iter().filter(|&&x| x >= c).count() as f64 / pos.len() as f64;
-        let fpr = neg.iter().filter(|&&x| x >= c).count() as f64 / neg.len() as f64;
-        if tpr - fpr > best.0 {
-            best = (tpr - fpr, c, tpr, fpr);
-        }
-    }
-    Some((auc, best.1, best.2, best.3))
-}
+pub(crate) use monitoring::{median, roc};
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn roc_of_separable_and_random_scores() {
-        let s = [(3.0, true), (2.0, true), (1.0, false), (0.5, false)];
-        let (auc, thr, tpr, fpr) = roc(&s).unwrap_or_default();
-        assert_eq!((auc, thr, tpr, fpr), (1.0, 2.0, 1.0, 0.0));
-        let s = [(1.0, true), (2.0, false), (3.0, true), (4.0, false)];
-        assert_eq!(roc(&s).map(|r| r.0), Some(0.25));
-        assert_eq!(roc(&[(1.0, true)]), None);
-    }
 
     #[test]
     fn level_tags_are_integrating() {

@@ -122,6 +122,43 @@ impl SearchFlags {
     }
 }
 
+impl SearchFlags {
+    /// The combination `stiction` × `linear` these flags describe: orders, dead time (`auto`
+    /// scans 0..=`monitoring::MAX_AUTO_DELAY`), grid (`--step` = exhaustive, else the default
+    /// for the record's span), initialization, split and criterion. Names, orders and the step
+    /// are checked here (bad usage).
+    pub(crate) fn combination(
+        &self,
+        stiction: &str,
+        linear: &str,
+    ) -> Result<monitoring::Combination, Failure> {
+        let stiction = stiction_models::find_model(stiction).map_err(usage)?;
+        let delay = match self.delay {
+            DelayFlag::Fixed(d) => d,
+            DelayFlag::Auto => 0,
+        };
+        // Builds the identifier once: unknown names, bad orders and a dead time the identifier
+        // has no option for are usage errors.
+        let (_, entry) = build_identifier(linear, self.orders.as_deref(), delay)?;
+        let mut orders = parse_orders(entry, self.orders.as_deref().unwrap_or(""))?;
+        orders.retain(|(k, _)| k != "delay");
+        let options = self.options(1.0)?;
+        Ok(monitoring::Combination {
+            stiction,
+            linear: entry,
+            orders,
+            delay: match self.delay {
+                DelayFlag::Fixed(d) => monitoring::Delay::Fixed(d),
+                DelayFlag::Auto => monitoring::Delay::Auto {
+                    max: monitoring::MAX_AUTO_DELAY,
+                },
+            },
+            grid: self.step.map(|_| options.grid),
+            search: options,
+        })
+    }
+}
+
 /// Build a registered identifier from `--orders` and a delay.
 pub(crate) fn build_identifier(
     name: &str,

@@ -18,6 +18,7 @@ use super::registrations::{
 use super::search_flags::{build_identifier, SearchFlags};
 use crate::reporting::ReportFlags;
 use crate::{data, usage, CmdResult, Streams};
+use monitoring::{maintenance, trend, Flag, Point, Trend};
 use report::figures::TrendLine;
 use report::{figures, Block, Report, Section, TrendPoint, TrendStatus};
 
@@ -92,48 +93,18 @@ pub struct Args {
     json: bool,
 }
 
-/// Status of one registration under one combination.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Flag {
-    Used,
-    Weak,
-    Outlier,
-    Error,
-}
-
-impl Flag {
-    fn label(self) -> &'static str {
-        match self {
-            Flag::Used => "ok",
-            Flag::Weak => "weak",
-            Flag::Outlier => "outlier",
-            Flag::Error => "error",
-        }
-    }
-}
-
-/// The trend of one combination.
+/// The trend of one combination (the workflow library's, with the combination's names).
 struct ComboTrend {
     stiction: String,
     linear: String,
-    flags: Vec<Flag>,
-    level: Option<f64>,
-    slope_30d: Option<f64>,
-    latest: Option<f64>,
-    band: Option<[f64; 2]>,
+    trend: Trend,
 }
 
-/// Theil–Sen slope of `(x, y)`: the median of pairwise slopes (distinct x).
-fn theil_sen(points: &[(f64, f64)]) -> Option<f64> {
-    let mut slopes = Vec::new();
-    for (i, a) in points.iter().enumerate() {
-        for b in &points[i + 1..] {
-            if (b.0 - a.0).abs() > 1e-9 {
-                slopes.push((b.1 - a.1) / (b.0 - a.0));
-            }
-        }
+impl std::ops::Deref for ComboTrend {
+    type Target = Trend;
+    fn deref(&self) -> &Trend {
+        &self.trend
     }
-    (!slopes.is_empty()).then(|| median(&slopes))
 }
 
 fn fit_at(r: &Registration, c: usize) -> Option<&ComboFit> {
@@ -147,100 +118,17 @@ fn combo_names(args: &Args, c: usize) -> (&str, &str) {
 }
 
 fn trend_of(regs: &[Registration], c: usize, min_fit: f64, names: (&str, &str)) -> ComboTrend {
-    let mut flags: Vec<Flag> = regs
+    let points: Vec<Point> = regs
         .iter()
-        .map(|r| match fit_at(r, c) {
-            None => Flag::Error,
-            Some(f) if f.fit_val < min_fit => Flag::Weak,
-            Some(_) => Flag::Used,
+        .map(|r| Point {
+            start: r.start,
+            fit: fit_at(r, c).map(|f| (f.s, f.fit_val)),
         })
-        .collect();
-    let usable: Vec<usize> = (0..regs.len())
-        .filter(|&i| flags[i] == Flag::Used)
-        .collect();
-    let s_of = |i: usize| fit_at(&regs[i], c).map_or(f64::NAN, |f| f.s);
-    let mut band = None;
-    if usable.len() >= 4 {
-        let s: Vec<f64> = usable.iter().map(|&i| s_of(i)).collect();
-        let m = median(&s);
-        let mad = median(&s.iter().map(|x| (x - m).abs()).collect::<Vec<_>>());
-        let half = (3.0 * 1.4826 * mad).max(0.1);
-        band = Some([m - half, m + half]);
-        for &i in &usable {
-            if (s_of(i) - m).abs() > half {
-                flags[i] = Flag::Outlier;
-            }
-        }
-    }
-    let kept: Vec<usize> = (0..regs.len())
-        .filter(|&i| flags[i] == Flag::Used)
-        .collect();
-    let s: Vec<f64> = kept.iter().map(|&i| s_of(i)).collect();
-    let level = (!s.is_empty()).then(|| median(&s));
-    let points: Vec<(f64, f64)> = kept
-        .iter()
-        .filter_map(|&i| regs[i].start.map(|t| (t / 86400.0, s_of(i))))
         .collect();
     ComboTrend {
         stiction: names.0.to_string(),
         linear: names.1.to_string(),
-        flags,
-        level,
-        slope_30d: theil_sen(&points).map(|v| 30.0 * v),
-        latest: kept.last().map(|&i| s_of(i)),
-        band,
-    }
-}
-
-/// The verdict and the sentence that justifies it.
-fn verdict(
-    level: Option<f64>,
-    latest: Option<f64>,
-    slope_30d: Option<f64>,
-    threshold: f64,
-    horizon: f64,
-) -> (&'static str, String) {
-    let Some(level) = level else {
-        return (
-            "undetermined",
-            "no registration is usable (all failed, weak or outliers)".into(),
-        );
-    };
-    let projected = level + slope_30d.unwrap_or(0.0) * horizon / 30.0;
-    if level >= threshold {
-        (
-            "schedule maintenance",
-            format!(
-                "the stiction level S = {level:.2} % is at or above the threshold {threshold} %"
-            ),
-        )
-    } else if latest.is_some_and(|l| l >= threshold) {
-        (
-            "watch",
-            format!(
-                "level S = {level:.2} % is below the threshold {threshold} %, but the latest usable registration reaches {:.2} %",
-                latest.unwrap_or(f64::NAN)
-            ),
-        )
-    } else if projected >= threshold {
-        (
-            "watch",
-            format!(
-                "level S = {level:.2} % is below the threshold {threshold} %, but the trend reaches {projected:.2} % within {horizon} days"
-            ),
-        )
-    } else if level >= 0.5 * threshold {
-        (
-            "watch",
-            format!("level S = {level:.2} % is at least half the threshold {threshold} %"),
-        )
-    } else {
-        (
-            "healthy",
-            format!(
-                "level S = {level:.2} % is below half the threshold {threshold} %, and neither the latest usable S nor the {horizon}-day projection {projected:.2} % reaches the threshold"
-            ),
-        )
+        trend: trend(&points, min_fit),
     }
 }
 
@@ -367,7 +255,8 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let level = mean_of(&|t| t.level);
     let latest = mean_of(&|t| t.latest);
     let slope = mean_of(&|t| t.slope_30d);
-    let (verdict, reason) = verdict(level, latest, slope, args.threshold, args.horizon);
+    let (verdict, reason) = maintenance(level, latest, slope, args.threshold, args.horizon);
+    let verdict = verdict.label();
     let rule = format!(
         "schedule maintenance when the level (median S of the usable registrations, mean over \
          combinations) >= {t} %; watch when it is below but the latest usable S or the \
@@ -666,37 +555,4 @@ fn trend_report(
         sections,
     };
     crate::reporting::write(&rep, &args.report, started, s)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn theil_sen_ignores_one_wild_point() {
-        let p = [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 40.0), (4.0, 5.0)];
-        assert_eq!(theil_sen(&p), Some(1.0));
-    }
-
-    #[test]
-    fn verdicts() {
-        assert_eq!(
-            verdict(Some(1.2), None, None, 1.0, 90.0).0,
-            "schedule maintenance"
-        );
-        assert_eq!(verdict(Some(0.2), Some(1.1), None, 1.0, 90.0).0, "watch");
-        assert_eq!(
-            verdict(Some(0.2), Some(0.2), Some(0.3), 1.0, 90.0).0,
-            "watch"
-        );
-        assert_eq!(
-            verdict(Some(0.6), Some(0.6), Some(0.0), 1.0, 90.0).0,
-            "watch"
-        );
-        assert_eq!(
-            verdict(Some(0.2), Some(0.2), Some(0.0), 1.0, 90.0).0,
-            "healthy"
-        );
-        assert_eq!(verdict(None, None, None, 1.0, 90.0).0, "undetermined");
-    }
 }

@@ -1,0 +1,257 @@
+//! One stiction model × one linear identifier with its orders, dead time, grid and criterion:
+//! the sequence "build the identifier, choose the grid, (scan the dead time,) run the search"
+//! written once. The CLI, the diagnosis (`discrepancy`), the reports and `xtask reproduce` all
+//! run a loop through [`Combination::run`].
+
+use std::time::Instant;
+
+use grid_search::{
+    estimate_delay, quantify, DelayScan, GridPlan, Problem, Quantification, SearchOptions,
+};
+use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier};
+use serde::Serialize;
+use stiction_models::{find_model, ModelEntry};
+
+use crate::MonitoringError;
+
+/// Largest dead time `Delay::Auto` scans by default, samples.
+pub const MAX_AUTO_DELAY: usize = 10;
+
+/// The process dead time of a combination.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Delay {
+    /// A fixed number of samples.
+    Fixed(usize),
+    /// Estimated by scanning `0..=max` samples (`grid_search::estimate_delay`).
+    Auto {
+        /// Largest dead time tried.
+        max: usize,
+    },
+}
+
+impl Default for Delay {
+    fn default() -> Self {
+        Delay::Fixed(0)
+    }
+}
+
+/// What is searched: a stiction model, a linear identifier with its orders, the dead time and
+/// the search options. The grid is `search.grid` when `grid` is `Some`, else the default grid
+/// for the record's OP span ([`GridPlan::for_span`]).
+#[derive(Debug, Clone)]
+pub struct Combination {
+    /// Stiction model (registry entry).
+    pub stiction: &'static ModelEntry,
+    /// Linear identifier (registry entry).
+    pub linear: &'static IdentifierEntry,
+    /// Orders as `NAME=value` pairs without the dead time (missing ones take the identifier's
+    /// defaults).
+    pub orders: Vec<(String, f64)>,
+    /// Dead time.
+    pub delay: Delay,
+    /// Grid plan; `None` = the default grid for the OP span.
+    pub grid: Option<GridPlan>,
+    /// Initialization, split and criterion (its `grid` is replaced by the plan above).
+    pub search: SearchOptions,
+}
+
+impl Combination {
+    /// `stiction` × `linear` by their registered names, the paper's orders, dead time 0, the
+    /// default grid and search options.
+    pub fn named(stiction: &str, linear: &str) -> Result<Combination, MonitoringError> {
+        Ok(Combination {
+            stiction: find_model(stiction)?,
+            linear: find_identifier(linear)?,
+            orders: Vec::new(),
+            delay: Delay::Fixed(0),
+            grid: None,
+            search: SearchOptions::default(),
+        })
+    }
+
+    /// Kano + ARX(2, 2), dead time 0: the paper's default.
+    pub fn paper() -> Result<Combination, MonitoringError> {
+        Combination::named("kano", "arx")
+    }
+
+    /// The same combination with another stiction model, identifier and fixed dead time (the
+    /// orders the new identifier knows are kept).
+    pub fn with(
+        &self,
+        stiction: &'static ModelEntry,
+        linear: &'static IdentifierEntry,
+        delay: usize,
+    ) -> Combination {
+        Combination {
+            stiction,
+            linear,
+            delay: Delay::Fixed(delay),
+            ..self.clone()
+        }
+    }
+
+    /// The fixed dead time (0 for `Auto`, whose dead time is known only after [`run`]).
+    ///
+    /// [`run`]: Combination::run
+    pub fn fixed_delay(&self) -> usize {
+        match self.delay {
+            Delay::Fixed(d) => d,
+            Delay::Auto { .. } => 0,
+        }
+    }
+
+    /// The identifier with this combination's orders and dead time `delay`.
+    pub fn identifier(&self, delay: usize) -> Result<Box<dyn LinearIdentifier>, IdError> {
+        let linear = self.linear;
+        let mut pairs: Vec<(String, f64)> = self
+            .orders
+            .iter()
+            .filter(|(k, _)| k != "delay" && linear.orders.iter().any(|o| o.name == k))
+            .cloned()
+            .collect();
+        if linear.orders.iter().any(|o| o.name == "delay") {
+            pairs.push(("delay".into(), delay as f64));
+        } else if delay != 0 {
+            return Err(IdError::InvalidOrder {
+                identifier: linear.name,
+                name: "delay".into(),
+                value: delay as f64,
+                expected: "0 (this identifier has no dead-time option)".into(),
+            });
+        }
+        (linear.build)(&pairs)
+    }
+
+    /// The search options for a record whose OP spans `span`.
+    pub fn options(&self, span: f64) -> SearchOptions {
+        SearchOptions {
+            grid: self.grid.unwrap_or_else(|| GridPlan::for_span(span)),
+            ..self.search
+        }
+    }
+
+    /// Search `problem`: scan the dead time when it is `Auto`, then the grid. `progress`
+    /// receives `(nodes done, nodes in total)` from the search's worker threads.
+    pub fn run(
+        &self,
+        problem: Problem<'_>,
+        progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+    ) -> Result<Fitted, MonitoringError> {
+        let started = Instant::now();
+        let options = self.options(span_of(problem.op));
+        let (delay, delay_scan) = match self.delay {
+            Delay::Fixed(d) => (d, None),
+            Delay::Auto { max } => {
+                let build = |d: usize| self.identifier(d);
+                let scan = estimate_delay(self.stiction, &build, problem, &options, max)?;
+                (scan.delay, Some(scan))
+            }
+        };
+        let identifier = self.identifier(delay)?;
+        let result = quantify(
+            self.stiction,
+            identifier.as_ref(),
+            problem,
+            &options,
+            progress,
+        )?;
+        Ok(Fitted {
+            stiction: self.stiction,
+            linear: self.linear.name,
+            identifier,
+            delay,
+            delay_scan,
+            result,
+            elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+}
+
+/// A fitted Hammerstein model: what was searched and what was found.
+#[derive(Debug)]
+pub struct Fitted {
+    /// Stiction model.
+    pub stiction: &'static ModelEntry,
+    /// Linear identifier's registered name.
+    pub linear: &'static str,
+    /// The identifier (orders and dead time).
+    pub identifier: Box<dyn LinearIdentifier>,
+    /// Dead time, samples.
+    pub delay: usize,
+    /// The dead-time scan, when the dead time was estimated.
+    pub delay_scan: Option<DelayScan>,
+    /// The search result.
+    pub result: Quantification,
+    /// Wall time, ms.
+    pub elapsed_ms: f64,
+}
+
+impl Fitted {
+    /// Validation F_PV of the ranking criterion.
+    pub fn fit_val(&self) -> f64 {
+        self.result.fits_score(self.result.criterion)
+    }
+
+    /// The reported numbers.
+    pub fn summary(&self) -> FitSummary {
+        let q = &self.result;
+        let (id, val) = q.fits.rank(q.criterion);
+        FitSummary {
+            stiction_model: self.stiction.name,
+            linear_model: self.linear,
+            s: q.s,
+            j: q.j,
+            params: self
+                .stiction
+                .params
+                .iter()
+                .map(|p| p.name)
+                .zip(q.stiction.param_values())
+                .collect(),
+            delay: self.delay,
+            fit_pv_id: id,
+            fit_pv_val: val,
+            fit_sim_val: q.fits.sim_val,
+        }
+    }
+}
+
+/// The numbers of a [`Fitted`] model that a diagnosis reports (serialisable).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FitSummary {
+    /// Stiction model name.
+    pub stiction_model: &'static str,
+    /// Linear model name.
+    pub linear_model: &'static str,
+    /// Equivalent S.
+    #[serde(rename = "S")]
+    pub s: f64,
+    /// Equivalent J.
+    #[serde(rename = "J")]
+    pub j: f64,
+    /// The stiction model's own parameters, in registry order.
+    pub params: Vec<(&'static str, f64)>,
+    /// Dead time.
+    pub delay: usize,
+    /// F_PV of the ranking criterion, identification window.
+    pub fit_pv_id: f64,
+    /// F_PV of the ranking criterion, validation window.
+    pub fit_pv_val: f64,
+    /// Free-run simulation F_PV, validation window.
+    pub fit_sim_val: f64,
+}
+
+/// `max - min` of the finite values of `x` (0 when there are none).
+pub fn span_of(x: &[f64]) -> f64 {
+    let (lo, hi) = x
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    if hi >= lo {
+        hi - lo
+    } else {
+        0.0
+    }
+}
