@@ -1,0 +1,457 @@
+//! Event-driven valve runs: the Kano-type rule evaluated interval by interval.
+//!
+//! A Kano-type valve (Kano, asymmetric Kano) alternates between two kinds of interval:
+//!
+//! * **stuck**: MV is constant (the value held when the valve stopped); the interval ends at the
+//!   first sample whose OP leaves the band `fl(OP - u_s) ∈ [lo, hi]` around the stop point
+//!   `u_s` (`hi`, `lo` from the thresholds and the last direction);
+//! * **moving**: `MV = OP - d · offset`; the interval ends at the first sample `k` whose OP
+//!   increment changes sign, `fl(ΔOP_k · ΔOP_{k-1}) <= 0`, which depends on OP alone.
+//!
+//! [`OpIndex`] holds, once per record, what finds the next event without stepping every
+//! sample: the next sign change of ΔOP (a precomputed array, exact including underflow of the
+//! product) and a sparse table of running maxima and minima of OP for the band exit. The band
+//! test is exact because `x ↦ fl(x - u_s)` is monotone: some sample of a range leaves the band
+//! iff the range's maximum or minimum does. The result is the sample-by-sample rule bit for bit
+//! (same MV at every sample, same `valid_from`, same In.2/In.3 averages): see the tests here
+//! and `tests/events.rs`.
+//!
+//! Models that cannot describe themselves as such intervals (He's model accumulates its
+//! residual force `u_r` as a running floating-point sum, so its threshold test cannot be
+//! decided by a range query bit-exactly) return `None` from
+//! [`crate::StictionModel::event_rule`] and keep the sample path.
+
+use crate::init::in3_valid_from;
+use crate::{
+    check_finite, run_valve_with, InitialState, Initialization, RunInfo, StictionError,
+    StictionModel, ValveScratch,
+};
+
+/// The thresholds of a Kano-type valve (see `kano::KanoCore`): a moving valve lags OP by
+/// `d · offset`; a stuck valve whose last motion was up (`d = +1`) reverses when OP falls
+/// strictly more than `rev_from_up` below the stop point and restarts upward when it rises
+/// strictly more than `j_up` above it (and symmetrically for `d = -1`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EventRule {
+    /// Lag of a moving valve behind OP.
+    pub offset: f64,
+    /// OP excursion needed to reverse after moving up.
+    pub rev_from_up: f64,
+    /// OP excursion needed to reverse after moving down.
+    pub rev_from_dn: f64,
+    /// OP excursion needed to restart upward after stopping while moving up.
+    pub j_up: f64,
+    /// OP excursion needed to restart downward after stopping while moving down.
+    pub j_dn: f64,
+}
+
+/// A record's OP, indexed for event-driven valve runs (built once per record, shared by every
+/// grid node and thread).
+#[derive(Debug, Clone)]
+pub struct OpIndex {
+    op: Vec<f64>,
+    /// `next_stop[k]`: the first `k' >= k` (`k' >= 2`) with `fl(ΔOP_k' · ΔOP_k'-1) <= 0`, or `n`.
+    next_stop: Vec<u32>,
+    /// Level `j`: `[max, min]` of `op[i .. i + 2^j]`.
+    table: Vec<Vec<[f64; 2]>>,
+}
+
+impl OpIndex {
+    /// Index `op` (finite; otherwise the first bad sample is the error).
+    pub fn new(op: &[f64]) -> Result<OpIndex, StictionError> {
+        check_finite(op)?;
+        let n = op.len();
+        let mut next_stop = vec![n as u32; n + 1];
+        for k in (2..n).rev() {
+            let du = op[k] - op[k - 1];
+            let dp = op[k - 1] - op[k - 2];
+            next_stop[k] = if du * dp <= 0.0 {
+                k as u32
+            } else {
+                next_stop[k + 1]
+            };
+        }
+        let mut table = vec![op.iter().map(|&v| [v, v]).collect::<Vec<_>>()];
+        let mut len = 1;
+        while 2 * len <= n {
+            let prev = &table[table.len() - 1];
+            let level: Vec<[f64; 2]> = (0..=n - 2 * len)
+                .map(|i| {
+                    let (a, b) = (prev[i], prev[i + len]);
+                    [a[0].max(b[0]), a[1].min(b[1])]
+                })
+                .collect();
+            table.push(level);
+            len *= 2;
+        }
+        Ok(OpIndex {
+            op: op.to_vec(),
+            next_stop,
+            table,
+        })
+    }
+
+    /// The indexed record.
+    pub fn op(&self) -> &[f64] {
+        &self.op
+    }
+
+    /// First `k >= from` with `fl(op[k] - u_s) > hi` or `< lo`, or `n`.
+    #[inline]
+    fn first_exit(&self, from: usize, u_s: f64, hi: f64, lo: f64) -> usize {
+        let op = &self.op;
+        let n = op.len();
+        let exits = |mx: f64, mn: f64| mx - u_s > hi || mn - u_s < lo;
+        let mut p = from;
+        // short stuck intervals are the common case: look at a few samples first
+        let near = (from + 8).min(n);
+        while p < near {
+            if exits(op[p], op[p]) {
+                return p;
+            }
+            p += 1;
+        }
+        for j in (0..self.table.len()).rev() {
+            let len = 1usize << j;
+            if p + len <= n {
+                let [mx, mn] = self.table[j][p];
+                if !exits(mx, mn) {
+                    p += len;
+                }
+            }
+        }
+        p
+    }
+}
+
+/// The valve's state after a sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum State {
+    /// Moving in direction `d` (MV = OP - d · offset).
+    Moving { d: f64 },
+    /// At rest at `mv` since OP was `u_s`, last motion `d`.
+    Stuck { d: f64, u_s: f64, mv: f64 },
+}
+
+impl State {
+    /// Same future for any input (the sample path's `KanoState::same` at a sample `k >= 1`,
+    /// where `u_prev` and `du_prev` are OP's).
+    fn same(&self, other: &State) -> bool {
+        match (self, other) {
+            (State::Moving { d: a }, State::Moving { d: b }) => a == b,
+            (
+                State::Stuck { d, u_s, mv },
+                State::Stuck {
+                    d: d2,
+                    u_s: u2,
+                    mv: m2,
+                },
+            ) => d == d2 && u_s == u2 && mv == m2,
+            _ => false,
+        }
+    }
+}
+
+/// One interval `[start, next start)` of constant state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Seg {
+    start: usize,
+    state: State,
+}
+
+/// Generates a run's intervals one by one.
+struct Runner<'a> {
+    rule: EventRule,
+    index: &'a OpIndex,
+    /// State from sample `k` on (until the next event).
+    state: State,
+    /// Current interval start (`n` when done).
+    k: usize,
+    /// `du_prev` of the initial state (used only for the stop test at sample 1).
+    du0: f64,
+    /// MV at sample 0.
+    mv0: f64,
+}
+
+impl<'a> Runner<'a> {
+    fn new(rule: EventRule, index: &'a OpIndex, init: &InitialState) -> Option<Self> {
+        let op0 = *index.op.first()?;
+        let d = init.direction.sign();
+        let u_s = init.stuck_at.unwrap_or(op0);
+        let mv0 = init.position.unwrap_or(if init.stuck {
+            u_s - d * rule.offset
+        } else {
+            op0 - d * rule.offset
+        });
+        let state = if init.stuck {
+            State::Stuck { d, u_s, mv: mv0 }
+        } else {
+            State::Moving { d }
+        };
+        Some(Runner {
+            rule,
+            index,
+            state,
+            k: 0,
+            du0: if init.stuck { 0.0 } else { d },
+            mv0,
+        })
+    }
+
+    /// `(hi, lo)` of the band `fl(OP - u_s) ∈ [lo, hi]` of a valve stuck after moving in
+    /// direction `d`, and the reversal threshold.
+    #[inline]
+    fn band(&self, d: f64) -> (f64, f64, f64) {
+        let r = &self.rule;
+        let (rev, same) = if d > 0.0 {
+            (r.rev_from_up, r.j_up)
+        } else {
+            (r.rev_from_dn, r.j_dn)
+        };
+        // excursion = d (u - u_s): reverse when -excursion > rev, restart when excursion > same
+        if d > 0.0 {
+            (same, -rev, rev)
+        } else {
+            (rev, -same, rev)
+        }
+    }
+
+    /// The state after a band exit at sample `k` of a valve stuck at `u_s` after moving in
+    /// direction `d` (the sample path's reversal test first).
+    #[inline]
+    fn exit_state(&self, k: usize, d: f64, u_s: f64, rev: f64) -> State {
+        let excursion = d * (self.index.op[k] - u_s);
+        State::Moving {
+            d: if -excursion > rev { -d } else { d },
+        }
+    }
+
+    /// The current interval; afterwards `self.k` is the start of the next one (`n` at the end).
+    fn next(&mut self) -> Option<Seg> {
+        let op = &self.index.op;
+        let n = op.len();
+        if self.k >= n {
+            return None;
+        }
+        let seg = Seg {
+            start: self.k,
+            state: self.state,
+        };
+        match self.state {
+            State::Moving { d } => {
+                // (a) the valve stops where the OP increment changes sign (depends on OP only)
+                let stop = if self.k == 0 {
+                    if n > 1 && (op[1] - op[0]) * self.du0 <= 0.0 {
+                        1
+                    } else {
+                        self.index.next_stop[2.min(n)] as usize
+                    }
+                } else {
+                    self.index.next_stop[(self.k + 1).min(n)] as usize
+                };
+                if stop >= n {
+                    self.k = n;
+                    return Some(seg);
+                }
+                let u_s = op[stop - 1];
+                let held = if stop == 1 {
+                    self.mv0
+                } else {
+                    op[stop - 1] - d * self.rule.offset
+                };
+                // (b) a stopping valve is tested against its band at the stop sample
+                let (hi, lo, rev) = self.band(d);
+                let x = op[stop] - u_s;
+                self.state = if x > hi || x < lo {
+                    self.exit_state(stop, d, u_s, rev)
+                } else {
+                    State::Stuck { d, u_s, mv: held }
+                };
+                self.k = stop;
+            }
+            State::Stuck { d, u_s, .. } => {
+                let (hi, lo, rev) = self.band(d);
+                let exit = self.index.first_exit(self.k + 1, u_s, hi, lo);
+                if exit >= n {
+                    self.k = n;
+                    return Some(seg);
+                }
+                self.state = self.exit_state(exit, d, u_s, rev);
+                self.k = exit;
+            }
+        }
+        Some(seg)
+    }
+}
+
+/// Write MV over `[segs[0].start, to)` for the intervals `segs` (sorted).
+fn fill(rule: &EventRule, op: &[f64], segs: &[Seg], mv0: f64, mv: &mut [f64], to: usize) {
+    for (i, s) in segs.iter().enumerate() {
+        let end = segs.get(i + 1).map_or(to, |t| t.start).min(to);
+        if s.start >= end {
+            continue;
+        }
+        match s.state {
+            State::Stuck { mv: v, .. } => mv[s.start..end].iter_mut().for_each(|m| *m = v),
+            State::Moving { d } => {
+                let dof = d * rule.offset;
+                for (m, &u) in mv[s.start..end].iter_mut().zip(&op[s.start..end]) {
+                    *m = u - dof;
+                }
+            }
+        }
+    }
+    if segs.first().is_some_and(|s| s.start == 0) && to > 0 {
+        mv[0] = mv0;
+    }
+}
+
+/// [`crate::run_valve_with`] through `index`: event-driven when the model has an
+/// [`EventRule`], the sample path otherwise. Same MV (bit for bit), `valid_from` and fallback.
+pub fn run_valve_indexed(
+    model: &dyn StictionModel,
+    index: &OpIndex,
+    init: &Initialization,
+    scratch: &mut ValveScratch,
+) -> Result<RunInfo, StictionError> {
+    let Some(rule) = model.event_rule() else {
+        return run_valve_with(model, &index.op, init, scratch);
+    };
+    let op = &index.op;
+    let n = op.len();
+    scratch.mv.resize(n, 0.0);
+    match init {
+        Initialization::In1(state) => {
+            state.validate()?;
+            let mut segs = std::mem::take(&mut scratch.segs[0]);
+            segs.clear();
+            if let Some(mut runner) = Runner::new(rule, index, state) {
+                while let Some(s) = runner.next() {
+                    segs.push(s);
+                }
+                fill(&rule, op, &segs, runner.mv0, &mut scratch.mv, n);
+            }
+            scratch.segs[0] = segs;
+            Ok(RunInfo {
+                valid_from: 0,
+                fell_back: false,
+            })
+        }
+        Initialization::In2 {
+            stationary_fraction,
+        } => {
+            if !(0.0..1.0).contains(stationary_fraction) {
+                return Err(StictionError::InvalidInit(format!(
+                    "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
+                )));
+            }
+            let merge = four_starts(rule, index, scratch);
+            average_runs(&scratch.runs, merge, &mut scratch.mv);
+            Ok(RunInfo {
+                valid_from: (stationary_fraction * n as f64).ceil() as usize,
+                fell_back: false,
+            })
+        }
+        Initialization::In3 => {
+            let merge = four_starts(rule, index, scratch);
+            let (valid_from, fell_back) = in3_valid_from(&scratch.runs, merge, n);
+            average_runs(&scratch.runs, merge, &mut scratch.mv);
+            Ok(RunInfo {
+                valid_from,
+                fell_back,
+            })
+        }
+    }
+}
+
+/// `average_into` with run 0 already in `mv`: the average of the four runs where they differ
+/// before `merge`.
+fn average_runs(runs: &[Vec<f64>; 4], merge: usize, mv: &mut [f64]) {
+    for (k, m) in mv.iter_mut().enumerate().take(merge) {
+        let first = runs[0][k];
+        if runs[1..].iter().any(|r| r[k] != first) {
+            *m = runs.iter().map(|r| r[k]).sum::<f64>() / runs.len() as f64;
+        }
+    }
+}
+
+/// The four In.2/In.3 starts: run 0 over the whole record into `scratch.mv`, every run into
+/// `scratch.runs[i][..merge]`; returns the first sample after which all four states coincide
+/// (`n` if never), as `simulate_starts` does.
+fn four_starts(rule: EventRule, index: &OpIndex, scratch: &mut ValveScratch) -> usize {
+    let op = &index.op;
+    let n = op.len();
+    if n == 0 {
+        return 0;
+    }
+    let starts = InitialState::four_variants();
+    let mut segs0 = std::mem::take(&mut scratch.segs[0]);
+    segs0.clear();
+    let Some(mut runner0) = Runner::new(rule, index, &starts[0]) else {
+        return 0;
+    };
+    while let Some(s) = runner0.next() {
+        segs0.push(s);
+    }
+    fill(&rule, op, &segs0, runner0.mv0, &mut scratch.mv, n);
+    let mut merges = [1usize; 4];
+    for (i, start) in starts.iter().enumerate().skip(1) {
+        let mut segs = std::mem::take(&mut scratch.segs[i]);
+        segs.clear();
+        let mut merged_at = n;
+        if let Some(mut runner) = Runner::new(rule, index, start) {
+            // equality with run 0 can only begin at an interval start of either run, and
+            // persists once reached
+            let mut p0 = 0usize;
+            while let Some(seg) = runner.next() {
+                segs.push(seg);
+                if let Some(k) = first_same(&segs0, &mut p0, &seg, runner.k) {
+                    merged_at = k;
+                    break;
+                }
+            }
+            let r = &mut scratch.runs[i];
+            r.resize(n, 0.0);
+            fill(&rule, op, &segs, runner.mv0, r, merged_at);
+        }
+        merges[i] = merged_at;
+        scratch.segs[i] = segs;
+    }
+    scratch.segs[0] = segs0;
+    let merge = merges.iter().copied().max().unwrap_or(n);
+    // before the common merge: run 0, and every run equal to run 0 once it has merged
+    let (r0, rest) = scratch.runs.split_at_mut(1);
+    r0[0].resize(n, 0.0);
+    r0[0][..merge].copy_from_slice(&scratch.mv[..merge]);
+    for (r, &m) in rest.iter_mut().zip(&merges[1..]) {
+        if m < merge {
+            r[m..merge].copy_from_slice(&scratch.mv[m..merge]);
+        }
+    }
+    merge
+}
+
+/// Run i is in `seg.state` over `[seg.start, end)`: the first sample `k >= 1` there at which
+/// run 0's state is the same.
+fn first_same(segs0: &[Seg], p0: &mut usize, seg: &Seg, end: usize) -> Option<usize> {
+    while let Some(s0) = segs0.get(*p0) {
+        let e0 = segs0.get(*p0 + 1).map_or(usize::MAX, |t| t.start);
+        if e0 <= seg.start {
+            *p0 += 1;
+            continue;
+        }
+        if s0.start >= end {
+            return None;
+        }
+        let from = s0.start.max(seg.start).max(1);
+        if from < end.min(e0) && s0.state.same(&seg.state) {
+            return Some(from);
+        }
+        if e0 <= end {
+            *p0 += 1;
+        } else {
+            return None;
+        }
+    }
+    None
+}
