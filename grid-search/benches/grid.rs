@@ -7,7 +7,7 @@
 //!   refined at 0.1 within two coarse steps), the paper's orders.
 
 use datasets::simulate::Scenario;
-use grid_search::{quantify, GridPlan, Problem, SearchOptions};
+use grid_search::{quantify, quantify_with, GridPlan, NodePath, Problem, SearchOptions};
 use linear_id::find_identifier;
 use stiction_models::{find_model, Kano};
 
@@ -25,8 +25,9 @@ fn data() -> (Vec<f64>, Vec<f64>) {
     (sim.op, sim.pv)
 }
 
-#[divan::bench(sample_count = 5)]
-fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher) {
+/// The same exhaustive grid through both node paths, in one run (the ratio is the speed-up).
+#[divan::bench(sample_count = 5, args = ["fast", "sample"])]
+fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher, path: &str) {
     let (op, pv) = data();
     let kano = find_model("kano").expect("registered");
     let arx = (find_identifier("arx").expect("registered").build)(&[]).expect("default orders");
@@ -34,8 +35,13 @@ fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher) {
         grid: GridPlan::Exhaustive { step: 0.1 },
         ..SearchOptions::default()
     };
+    let path = if path == "fast" {
+        NodePath::Fast
+    } else {
+        NodePath::Sample
+    };
     bencher.bench(|| {
-        quantify(
+        quantify_with(
             kano,
             arx.as_ref(),
             Problem {
@@ -45,6 +51,7 @@ fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher) {
             },
             &opts,
             None,
+            path,
         )
         .expect("finds a node")
     });

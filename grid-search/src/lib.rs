@@ -17,8 +17,8 @@ pub mod grid;
 mod search;
 
 pub use search::{
-    evaluate_nodes, quantify, quantify_from_surface, Criterion, Fits, GridPlan, Interval, NodeFit,
-    Problem, Quantification, SearchOptions, NEGLIGIBLE_S,
+    evaluate_nodes, quantify, quantify_from_surface, quantify_with, Criterion, Fits, GridPlan,
+    Interval, NodeFit, NodePath, Problem, Quantification, SearchOptions, NEGLIGIBLE_S,
 };
 
 pub use linear_id;

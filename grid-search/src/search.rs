@@ -7,7 +7,10 @@ use std::time::Instant;
 use linear_id::{fit_pv, LinearFit, LinearIdentifier};
 use rayon::prelude::*;
 use serde::Serialize;
-use stiction_models::{run_valve_with, Initialization, ModelEntry, StictionModel, ValveScratch};
+use stiction_models::{
+    run_valve_indexed, run_valve_with, Initialization, ModelEntry, OpIndex, StictionModel,
+    ValveScratch,
+};
 
 use crate::{grid, SearchError};
 
@@ -337,12 +340,32 @@ fn erf(x: f64) -> f64 {
     }
 }
 
+/// How the grid nodes are evaluated. Both give the same surface: the same MV at every node,
+/// the same skip reasons, fits equal to round-off (`tests/fast_path.rs`); the best node is
+/// always refitted by the sample path, so the reported model and series are the same bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NodePath {
+    /// Events and segment sums (default): the valve run interval by interval
+    /// ([`stiction_models::run_valve_indexed`]), ARX from normal equations assembled from
+    /// prefix sums and per-node MV sums (with a per-node QR fallback when poorly conditioned),
+    /// the free run in independent chunks, the fits in vectorised sums.
+    #[default]
+    Fast,
+    /// Sample by sample, as before issue 16: every node's valve stepped sample by sample, the
+    /// identifier's own `identify`, a full prediction and simulation.
+    Sample,
+}
+
 struct Ctx<'a, I: ?Sized> {
     entry: &'a ModelEntry,
     identifier: &'a I,
     problem: Problem<'a>,
     init: Initialization,
     split_index: usize,
+    path: NodePath,
+    /// OP indexed for event-driven valve runs (fast path).
+    index: Option<OpIndex>,
 }
 
 /// Everything computed at one node; the big vectors only kept for the final refit.
@@ -358,6 +381,7 @@ struct Evaluated {
 struct Scratch {
     valve: ValveScratch,
     pred: Vec<f64>,
+    sim: Vec<f64>,
 }
 
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
@@ -440,6 +464,125 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     }
 }
 
+impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
+    /// [`Ctx::evaluate`] without the series, on the fast path (see [`NodePath::Fast`]): same
+    /// checks in the same order, so the same skip reasons.
+    fn evaluate_fast(&self, params: &[f64], scratch: &mut Scratch) -> Result<Fits, String> {
+        let Some(index) = &self.index else {
+            return self.evaluate(params, scratch, false).map(|(f, _)| f);
+        };
+        let model = (self.entry.build)(params).map_err(|e| e.to_string())?;
+        let run = run_valve_indexed(model.as_ref(), index, &self.init, &mut scratch.valve)
+            .map_err(|e| e.to_string())?;
+        let mv = &scratch.valve.mv;
+        let (op, pv) = (self.problem.op, self.problem.pv);
+        let n = op.len();
+        let k0 = run.valid_from;
+        let ni = self.split_index;
+        let needed = self.identifier.min_samples().max(10);
+        if ni <= k0 || ni - k0 < needed {
+            return Err(format!(
+                "the valve's initial state matters until sample {k0}: too few identification samples left"
+            ));
+        }
+        let mv_id = &mv[k0..ni];
+        if distinct_at_least(mv_id, 3) < 3 {
+            return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
+        }
+        let linear = self
+            .identifier
+            .identify(mv_id, &pv[k0..ni])
+            .map_err(|e| e.to_string())?;
+        linear.check_stable(true).map_err(|e| e.to_string())?;
+        scratch.pred.resize(n - k0, 0.0);
+        linear
+            .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
+            .map_err(|e| e.to_string())?;
+        let init_len = linear.first_sample().min(n - k0);
+        scratch.sim.resize(n - k0, 0.0);
+        let sim_ok = linear
+            .simulate_blocked_into(&mv[k0..], &pv[k0..k0 + init_len], &mut scratch.sim)
+            .is_ok();
+        let split = ni - k0;
+        let first = linear.first_sample().min(split);
+        let score = |est: &[f64], range: std::ops::Range<usize>| {
+            let f = fit_pv_fast(&pv[k0 + range.start..k0 + range.end], &est[range]);
+            if f.is_finite() {
+                f
+            } else {
+                f64::NEG_INFINITY
+            }
+        };
+        let pred = &scratch.pred;
+        let (sim_id, sim_val) = if sim_ok {
+            (
+                score(&scratch.sim, first..split),
+                score(&scratch.sim, split..n - k0),
+            )
+        } else {
+            (f64::NEG_INFINITY, f64::NEG_INFINITY)
+        };
+        let fits = Fits {
+            pred_id: score(pred, first..split),
+            pred_val: score(pred, split..n - k0),
+            sim_id,
+            sim_val,
+            mv: self
+                .problem
+                .mv
+                .map(|m| linear_id::fit_mv(&m[k0..], &mv[k0..])),
+            valid_from: k0,
+            init_fell_back: run.fell_back,
+        };
+        if !fits.pred_val.is_finite() {
+            return Err("the prediction is not finite".into());
+        }
+        Ok(fits)
+    }
+}
+
+/// [`linear_id::fit_pv`] with lane-wise sums (vectorised; equal to round-off).
+fn fit_pv_fast(measured: &[f64], estimate: &[f64]) -> f64 {
+    const L: usize = 8;
+    if measured.len() != estimate.len() || measured.is_empty() {
+        return f64::NEG_INFINITY;
+    }
+    let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
+    let mut acc = [0.0; L];
+    let (mc, mr) = (
+        measured.chunks_exact(L),
+        measured.chunks_exact(L).remainder(),
+    );
+    for c in mc {
+        for l in 0..L {
+            acc[l] += c[l];
+        }
+    }
+    let mean = (lanes(acc) + mr.iter().sum::<f64>()) / measured.len() as f64;
+    let (mut num, mut den) = ([0.0; L], [0.0; L]);
+    let (ec, er) = (
+        estimate.chunks_exact(L),
+        estimate.chunks_exact(L).remainder(),
+    );
+    for (m, e) in measured.chunks_exact(L).zip(ec) {
+        for l in 0..L {
+            let r = e[l] - m[l];
+            let c = m[l] - mean;
+            num[l] += r * r;
+            den[l] += c * c;
+        }
+    }
+    let (mut num, mut den) = (lanes(num), lanes(den));
+    for (&m, &e) in mr.iter().zip(er) {
+        num += (e - m) * (e - m);
+        den += (m - mean) * (m - mean);
+    }
+    if !num.is_finite() || !(den > 0.0) {
+        return f64::NEG_INFINITY;
+    }
+    100.0 * (1.0 - num / den)
+}
+
 /// Number of distinct values, counting up to `cap`.
 fn distinct_at_least(x: &[f64], cap: usize) -> usize {
     let mut seen: Vec<f64> = Vec::with_capacity(cap);
@@ -476,8 +619,28 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
     options: &SearchOptions,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Quantification, SearchError> {
+    quantify_with(
+        entry,
+        identifier,
+        problem,
+        options,
+        progress,
+        NodePath::Fast,
+    )
+}
+
+/// [`quantify`] with the node evaluation chosen: [`NodePath::Sample`] is the sample-by-sample
+/// path (kept for comparison and benchmarks); both give the same result.
+pub fn quantify_with<I: LinearIdentifier + ?Sized>(
+    entry: &ModelEntry,
+    identifier: &I,
+    problem: Problem<'_>,
+    options: &SearchOptions,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+    path: NodePath,
+) -> Result<Quantification, SearchError> {
     let start = Instant::now();
-    let prep = prepare(entry, identifier, problem, options)?;
+    let prep = prepare(entry, identifier, problem, options, path)?;
     let crit = options.criterion;
     let done = AtomicUsize::new(0);
     let eval_all = |nodes: Vec<Vec<f64>>| -> Vec<NodeFit> {
@@ -526,7 +689,7 @@ pub fn evaluate_nodes<I: LinearIdentifier + ?Sized>(
     options: &SearchOptions,
     nodes: Vec<Vec<f64>>,
 ) -> Result<Vec<NodeFit>, SearchError> {
-    let prep = prepare(entry, identifier, problem, options)?;
+    let prep = prepare(entry, identifier, problem, options, NodePath::Fast)?;
     Ok(prep.ctx.evaluate_all(nodes, &|| {}))
 }
 
@@ -544,7 +707,7 @@ pub fn quantify_from_surface<I: LinearIdentifier + ?Sized>(
     notes: Vec<String>,
 ) -> Result<Quantification, SearchError> {
     let start = Instant::now();
-    let prep = prepare(entry, identifier, problem, options)?;
+    let prep = prepare(entry, identifier, problem, options, NodePath::Sample)?;
     finish(&prep, surface, grid, start, notes)
 }
 
@@ -560,7 +723,10 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         nodes
             .into_par_iter()
             .map_init(Scratch::default, |scratch, params| {
-                let outcome = self.evaluate(&params, scratch, false).map(|(f, _)| f);
+                let outcome = match self.path {
+                    NodePath::Fast => self.evaluate_fast(&params, scratch),
+                    NodePath::Sample => self.evaluate(&params, scratch, false).map(|(f, _)| f),
+                };
                 let eq = (self.entry.build)(&params)
                     .map(|m| m.equivalent())
                     .unwrap_or(stiction_models::Equivalent {
@@ -585,6 +751,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
     identifier: &'a I,
     problem: Problem<'a>,
     options: &SearchOptions,
+    path: NodePath,
 ) -> Result<Prepared<'a, I>, SearchError> {
     let (op, pv) = (problem.op, problem.pv);
     if op.len() != pv.len() || problem.mv.is_some_and(|m| m.len() != op.len()) {
@@ -668,6 +835,11 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
         problem,
         init: options.init,
         split_index: ((n as f64) * options.split).floor() as usize,
+        path,
+        index: match path {
+            NodePath::Fast => Some(OpIndex::new(op)?),
+            NodePath::Sample => None,
+        },
     };
     Ok(Prepared {
         ctx,
