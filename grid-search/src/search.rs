@@ -263,6 +263,9 @@ pub struct Quantification {
     pub elapsed_ms: f64,
     /// What limits the estimate, in words (empty when S and J are well determined).
     pub warnings: Vec<String>,
+    /// Fast path only: nodes whose ARX was solved from sums, and nodes that fell back to the
+    /// QR (poorly conditioned normal equations, see [`linear_id::GRAM_PIVOT_TOL`]).
+    pub arx_from_sums: [usize; 2],
 }
 
 impl Quantification {
@@ -366,6 +369,12 @@ struct Ctx<'a, I: ?Sized> {
     path: NodePath,
     /// OP indexed for event-driven valve runs (fast path).
     index: Option<OpIndex>,
+    /// PV's prefix sums for ARX from normal equations (fast path, ARX only).
+    arx_sums: Option<linear_id::ArxOutputSums>,
+    /// Sum of squares of PV about its mean over the validation window.
+    val_ss: f64,
+    /// Nodes whose ARX came from sums / fell back to the QR (fast path).
+    gram_count: [AtomicUsize; 2],
 }
 
 /// Everything computed at one node; the big vectors only kept for the final refit.
@@ -489,15 +498,52 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         if distinct_at_least(mv_id, 3) < 3 {
             return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
         }
-        let linear = self
-            .identifier
-            .identify(mv_id, &pv[k0..ni])
-            .map_err(|e| e.to_string())?;
+        let from_sums = self
+            .arx_sums
+            .as_ref()
+            .and_then(|s| s.identify_window(mv, k0, ni));
+        if self.arx_sums.is_some() {
+            self.gram_count[usize::from(from_sums.is_none())].fetch_add(1, Ordering::Relaxed);
+        }
+        let linear = match from_sums {
+            Some(fit) => fit,
+            None => self
+                .identifier
+                .identify(mv_id, &pv[k0..ni])
+                .map_err(|e| e.to_string())?,
+        };
         linear.check_stable(true).map_err(|e| e.to_string())?;
-        scratch.pred.resize(n - k0, 0.0);
-        linear
-            .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
-            .map_err(|e| e.to_string())?;
+        let pred_fits = match polynomial_prediction_fits(
+            &linear,
+            mv,
+            pv,
+            k0,
+            ni,
+            self.val_ss,
+            &mut scratch.pred,
+        ) {
+            Some(f) => f,
+            None => {
+                // anything unusual (a model with C(q) or a bias, a non-finite prediction):
+                // the sample path's prediction, its errors included
+                scratch.pred.resize(n - k0, 0.0);
+                linear
+                    .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
+                    .map_err(|e| e.to_string())?;
+                let split = ni - k0;
+                let first = linear.first_sample().min(split);
+                let score = |range: std::ops::Range<usize>| {
+                    let f =
+                        fit_pv_fast(&pv[k0 + range.start..k0 + range.end], &scratch.pred[range]);
+                    if f.is_finite() {
+                        f
+                    } else {
+                        f64::NEG_INFINITY
+                    }
+                };
+                (score(first..split), score(split..n - k0))
+            }
+        };
         let init_len = linear.first_sample().min(n - k0);
         scratch.sim.resize(n - k0, 0.0);
         let sim_ok = linear
@@ -513,7 +559,6 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 f64::NEG_INFINITY
             }
         };
-        let pred = &scratch.pred;
         let (sim_id, sim_val) = if sim_ok {
             (
                 score(&scratch.sim, first..split),
@@ -523,8 +568,8 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             (f64::NEG_INFINITY, f64::NEG_INFINITY)
         };
         let fits = Fits {
-            pred_id: score(pred, first..split),
-            pred_val: score(pred, split..n - k0),
+            pred_id: pred_fits.0,
+            pred_val: pred_fits.1,
             sim_id,
             sim_val,
             mv: self
@@ -539,6 +584,96 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         }
         Ok(fits)
     }
+}
+
+/// The one-step prediction's F_PV on the identification rows `[k0 + first, ni)` and on the
+/// validation window `[ni, n)` of a polynomial model without C(q) or bias, in one vectorised
+/// pass: each prediction is `predict_one_step`'s tail formula term by term (the same bits),
+/// only the sums of squares are lane-wise. `None` for other models or a non-finite result.
+fn polynomial_prediction_fits(
+    linear: &LinearFit,
+    u: &[f64],
+    y: &[f64],
+    k0: usize,
+    ni: usize,
+    val_ss: f64,
+    buf: &mut Vec<f64>,
+) -> Option<(f64, f64)> {
+    const L: usize = 8;
+    let linear_id::Structure::Polynomial { a, b, c, delay } = linear.structure() else {
+        return None;
+    };
+    if c.len() != 1 || linear.bias_tracking().is_some() {
+        return None;
+    }
+    let (um, ym) = linear.means();
+    let n = y.len();
+    let first = linear.first_sample().min(ni - k0);
+    let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
+    let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
+    // predictions over [lo, n) coefficient by coefficient (vectorised), in `buf`
+    let sse_from = |buf: &mut Vec<f64>, lo: usize| -> (f64, f64) {
+        buf.clear();
+        buf.resize(n - lo, kconst);
+        for (i, &ai) in a.iter().enumerate().skip(1) {
+            for (v, yi) in buf.iter_mut().zip(&y[lo - i..n - i]) {
+                *v -= ai * yi;
+            }
+        }
+        for (j, &bj) in b.iter().enumerate() {
+            let lag = delay + j + 1;
+            for (v, uj) in buf.iter_mut().zip(&u[lo - lag..n - lag]) {
+                *v += bj * uj;
+            }
+        }
+        let sq = |p: &[f64], m: &[f64]| {
+            let mut acc = [0.0; L];
+            let (pc, mc) = (p.chunks_exact(L), m.chunks_exact(L));
+            let (pr, mr) = (pc.remainder(), mc.remainder());
+            for (pp, mm) in pc.zip(mc) {
+                for l in 0..L {
+                    let e = (pp[l] + ym) - mm[l];
+                    acc[l] += e * e;
+                }
+            }
+            let mut s = lanes(acc);
+            for (pp, mm) in pr.iter().zip(mr) {
+                let e = (pp + ym) - mm;
+                s += e * e;
+            }
+            s
+        };
+        let split = ni - lo;
+        (sq(&buf[..split], &y[lo..ni]), sq(&buf[split..], &y[ni..]))
+    };
+    let ss_about_mean = |x: &[f64]| {
+        let mean = x.iter().sum::<f64>() / x.len() as f64;
+        let mut acc = [0.0; L];
+        let ch = x.chunks_exact(L);
+        let r = ch.remainder();
+        for c in ch {
+            for l in 0..L {
+                acc[l] += (c[l] - mean) * (c[l] - mean);
+            }
+        }
+        lanes(acc) + r.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>()
+    };
+    let fit = |num: f64, den: f64| {
+        if !num.is_finite() || !(den > 0.0) {
+            f64::NEG_INFINITY
+        } else {
+            100.0 * (1.0 - num / den)
+        }
+    };
+    let (lo, hi) = (k0 + first, ni);
+    if lo >= hi || ni >= n {
+        return None;
+    }
+    let (sse_id, sse_val) = sse_from(buf, lo);
+    if !(sse_id.is_finite() && sse_val.is_finite()) {
+        return None;
+    }
+    Some((fit(sse_id, ss_about_mean(&y[lo..hi])), fit(sse_val, val_ss)))
 }
 
 /// [`linear_id::fit_pv`] with lane-wise sums (vectorised; equal to round-off).
@@ -840,6 +975,16 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
             NodePath::Fast => Some(OpIndex::new(op)?),
             NodePath::Sample => None,
         },
+        arx_sums: match path {
+            NodePath::Fast => identifier.as_arx().and_then(|a| a.output_sums(pv)),
+            NodePath::Sample => None,
+        },
+        val_ss: {
+            let val = &pv[((n as f64) * options.split).floor() as usize..];
+            let mean = val.iter().sum::<f64>() / val.len().max(1) as f64;
+            val.iter().map(|v| (v - mean) * (v - mean)).sum()
+        },
+        gram_count: [AtomicUsize::new(0), AtomicUsize::new(0)],
     };
     Ok(Prepared {
         ctx,
@@ -957,6 +1102,10 @@ fn finish<I: LinearIdentifier + ?Sized>(
         span,
         fit_no_stiction,
         elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
+        arx_from_sums: [
+            ctx.gram_count[0].load(Ordering::Relaxed),
+            ctx.gram_count[1].load(Ordering::Relaxed),
+        ],
     })
 }
 

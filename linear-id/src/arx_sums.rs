@@ -9,6 +9,8 @@
 //! scaled to unit diagonal, and a Cholesky factorization.
 //!
 //! Normal equations square the condition number, so the solve is only trusted when every
+//! column keeps at least 1e-3 of its sum of squares through the centering (otherwise it is
+//! numerically constant over the rows: the QR reports it singular) and every
 //! pivot of the scaled Cholesky factor satisfies `L_ii² >= GRAM_PIVOT_TOL` (1e-6: the
 //! column-equilibrated QR's relative pivots, which `L_ii` equals, are then >= 1e-3, seven
 //! decades above the QR's own rank threshold 1e-10, and the relative error of the solution is
@@ -22,7 +24,11 @@ use crate::{LinearFit, Structure};
 
 /// Smallest accepted squared pivot of the unit-diagonal Cholesky factor (see the module
 /// documentation).
-pub const GRAM_PIVOT_TOL: f64 = 1e-6;
+pub const GRAM_PIVOT_TOL: f64 = 1e-4;
+
+/// A centered diagonal entry must keep this fraction of its uncentered value (see
+/// `identify_window`).
+const CENTERING_LOSS: f64 = 1e-3;
 
 /// Largest `n + m` handled from sums (the Gram matrix lives on the stack).
 const MAX_COLS: usize = 12;
@@ -192,7 +198,16 @@ impl ArxOutputSums {
                 g[i][n + j] = dot_shifted(yc_slice(i), self.shift, u_slice(j), u_mean);
             }
         }
-        // center (the intercept) and symmetrise
+        // center (the intercept) and symmetrise; a diagonal that loses more than three digits
+        // to the centering (a column constant over the rows, or far from its shift) is left
+        // to the QR, which reports what it makes of it
+        for a in 0..=d {
+            let raw = g[a][a];
+            let c = raw - sums[a] * sums[a] / rows;
+            if !(c > CENTERING_LOSS * raw) {
+                return None;
+            }
+        }
         for a in 0..=d {
             for b in a..=d {
                 let c = g[a][b] - sums[a] * sums[b] / rows;
@@ -257,6 +272,61 @@ impl ArxOutputSums {
         }
         for k in 0..d {
             x[k] *= scale[k];
+        }
+        // one step of iterative refinement with the residual computed from the data (not from
+        // the sums): the solve then has the accuracy of the QR's even when the residual is
+        // small against the output (noise-free data), where plain normal equations lose
+        // cond² · eps
+        let nrows = r1 - r0;
+        let mut gr = [0.0; MAX_COLS];
+        let mut r_sum = 0.0;
+        crate::la::with_buffer(nrows, |res| {
+            // res = yc(t) - Σ x_k col_k(t), columns in the shifted coordinates of the sums
+            res.copy_from_slice(&y[r0..r1]);
+            res.iter_mut().for_each(|v| *v -= self.shift);
+            for i in 1..=n {
+                let xi = x[i - 1];
+                for (v, &yy) in res.iter_mut().zip(yc_slice(i)) {
+                    *v += xi * (yy - self.shift);
+                }
+            }
+            for j in 1..=m {
+                let xj = x[n + j - 1];
+                for (v, &uu) in res.iter_mut().zip(u_slice(j)) {
+                    *v -= xj * (uu - u_mean);
+                }
+            }
+            r_sum = sum_shifted(res, 0.0);
+            for i in 1..=n {
+                gr[i - 1] = -dot_shifted(yc_slice(i), self.shift, res, 0.0);
+            }
+            for j in 1..=m {
+                gr[n + j - 1] = dot_shifted(u_slice(j), u_mean, res, 0.0);
+            }
+        });
+        let mut rhs2 = [0.0; MAX_COLS];
+        for k in 0..d {
+            // centered: the intercept absorbs the residual's mean
+            rhs2[k] = (gr[k] - sign(k + 1) * sums[k + 1] * r_sum / rows) * scale[k];
+        }
+        let mut z2 = [0.0; MAX_COLS];
+        for i in 0..d {
+            let mut v = rhs2[i];
+            for k in 0..i {
+                v -= a[i][k] * z2[k];
+            }
+            z2[i] = v / a[i][i];
+        }
+        let mut dx = [0.0; MAX_COLS];
+        for i in (0..d).rev() {
+            let mut v = z2[i];
+            for k in i + 1..d {
+                v -= a[k][i] * dx[k];
+            }
+            dx[i] = v / a[i][i];
+        }
+        for k in 0..d {
+            x[k] += dx[k] * scale[k];
         }
         // residual sum of squares and the output's about its mean over the rows
         let y_ss = g[0][0];

@@ -813,32 +813,55 @@ impl LinearFit {
                     init[(3 - i) * LANES + na] = out[head_end - 1 - i];
                 }
             }
-            let mut s: [[f64; LANES]; 4] = [[0.0; LANES]; 4];
-            for (r, row) in s.iter_mut().enumerate() {
-                row.copy_from_slice(&init[r * LANES..(r + 1) * LANES]);
+            // orders as compile-time constants: straight-line lane loops
+            macro_rules! run {
+                ($na:literal) => {{
+                    let mut s: [[f64; LANES]; $na] = [[0.0; LANES]; $na];
+                    for (r, row) in s.iter_mut().enumerate() {
+                        // s[$na - 1] is lag 1
+                        let src = 4 - $na + r;
+                        row.copy_from_slice(&init[src * LANES..(src + 1) * LANES]);
+                    }
+                    let c: [f64; $na] = match coef[..$na].try_into() {
+                        Ok(c) => c,
+                        Err(_) => return,
+                    };
+                    let w = &out[head_end..];
+                    let full_rows = tail.saturating_sub((chunks - 1) * len).min(len);
+                    for t in 0..len {
+                        let mut x = [0.0; LANES];
+                        if t < full_rows {
+                            for ch in 0..chunks {
+                                x[na + ch] = w[ch * len + t];
+                            }
+                        } else {
+                            for ch in 0..chunks {
+                                let k = ch * len + t;
+                                if k < tail {
+                                    x[na + ch] = w[k];
+                                }
+                            }
+                        }
+                        let mut v = x;
+                        for i in 0..$na {
+                            let row = &s[$na - 1 - i];
+                            for l in 0..LANES {
+                                v[l] -= c[i] * row[l];
+                            }
+                        }
+                        for r in 0..$na - 1 {
+                            s[r] = s[r + 1];
+                        }
+                        s[$na - 1] = v;
+                        z[t * LANES..(t + 1) * LANES].copy_from_slice(&v);
+                    }
+                }};
             }
-            let w = &out[head_end..];
-            for t in 0..len {
-                let mut x = [0.0; LANES];
-                for c in 0..chunks {
-                    let k = c * len + t;
-                    if k < tail {
-                        x[na + c] = w[k];
-                    }
-                }
-                let mut v = [0.0; LANES];
-                for l in 0..LANES {
-                    let mut acc = x[l];
-                    for i in 0..4 {
-                        acc -= coef[i] * s[3 - i][l];
-                    }
-                    v[l] = acc;
-                }
-                s[0] = s[1];
-                s[1] = s[2];
-                s[2] = s[3];
-                s[3] = v;
-                z[t * LANES..(t + 1) * LANES].copy_from_slice(&v);
+            match na {
+                1 => run!(1),
+                2 => run!(2),
+                3 => run!(3),
+                _ => run!(4),
             }
             // write chunk 0, then correct each next chunk by the true state at its start
             let t_out = &mut out[head_end..];
