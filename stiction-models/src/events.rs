@@ -103,20 +103,43 @@ impl OpIndex {
         let n = op.len();
         let exits = |mx: f64, mn: f64| mx - u_s > hi || mn - u_s < lo;
         let mut p = from;
-        // short stuck intervals are the common case: look at a few samples first
-        let near = (from + 8).min(n);
-        while p < near {
-            if exits(op[p], op[p]) {
-                return p;
-            }
-            p += 1;
+        if p >= n {
+            return n;
         }
-        for j in (0..self.table.len()).rev() {
-            let len = 1usize << j;
+        if exits(op[p], op[p]) {
+            return p;
+        }
+        p += 1;
+        // gallop: blocks of 1, 2, 4, ... samples without an exit (short stuck intervals, the
+        // common case, are found in a few steps), then binary lifting inside the last block
+        let top = self.table.len();
+        let mut j = 0;
+        while j < top && p + (1 << j) <= n {
+            let [mx, mn] = self.table[j][p];
+            if exits(mx, mn) {
+                break;
+            }
+            p += 1 << j;
+            j += 1;
+        }
+        for jj in (0..j.min(top)).rev() {
+            let len = 1usize << jj;
             if p + len <= n {
-                let [mx, mn] = self.table[j][p];
+                let [mx, mn] = self.table[jj][p];
                 if !exits(mx, mn) {
                     p += len;
+                }
+            }
+        }
+        if j >= top || p + (1 << j.min(top - 1)) > n {
+            // ran out of levels or of record: finish by lifting from the top
+            for jj in (0..top).rev() {
+                let len = 1usize << jj;
+                if p + len <= n {
+                    let [mx, mn] = self.table[jj][p];
+                    if !exits(mx, mn) {
+                        p += len;
+                    }
                 }
             }
         }
