@@ -611,6 +611,33 @@ fn polynomial_prediction_fits(
     let first = linear.first_sample().min(ni - k0);
     let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
     let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
+    let ss_about_mean = |x: &[f64]| {
+        let mean = x.iter().sum::<f64>() / x.len() as f64;
+        let mut acc = [0.0; L];
+        let ch = x.chunks_exact(L);
+        let r = ch.remainder();
+        for c in ch {
+            for l in 0..L {
+                acc[l] += (c[l] - mean) * (c[l] - mean);
+            }
+        }
+        lanes(acc) + r.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>()
+    };
+    let fit = |num: f64, den: f64| {
+        if !num.is_finite() || !(den > 0.0) {
+            f64::NEG_INFINITY
+        } else {
+            100.0 * (1.0 - num / den)
+        }
+    };
+    if let Some(r) = fixed_order_sse(a, b, *delay, kconst, ym, u, y, k0 + first, ni) {
+        let (sse_id, sse_val) = r;
+        let (lo, hi) = (k0 + first, ni);
+        if lo >= hi || ni >= n || !(sse_id.is_finite() && sse_val.is_finite()) {
+            return None;
+        }
+        return Some((fit(sse_id, ss_about_mean(&y[lo..hi])), fit(sse_val, val_ss)));
+    }
     // predictions over [lo, n) coefficient by coefficient (vectorised), in `buf`
     let sse_from = |buf: &mut Vec<f64>, lo: usize| -> (f64, f64) {
         buf.clear();
@@ -646,25 +673,6 @@ fn polynomial_prediction_fits(
         let split = ni - lo;
         (sq(&buf[..split], &y[lo..ni]), sq(&buf[split..], &y[ni..]))
     };
-    let ss_about_mean = |x: &[f64]| {
-        let mean = x.iter().sum::<f64>() / x.len() as f64;
-        let mut acc = [0.0; L];
-        let ch = x.chunks_exact(L);
-        let r = ch.remainder();
-        for c in ch {
-            for l in 0..L {
-                acc[l] += (c[l] - mean) * (c[l] - mean);
-            }
-        }
-        lanes(acc) + r.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>()
-    };
-    let fit = |num: f64, den: f64| {
-        if !num.is_finite() || !(den > 0.0) {
-            f64::NEG_INFINITY
-        } else {
-            100.0 * (1.0 - num / den)
-        }
-    };
     let (lo, hi) = (k0 + first, ni);
     if lo >= hi || ni >= n {
         return None;
@@ -674,6 +682,81 @@ fn polynomial_prediction_fits(
         return None;
     }
     Some((fit(sse_id, ss_about_mean(&y[lo..hi])), fit(sse_val, val_ss)))
+}
+
+/// The squared one-step residuals summed over `[lo, ni)` and `[ni, n)`, for orders up to
+/// (3, 3) as compile-time constants: one fused pass, each prediction summed in
+/// `predict_one_step`'s order (`kconst`, then the A terms, then the B terms, then `ym`).
+#[allow(clippy::too_many_arguments)]
+fn fixed_order_sse(
+    a: &[f64],
+    b: &[f64],
+    delay: usize,
+    kconst: f64,
+    ym: f64,
+    u: &[f64],
+    y: &[f64],
+    lo: usize,
+    ni: usize,
+) -> Option<(f64, f64)> {
+    fn run<const NA: usize, const NB: usize>(
+        a: &[f64],
+        b: &[f64],
+        delay: usize,
+        kconst: f64,
+        ym: f64,
+        u: &[f64],
+        y: &[f64],
+        lo: usize,
+        hi: usize,
+    ) -> Option<f64> {
+        const L: usize = 8;
+        let a: [f64; NA] = a.try_into().ok()?;
+        let b: [f64; NB] = b.try_into().ok()?;
+        if lo < NA.max(delay + NB) || hi > y.len() || lo >= hi {
+            return if lo >= hi { Some(0.0) } else { None };
+        }
+        let pred = |k: usize| {
+            let mut v = kconst;
+            for i in 0..NA {
+                v -= a[i] * y[k - 1 - i];
+            }
+            for j in 0..NB {
+                v += b[j] * u[k - delay - 1 - j];
+            }
+            v + ym
+        };
+        let mut acc = [0.0; L];
+        let mut k = lo;
+        while k + L <= hi {
+            for l in 0..L {
+                let e = pred(k + l) - y[k + l];
+                acc[l] += e * e;
+            }
+            k += L;
+        }
+        let mut s = ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
+        while k < hi {
+            let e = pred(k) - y[k];
+            s += e * e;
+            k += 1;
+        }
+        Some(s)
+    }
+    let n = y.len();
+    let a = &a[1..];
+    macro_rules! fixed {
+        ($(($na:literal, $nb:literal))*) => {
+            match (a.len(), b.len()) {
+                $(($na, $nb) => Some((
+                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, lo, ni)?,
+                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, ni, n)?,
+                )),)*
+                _ => None,
+            }
+        };
+    }
+    fixed!((1, 1)(1, 2)(1, 3)(2, 1)(2, 2)(2, 3)(3, 1)(3, 2)(3, 3))
 }
 
 /// [`linear_id::fit_pv`] with lane-wise sums (vectorised; equal to round-off).

@@ -749,7 +749,7 @@ impl LinearFit {
         y_init: &[f64],
         out: &mut [f64],
     ) -> Result<(), IdError> {
-        const LANES: usize = 8;
+        const LANES: usize = 16;
         let n_data = u.len();
         let Structure::Polynomial { a, b, delay, .. } = &self.structure else {
             return self.simulate_copy(u, y_init, out);
@@ -759,7 +759,7 @@ impl LinearFit {
         let full = na.max(delay + nb);
         let head_end = full.max(y_init.len()).min(n_data);
         let chunks = LANES.saturating_sub(na);
-        if na == 0 || na > 4 || out.len() != n_data || n_data < head_end + 64 * chunks {
+        if na == 0 || na > 4 || out.len() != n_data || n_data < head_end + 16 * chunks {
             return self.simulate_copy(u, y_init, out);
         }
         check_finite("u", u)?;
@@ -842,8 +842,9 @@ impl LinearFit {
                                 }
                             }
                         }
+                        // the lag-1 term last: the only one on the recursion's critical path
                         let mut v = x;
-                        for i in 0..$na {
+                        for i in (0..$na).rev() {
                             let row = &s[$na - 1 - i];
                             for l in 0..LANES {
                                 v[l] -= c[i] * row[l];
