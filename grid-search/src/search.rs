@@ -624,7 +624,7 @@ fn polynomial_prediction_fits(
         lanes(acc) + r.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>()
     };
     let fit = |num: f64, den: f64| {
-        if !num.is_finite() || !(den > 0.0) {
+        if !num.is_finite() || den.is_nan() || den <= 0.0 {
             f64::NEG_INFINITY
         } else {
             100.0 * (1.0 - num / den)
@@ -735,7 +735,8 @@ fn fixed_order_sse(
             }
             k += L;
         }
-        let mut s = ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
+        let mut s =
+            ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
         while k < hi {
             let e = pred(k) - y[k];
             s += e * e;
@@ -795,7 +796,7 @@ fn fit_pv_fast(measured: &[f64], estimate: &[f64]) -> f64 {
         num += (e - m) * (e - m);
         den += (m - mean) * (m - mean);
     }
-    if !num.is_finite() || !(den > 0.0) {
+    if !num.is_finite() || den.is_nan() || den <= 0.0 {
         return f64::NEG_INFINITY;
     }
     100.0 * (1.0 - num / den)

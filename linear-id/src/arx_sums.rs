@@ -19,6 +19,9 @@
 //! [`LinearIdentifier::identify`]. The model built here equals the QR's to round-off (test
 //! `gram_fit_matches_the_qr` and the grid-search equivalence tests).
 
+// Dense small-matrix code (Gram, Cholesky, triangular solves) reads best with index loops.
+#![allow(clippy::needless_range_loop)]
+
 use crate::arx::{Arx, Centering};
 use crate::{LinearFit, Structure};
 

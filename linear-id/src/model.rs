@@ -850,9 +850,7 @@ impl LinearFit {
                                 v[l] -= c[i] * row[l];
                             }
                         }
-                        for r in 0..$na - 1 {
-                            s[r] = s[r + 1];
-                        }
+                        s.rotate_left(1);
                         s[$na - 1] = v;
                         z[t * LANES..(t + 1) * LANES].copy_from_slice(&v);
                     }
