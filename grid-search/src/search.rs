@@ -513,57 +513,36 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 .map_err(|e| e.to_string())?,
         };
         linear.check_stable(true).map_err(|e| e.to_string())?;
-        let pred_fits = match polynomial_prediction_fits(
-            &linear,
-            mv,
-            pv,
-            k0,
-            ni,
-            self.val_ss,
-            &mut scratch.pred,
-        ) {
-            Some(f) => f,
-            None => {
-                // anything unusual (a model with C(q) or a bias, a non-finite prediction):
-                // the sample path's prediction, its errors included
-                scratch.pred.resize(n - k0, 0.0);
-                linear
-                    .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
-                    .map_err(|e| e.to_string())?;
-                let split = ni - k0;
-                let first = linear.first_sample().min(split);
-                let score = |range: std::ops::Range<usize>| {
-                    let f =
-                        fit_pv_fast(&pv[k0 + range.start..k0 + range.end], &scratch.pred[range]);
-                    if f.is_finite() {
-                        f
-                    } else {
-                        f64::NEG_INFINITY
-                    }
-                };
-                (score(first..split), score(split..n - k0))
-            }
+        let split = ni - k0;
+        let first = linear.first_sample().min(split);
+        // the denominators of F_PV: identification rows (per node), validation (per record)
+        let ss = (ss_about_mean(&pv[k0 + first..ni]), self.val_ss);
+        let fits_of = |est: &[f64]| {
+            (
+                fit_from(sse(&est[first..split], &pv[k0 + first..ni]), ss.0),
+                fit_from(sse(&est[split..], &pv[ni..]), ss.1),
+            )
         };
+        let pred_fits =
+            match polynomial_prediction_fits(&linear, mv, pv, k0, ni, ss, &mut scratch.pred) {
+                Some(f) => f,
+                None => {
+                    // anything unusual (a model with C(q) or a bias, a non-finite prediction):
+                    // the sample path's prediction, its errors included
+                    scratch.pred.resize(n - k0, 0.0);
+                    linear
+                        .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
+                        .map_err(|e| e.to_string())?;
+                    fits_of(&scratch.pred)
+                }
+            };
         let init_len = linear.first_sample().min(n - k0);
         scratch.sim.resize(n - k0, 0.0);
         let sim_ok = linear
             .simulate_blocked_into(&mv[k0..], &pv[k0..k0 + init_len], &mut scratch.sim)
             .is_ok();
-        let split = ni - k0;
-        let first = linear.first_sample().min(split);
-        let score = |est: &[f64], range: std::ops::Range<usize>| {
-            let f = fit_pv_fast(&pv[k0 + range.start..k0 + range.end], &est[range]);
-            if f.is_finite() {
-                f
-            } else {
-                f64::NEG_INFINITY
-            }
-        };
         let (sim_id, sim_val) = if sim_ok {
-            (
-                score(&scratch.sim, first..split),
-                score(&scratch.sim, split..n - k0),
-            )
+            fits_of(&scratch.sim)
         } else {
             (f64::NEG_INFINITY, f64::NEG_INFINITY)
         };
@@ -596,7 +575,7 @@ fn polynomial_prediction_fits(
     y: &[f64],
     k0: usize,
     ni: usize,
-    val_ss: f64,
+    (id_ss, val_ss): (f64, f64),
     buf: &mut Vec<f64>,
 ) -> Option<(f64, f64)> {
     const L: usize = 8;
@@ -611,32 +590,14 @@ fn polynomial_prediction_fits(
     let first = linear.first_sample().min(ni - k0);
     let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
     let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
-    let ss_about_mean = |x: &[f64]| {
-        let mean = x.iter().sum::<f64>() / x.len() as f64;
-        let mut acc = [0.0; L];
-        let ch = x.chunks_exact(L);
-        let r = ch.remainder();
-        for c in ch {
-            for l in 0..L {
-                acc[l] += (c[l] - mean) * (c[l] - mean);
-            }
-        }
-        lanes(acc) + r.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>()
-    };
-    let fit = |num: f64, den: f64| {
-        if !num.is_finite() || den.is_nan() || den <= 0.0 {
-            f64::NEG_INFINITY
-        } else {
-            100.0 * (1.0 - num / den)
-        }
-    };
+    let fit = fit_from;
     if let Some(r) = fixed_order_sse(a, b, *delay, kconst, ym, u, y, k0 + first, ni) {
         let (sse_id, sse_val) = r;
         let (lo, hi) = (k0 + first, ni);
         if lo >= hi || ni >= n || !(sse_id.is_finite() && sse_val.is_finite()) {
             return None;
         }
-        return Some((fit(sse_id, ss_about_mean(&y[lo..hi])), fit(sse_val, val_ss)));
+        return Some((fit(sse_id, id_ss), fit(sse_val, val_ss)));
     }
     // predictions over [lo, n) coefficient by coefficient (vectorised), in `buf`
     let sse_from = |buf: &mut Vec<f64>, lo: usize| -> (f64, f64) {
@@ -681,7 +642,7 @@ fn polynomial_prediction_fits(
     if !(sse_id.is_finite() && sse_val.is_finite()) {
         return None;
     }
-    Some((fit(sse_id, ss_about_mean(&y[lo..hi])), fit(sse_val, val_ss)))
+    Some((fit(sse_id, id_ss), fit(sse_val, val_ss)))
 }
 
 /// The squared one-step residuals summed over `[lo, ni)` and `[ni, n)`, for orders up to
@@ -760,46 +721,58 @@ fn fixed_order_sse(
     fixed!((1, 1)(1, 2)(1, 3)(2, 1)(2, 2)(2, 3)(3, 1)(3, 2)(3, 3))
 }
 
-/// [`linear_id::fit_pv`] with lane-wise sums (vectorised; equal to round-off).
-fn fit_pv_fast(measured: &[f64], estimate: &[f64]) -> f64 {
-    const L: usize = 8;
-    if measured.len() != estimate.len() || measured.is_empty() {
-        return f64::NEG_INFINITY;
+fn lanes8(x: [f64; 8]) -> f64 {
+    ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]))
+}
+
+/// `Σ (x - mean(x))²`, lane-wise.
+fn ss_about_mean(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
     }
-    let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
-    let mut acc = [0.0; L];
-    let (mc, mr) = (
-        measured.chunks_exact(L),
-        measured.chunks_exact(L).remainder(),
-    );
-    for c in mc {
-        for l in 0..L {
+    let mut acc = [0.0; 8];
+    let ch = x.chunks_exact(8);
+    let r = ch.remainder();
+    for c in ch {
+        for l in 0..8 {
             acc[l] += c[l];
         }
     }
-    let mean = (lanes(acc) + mr.iter().sum::<f64>()) / measured.len() as f64;
-    let (mut num, mut den) = ([0.0; L], [0.0; L]);
-    let (ec, er) = (
-        estimate.chunks_exact(L),
-        estimate.chunks_exact(L).remainder(),
-    );
-    for (m, e) in measured.chunks_exact(L).zip(ec) {
-        for l in 0..L {
-            let r = e[l] - m[l];
-            let c = m[l] - mean;
-            num[l] += r * r;
-            den[l] += c * c;
+    let mean = (lanes8(acc) + r.iter().sum::<f64>()) / x.len() as f64;
+    let mut acc = [0.0; 8];
+    for c in x.chunks_exact(8) {
+        for l in 0..8 {
+            acc[l] += (c[l] - mean) * (c[l] - mean);
         }
     }
-    let (mut num, mut den) = (lanes(num), lanes(den));
-    for (&m, &e) in mr.iter().zip(er) {
-        num += (e - m) * (e - m);
-        den += (m - mean) * (m - mean);
+    lanes8(acc) + r.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>()
+}
+
+/// `Σ (est - measured)²`, lane-wise.
+fn sse(est: &[f64], measured: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ec, mc) = (est.chunks_exact(8), measured.chunks_exact(8));
+    let (er, mr) = (ec.remainder(), mc.remainder());
+    for (e, m) in ec.zip(mc) {
+        for l in 0..8 {
+            let d = e[l] - m[l];
+            acc[l] += d * d;
+        }
     }
+    lanes8(acc)
+        + er.iter()
+            .zip(mr)
+            .map(|(e, m)| (e - m) * (e - m))
+            .sum::<f64>()
+}
+
+/// F_PV from its sums, `-inf` where `fit_pv` gives it.
+fn fit_from(num: f64, den: f64) -> f64 {
     if !num.is_finite() || den.is_nan() || den <= 0.0 {
-        return f64::NEG_INFINITY;
+        f64::NEG_INFINITY
+    } else {
+        100.0 * (1.0 - num / den)
     }
-    100.0 * (1.0 - num / den)
 }
 
 /// Number of distinct values, counting up to `cap`.
