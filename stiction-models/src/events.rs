@@ -21,7 +21,6 @@
 //! decided by a range query bit-exactly) return `None` from
 //! [`crate::StictionModel::event_rule`] and keep the sample path.
 
-use crate::init::in3_valid_from;
 use crate::{
     check_finite, run_valve_with, InitialState, Initialization, RunInfo, StictionError,
     StictionModel, ValveScratch,
@@ -309,22 +308,40 @@ impl<'a> Runner<'a> {
 
 /// Write MV over `[segs[0].start, to)` for the intervals `segs` (sorted).
 fn fill(rule: &EventRule, op: &[f64], segs: &[Seg], mv0: f64, mv: &mut [f64], to: usize) {
-    for (i, s) in segs.iter().enumerate() {
+    fill_from(rule, op, segs, mv0, mv, 0, to);
+}
+
+/// Write MV over `[from, to)` for the intervals `segs` (sorted, covering it).
+fn fill_from(
+    rule: &EventRule,
+    op: &[f64],
+    segs: &[Seg],
+    mv0: f64,
+    mv: &mut [f64],
+    from: usize,
+    to: usize,
+) {
+    let first = segs.partition_point(|s| s.start <= from).saturating_sub(1);
+    for (i, s) in segs.iter().enumerate().skip(first) {
+        let start = s.start.max(from);
         let end = segs.get(i + 1).map_or(to, |t| t.start).min(to);
-        if s.start >= end {
+        if start >= end {
+            if start >= to {
+                break;
+            }
             continue;
         }
         match s.state {
-            State::Stuck { mv: v, .. } => mv[s.start..end].iter_mut().for_each(|m| *m = v),
+            State::Stuck { mv: v, .. } => mv[start..end].iter_mut().for_each(|m| *m = v),
             State::Moving { d } => {
                 let dof = d * rule.offset;
-                for (m, &u) in mv[s.start..end].iter_mut().zip(&op[s.start..end]) {
+                for (m, &u) in mv[start..end].iter_mut().zip(&op[start..end]) {
                     *m = u - dof;
                 }
             }
         }
     }
-    if segs.first().is_some_and(|s| s.start == 0) && to > 0 {
+    if from == 0 && segs.first().is_some_and(|s| s.start == 0) && to > 0 {
         mv[0] = mv0;
     }
 }
@@ -368,17 +385,22 @@ pub fn run_valve_indexed(
                     "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
                 )));
             }
-            let merge = four_starts(rule, index, scratch);
-            average_runs(&scratch.runs, merge, &mut scratch.mv);
+            four_starts(rule, index, scratch);
             Ok(RunInfo {
                 valid_from: (stationary_fraction * n as f64).ceil() as usize,
                 fell_back: false,
             })
         }
         Initialization::In3 => {
-            let merge = four_starts(rule, index, scratch);
-            let (valid_from, fell_back) = in3_valid_from(&scratch.runs, merge, n);
-            average_runs(&scratch.runs, merge, &mut scratch.mv);
+            // the sample after the last one where the four runs differ by more than the
+            // tolerance (`in3_valid_from`), and the In.2 fallback when they never coincide
+            let valid_from = four_starts(rule, index, scratch);
+            let fell_back = n > 0 && valid_from == n;
+            let valid_from = if fell_back {
+                (Initialization::IN2_DEFAULT_FRACTION * n as f64).ceil() as usize
+            } else {
+                valid_from
+            };
             Ok(RunInfo {
                 valid_from,
                 fell_back,
@@ -387,73 +409,143 @@ pub fn run_valve_indexed(
     }
 }
 
-/// `average_into` with run 0 already in `mv`: the average of the four runs where they differ
-/// before `merge`.
-fn average_runs(runs: &[Vec<f64>; 4], merge: usize, mv: &mut [f64]) {
-    let m = merge.min(mv.len());
-    let (r0, r1, r2, r3) = (&runs[0][..m], &runs[1][..m], &runs[2][..m], &runs[3][..m]);
-    // branch-free (vectorisable); the sum in `average_into`'s order
-    for k in 0..m {
-        let (a, b, c, d) = (r0[k], r1[k], r2[k], r3[k]);
-        let avg = [a, b, c, d].iter().sum::<f64>() / 4.0;
-        mv[k] = if b != a || c != a || d != a { avg } else { a };
-    }
-}
-
-/// The four In.2/In.3 starts: run 0 over the whole record into `scratch.mv`, every run into
-/// `scratch.runs[i][..merge]`; returns the first sample after which all four states coincide
-/// (`n` if never), as `simulate_starts` does.
+/// The four In.2/In.3 starts, as `simulate_starts` + `average_into` + `in3_valid_from` do it
+/// sample by sample: run 0 over the whole record, the other three until their state equals
+/// run 0's (after which their MV is run 0's, bit for bit). MV goes to `scratch.mv`: before the
+/// common merge the average of the four runs where they differ, run 0's value elsewhere,
+/// assembled piece by piece over the union of the four runs' intervals (constant pieces where
+/// all four are stuck, per sample elsewhere). Returns the In.3 stationary time before the
+/// fallback: one after the last sample where the runs differ by more than
+/// `1e-12 · max(1, |MV_0|)` (0 if none).
 fn four_starts(rule: EventRule, index: &OpIndex, scratch: &mut ValveScratch) -> usize {
     let op = &index.op;
     let n = op.len();
+    scratch.mv.resize(n, 0.0);
     if n == 0 {
         return 0;
     }
     let starts = InitialState::four_variants();
-    let mut segs0 = std::mem::take(&mut scratch.segs[0]);
-    segs0.clear();
+    let mut segs = std::mem::take(&mut scratch.segs);
+    let mut mv0 = [0.0; 4];
+    let mut merges = [n; 4];
+    for s in segs.iter_mut() {
+        s.clear();
+    }
     let Some(mut runner0) = Runner::new(rule, index, &starts[0]) else {
         return 0;
     };
     while let Some(s) = runner0.next() {
-        segs0.push(s);
+        segs[0].push(s);
     }
-    fill(&rule, op, &segs0, runner0.mv0, &mut scratch.mv, n);
-    let mut merges = [1usize; 4];
-    for (i, start) in starts.iter().enumerate().skip(1) {
-        let mut segs = std::mem::take(&mut scratch.segs[i]);
-        segs.clear();
-        let mut merged_at = n;
-        if let Some(mut runner) = Runner::new(rule, index, start) {
+    mv0[0] = runner0.mv0;
+    merges[0] = 1;
+    for i in 1..4 {
+        let (head, tail) = segs.split_at_mut(i);
+        let (segs0, own) = (&head[0], &mut tail[0]);
+        if let Some(mut runner) = Runner::new(rule, index, &starts[i]) {
+            mv0[i] = runner.mv0;
             // equality with run 0 can only begin at an interval start of either run, and
             // persists once reached
             let mut p0 = 0usize;
             while let Some(seg) = runner.next() {
-                segs.push(seg);
-                if let Some(k) = first_same(&segs0, &mut p0, &seg, runner.k) {
-                    merged_at = k;
+                own.push(seg);
+                if let Some(k) = first_same(segs0, &mut p0, &seg, runner.k) {
+                    merges[i] = k;
                     break;
                 }
             }
-            let r = &mut scratch.runs[i];
-            r.resize(n, 0.0);
-            fill(&rule, op, &segs, runner.mv0, r, merged_at);
-        }
-        merges[i] = merged_at;
-        scratch.segs[i] = segs;
-    }
-    scratch.segs[0] = segs0;
-    let merge = merges.iter().copied().max().unwrap_or(n);
-    // before the common merge: run 0, and every run equal to run 0 once it has merged
-    let (r0, rest) = scratch.runs.split_at_mut(1);
-    r0[0].resize(n, 0.0);
-    r0[0][..merge].copy_from_slice(&scratch.mv[..merge]);
-    for (r, &m) in rest.iter_mut().zip(&merges[1..]) {
-        if m < merge {
-            r[m..merge].copy_from_slice(&scratch.mv[m..merge]);
         }
     }
-    merge
+    let merge = merges.iter().copied().max().unwrap_or(n).min(n);
+    // run 0 from the merge on
+    fill_from(&rule, op, &segs[0], mv0[0], &mut scratch.mv, merge, n);
+    let last = assemble(&rule, op, &segs, &mv0, &merges, merge, &mut scratch.mv);
+    scratch.segs = segs;
+    last.map_or(0, |k| k + 1)
+}
+
+/// MV over `[0, merge)` from the four runs' intervals (see [`four_starts`]); returns the last
+/// sample where a run differs from run 0 by more than the In.3 tolerance.
+fn assemble(
+    rule: &EventRule,
+    op: &[f64],
+    segs: &[Vec<Seg>; 4],
+    mv0: &[f64; 4],
+    merges: &[usize; 4],
+    merge: usize,
+    mv: &mut [f64],
+) -> Option<usize> {
+    let tol = |v: f64| 1e-12 * v.abs().max(1.0);
+    let mut last = None;
+    let select = |v: [f64; 4]| -> f64 {
+        if v[1] != v[0] || v[2] != v[0] || v[3] != v[0] {
+            v.iter().sum::<f64>() / 4.0
+        } else {
+            v[0]
+        }
+    };
+    let differs = |v: &[f64; 4]| {
+        let t = tol(v[0]);
+        v[1..].iter().any(|x| (x - v[0]).abs() > t)
+    };
+    if merge == 0 {
+        return None;
+    }
+    // sample 0: the initial positions
+    mv[0] = select(*mv0);
+    if differs(mv0) {
+        last = Some(0);
+    }
+    // cursors: [own interval index per run]; a run at or past its merge reads run 0's
+    let mut cur = [0usize; 4];
+    let mut k = 1;
+    while k < merge {
+        let mut st = [State::Moving { d: 0.0 }; 4];
+        let mut end = merge;
+        for r in 0..4 {
+            let list = if k >= merges[r] { 0 } else { r };
+            let sl = &segs[list];
+            let c = &mut cur[list];
+            while *c + 1 < sl.len() && sl[*c + 1].start <= k {
+                *c += 1;
+            }
+            st[r] = sl[*c].state;
+            if let Some(next) = sl.get(*c + 1) {
+                end = end.min(next.start);
+            }
+            if k < merges[r] {
+                end = end.min(merges[r]);
+            }
+        }
+        let all_stuck = st.iter().all(|s| matches!(s, State::Stuck { .. }));
+        if all_stuck {
+            let v = st.map(|s| match s {
+                State::Stuck { mv, .. } => mv,
+                State::Moving { .. } => 0.0,
+            });
+            let m = select(v);
+            mv[k..end].iter_mut().for_each(|x| *x = m);
+            if differs(&v) {
+                last = Some(end - 1);
+            }
+        } else {
+            // per sample: stuck runs hold their value, moving ones follow OP
+            let shift = st.map(|s| match s {
+                State::Stuck { mv, .. } => (0.0, mv),
+                State::Moving { d } => (1.0, d * rule.offset),
+            });
+            for t in k..end {
+                let u = op[t];
+                let v = shift.map(|(moving, c)| if moving == 1.0 { u - c } else { c });
+                mv[t] = select(v);
+                if differs(&v) {
+                    last = Some(t);
+                }
+            }
+        }
+        k = end;
+    }
+    last
 }
 
 /// Run i is in `seg.state` over `[seg.start, end)`: the first sample `k >= 1` there at which
