@@ -830,13 +830,23 @@ fn fit_from(num: f64, den: f64) -> f64 {
 /// Number of distinct values, counting up to `cap`.
 fn distinct_at_least(x: &[f64], cap: usize) -> usize {
     let mut seen: Vec<f64> = Vec::with_capacity(cap);
-    for &v in x {
+    let mut i = 0;
+    while i < x.len() {
+        // skip, 8 at a time, the samples equal to a value already seen (a stuck valve's MV is
+        // constant over long stretches)
+        while i + 8 <= x.len() && x[i..i + 8].iter().all(|v| seen.contains(v)) {
+            i += 8;
+        }
+        let Some(&v) = x.get(i) else {
+            break;
+        };
         if !seen.contains(&v) {
             seen.push(v);
             if seen.len() >= cap {
                 break;
             }
         }
+        i += 1;
     }
     seen.len()
 }
@@ -1399,6 +1409,15 @@ mod tests {
 
     #[test]
     fn distinct_counts_up_to_the_cap() {
+        assert_eq!(distinct_at_least(&[1.0; 16], 3), 1);
+        assert_eq!(
+            distinct_at_least(&[[1.0; 16], [2.0; 16], [1.0; 16]].concat(), 3),
+            2
+        );
+        let mut x = vec![5.0; 40];
+        x[37] = 6.0;
+        x[39] = 7.0;
+        assert_eq!(distinct_at_least(&x, 3), 3);
         assert_eq!(distinct_at_least(&[1.0, 1.0, 1.0], 3), 1);
         assert_eq!(distinct_at_least(&[1.0, 2.0, 1.0, 2.0], 3), 2);
         assert_eq!(distinct_at_least(&[1.0, 2.0, 3.0, 4.0], 3), 3);

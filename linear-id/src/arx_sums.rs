@@ -33,6 +33,10 @@ pub const GRAM_PIVOT_TOL: f64 = 1e-4;
 /// `identify_window`).
 const CENTERING_LOSS: f64 = 1e-3;
 
+/// Iterative refinement runs when the smallest squared pivot is below this (see
+/// `identify_window`).
+const REFINE_BELOW: f64 = 1e-2;
+
 /// Largest `n + m` handled from sums (the Gram matrix lives on the stack).
 const MAX_COLS: usize = 12;
 
@@ -238,6 +242,7 @@ impl ArxOutputSums {
             rhs[p] = sign(p + 1) * g[p + 1][0] * scale[p];
         }
         // Cholesky A = L L', in place (lower triangle)
+        let mut min_pivot = f64::INFINITY;
         for j in 0..d {
             let mut v = a[j][j];
             for k in 0..j {
@@ -246,6 +251,7 @@ impl ArxOutputSums {
             if !(v >= GRAM_PIVOT_TOL) {
                 return None;
             }
+            min_pivot = min_pivot.min(v);
             let ljj = v.sqrt();
             a[j][j] = ljj;
             for i in j + 1..d {
@@ -280,6 +286,77 @@ impl ArxOutputSums {
         // the sums): the solve then has the accuracy of the QR's even when the residual is
         // small against the output (noise-free data), where plain normal equations lose
         // cond² · eps
+        if min_pivot < REFINE_BELOW {
+            self.refine(&mut x, &a, &scale, &sums, u, u_mean, (r0, r1), rows);
+        }
+        // residual sum of squares and the output's about its mean over the rows
+        let y_ss = g[0][0];
+        let mut explained = 0.0;
+        for k in 0..d {
+            explained += x[k] * sign(k + 1) * g[k + 1][0];
+        }
+        let rss = (y_ss - explained).max(0.0);
+        // intercept, as the QR path folds it (`arx.rs`): the column means over the rows, in
+        // the QR path's coordinates (y centered by y_mean, u by u_mean)
+        let col_mean = |a: usize| {
+            if a <= n {
+                sums[a] / rows + self.shift - y_mean
+            } else {
+                sums[a] / rows
+            }
+        };
+        let c0 = col_mean(0)
+            - (0..d)
+                .map(|k| x[k] * sign(k + 1) * col_mean(k + 1))
+                .sum::<f64>();
+        let mut a_poly = Vec::with_capacity(n + 1);
+        a_poly.push(1.0);
+        a_poly.extend_from_slice(&x[..n]);
+        let a1: f64 = a_poly.iter().sum();
+        let b1: f64 = x[n..d].iter().sum();
+        let (mut um, mut ym) = (u_mean, y_mean);
+        if a1.abs() >= b1.abs() && a1 != 0.0 {
+            ym += c0 / a1;
+        } else if b1 != 0.0 {
+            um -= c0 / b1;
+        } else {
+            return None;
+        }
+        if !rss.is_finite() || x[..d].iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let structure = Structure::Polynomial {
+            a: a_poly,
+            b: x[n..d].to_vec(),
+            c: vec![1.0],
+            delay,
+        };
+        Some(LinearFit::with_diagnostics(
+            "arx", structure, um, ym, len, n0, rss, y_ss,
+        ))
+    }
+}
+
+impl ArxOutputSums {
+    /// One step of iterative refinement of `x` (see `identify_window`).
+    #[allow(clippy::too_many_arguments)]
+    fn refine(
+        &self,
+        x: &mut [f64; MAX_COLS],
+        a: &[[f64; MAX_COLS]; MAX_COLS],
+        scale: &[f64; MAX_COLS],
+        sums: &[f64; MAX_COLS + 1],
+        u: &[f64],
+        u_mean: f64,
+        (r0, r1): (usize, usize),
+        rows: f64,
+    ) {
+        let (n, m, delay) = self.arx.orders_tuple();
+        let d = n + m;
+        let y = &self.y;
+        let sign = |a: usize| if (1..=n).contains(&a) { -1.0 } else { 1.0 };
+        let yc_slice = |i: usize| &y[r0 - i..r1 - i];
+        let u_slice = |j: usize| &u[r0 - delay - j..r1 - delay - j];
         let nrows = r1 - r0;
         let mut gr = [0.0; MAX_COLS];
         let mut r_sum = 0.0;
@@ -331,51 +408,6 @@ impl ArxOutputSums {
         for k in 0..d {
             x[k] += dx[k] * scale[k];
         }
-        // residual sum of squares and the output's about its mean over the rows
-        let y_ss = g[0][0];
-        let mut explained = 0.0;
-        for k in 0..d {
-            explained += x[k] * sign(k + 1) * g[k + 1][0];
-        }
-        let rss = (y_ss - explained).max(0.0);
-        // intercept, as the QR path folds it (`arx.rs`): the column means over the rows, in
-        // the QR path's coordinates (y centered by y_mean, u by u_mean)
-        let col_mean = |a: usize| {
-            if a <= n {
-                sums[a] / rows + self.shift - y_mean
-            } else {
-                sums[a] / rows
-            }
-        };
-        let c0 = col_mean(0)
-            - (0..d)
-                .map(|k| x[k] * sign(k + 1) * col_mean(k + 1))
-                .sum::<f64>();
-        let mut a_poly = Vec::with_capacity(n + 1);
-        a_poly.push(1.0);
-        a_poly.extend_from_slice(&x[..n]);
-        let a1: f64 = a_poly.iter().sum();
-        let b1: f64 = x[n..d].iter().sum();
-        let (mut um, mut ym) = (u_mean, y_mean);
-        if a1.abs() >= b1.abs() && a1 != 0.0 {
-            ym += c0 / a1;
-        } else if b1 != 0.0 {
-            um -= c0 / b1;
-        } else {
-            return None;
-        }
-        if !rss.is_finite() || x[..d].iter().any(|v| !v.is_finite()) {
-            return None;
-        }
-        let structure = Structure::Polynomial {
-            a: a_poly,
-            b: x[n..d].to_vec(),
-            c: vec![1.0],
-            delay,
-        };
-        Some(LinearFit::with_diagnostics(
-            "arx", structure, um, ym, len, n0, rss, y_ss,
-        ))
     }
 }
 
