@@ -380,45 +380,6 @@ pub(crate) fn matvec(a: &[Vec<f64>], x: &[f64]) -> Vec<f64> {
     a.iter().map(|row| dot(row, x)).collect()
 }
 
-thread_local! {
-    /// `(λ_β, P_β(0), P_β after the last gain, gains)` of [`bias_gains`].
-    static BIAS_GAINS: std::cell::RefCell<(u64, u64, f64, Vec<f64>)> =
-        const { std::cell::RefCell::new((0, 0, 0.0, Vec::new())) };
-}
-
-/// The first `len` gains `kb = P_β / (λ_β + P_β)`, `P_β ← (1 - kb) P_β / λ_β` of the bias
-/// recursion from `P_β(0)`: computed exactly as the sample loop does (same bits), once per
-/// thread and tuning.
-fn bias_gains(bt: BiasTracking, len: usize) -> Vec<f64> {
-    BIAS_GAINS.with(|cell| {
-        let Ok(mut c) = cell.try_borrow_mut() else {
-            return fresh_gains(bt, len);
-        };
-        if c.0 != bt.lambda.to_bits() || c.1 != bt.p0.to_bits() {
-            *c = (bt.lambda.to_bits(), bt.p0.to_bits(), bt.p0, Vec::new());
-        }
-        let mut pb = c.2;
-        while c.3.len() < len {
-            let kb = pb / (bt.lambda + pb);
-            pb = (1.0 - kb) * pb / bt.lambda;
-            c.3.push(kb);
-        }
-        c.2 = pb;
-        c.3[..len].to_vec()
-    })
-}
-
-fn fresh_gains(bt: BiasTracking, len: usize) -> Vec<f64> {
-    let mut pb = bt.p0;
-    (0..len)
-        .map(|_| {
-            let kb = pb / (bt.lambda + pb);
-            pb = (1.0 - kb) * pb / bt.lambda;
-            kb
-        })
-        .collect()
-}
-
 /// Tuning of the time-varying bias recursion kept running at prediction time (EARX/EARMAX).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BiasTracking {
@@ -684,6 +645,7 @@ impl LinearFit {
                 let mut eps = vec![0.0; if nc > 0 { n_data } else { 0 }];
                 let mut betas = Vec::new();
                 let mut beta = 0.0;
+                let mut pb = self.bias.map_or(0.0, |bt| bt.p0);
                 if self.bias.is_some() {
                     betas.resize(n0.min(n_data), 0.0);
                     betas.reserve(n_data);
@@ -727,12 +689,6 @@ impl LinearFit {
                         return Ok(betas);
                     }
                 }
-                // the bias gains depend on (λ_β, P_β(0)) and the step only: the same sequence
-                // (same bits) for every call, cached per thread off the critical path
-                let gains = self
-                    .bias
-                    .map(|bt| bias_gains(bt, n_data.saturating_sub(n0)))
-                    .unwrap_or_default();
                 for k in n0..n_data {
                     let mut v = out[k];
                     if nc > 0 {
@@ -742,10 +698,11 @@ impl LinearFit {
                     }
                     let yc = y[k] - ym;
                     match self.bias {
-                        Some(_) => {
+                        Some(bt) => {
                             out[k] = v + beta + ym;
-                            let kb = gains[k - n0];
+                            let kb = pb / (bt.lambda + pb);
                             beta += kb * (yc - v - beta);
+                            pb = (1.0 - kb) * pb / bt.lambda;
                             if nc > 0 {
                                 eps[k] = yc - v - beta;
                             }
@@ -1123,22 +1080,6 @@ mod tests {
             for (a, b) in fast.iter().zip(&want) {
                 assert!((a - b).abs() < 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
             }
-        }
-    }
-
-    #[test]
-    fn cached_bias_gains_are_the_recursion_bit_for_bit() {
-        let a = BiasTracking {
-            lambda: 0.8,
-            p0: 1e4,
-        };
-        let b = BiasTracking {
-            lambda: 0.95,
-            p0: 10.0,
-        };
-        for (bt, len) in [(a, 10), (a, 300), (b, 5), (a, 40), (b, 700)] {
-            let bits = |v: Vec<f64>| v.into_iter().map(f64::to_bits).collect::<Vec<_>>();
-            assert_eq!(bits(bias_gains(bt, len)), bits(fresh_gains(bt, len)));
         }
     }
 
