@@ -5,9 +5,14 @@
 //! - `kano_arx_exhaustive_step_0_1`: every node of the triangle at step 0.1 (25 878 nodes).
 //! - `combination/<stiction>/<linear>`: one `compare` cell at the default grid (coarse span/40,
 //!   refined at 0.1 within two coarse steps), the paper's orders.
+//! - `compare_paper/<path>`: all ten cells of `stiction compare --example paper` in a row, on
+//!   the fast and on the sample node path in the same run.
+//! - `fleet`: generated loops (3000 samples each, seeds 1.., Kano valves with S, J drawn per
+//!   loop) x the ten combinations, fast path, progress on stderr. `STICTION_FLEET_LOOPS` sets
+//!   the number of loops (default 20; the fleet is 1000).
 
 use datasets::simulate::Scenario;
-use grid_search::{quantify, GridPlan, Problem, SearchOptions};
+use grid_search::{quantify, quantify_with, GridPlan, NodePath, Problem, SearchOptions};
 use linear_id::find_identifier;
 use stiction_models::{find_model, Kano};
 
@@ -25,8 +30,9 @@ fn data() -> (Vec<f64>, Vec<f64>) {
     (sim.op, sim.pv)
 }
 
-#[divan::bench(sample_count = 5)]
-fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher) {
+/// The same exhaustive grid through both node paths, in one run (the ratio is the speed-up).
+#[divan::bench(sample_count = 5, args = ["fast", "sample"])]
+fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher, path: &str) {
     let (op, pv) = data();
     let kano = find_model("kano").expect("registered");
     let arx = (find_identifier("arx").expect("registered").build)(&[]).expect("default orders");
@@ -34,8 +40,13 @@ fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher) {
         grid: GridPlan::Exhaustive { step: 0.1 },
         ..SearchOptions::default()
     };
+    let path = if path == "fast" {
+        NodePath::Fast
+    } else {
+        NodePath::Sample
+    };
     bencher.bench(|| {
-        quantify(
+        quantify_with(
             kano,
             arx.as_ref(),
             Problem {
@@ -45,6 +56,7 @@ fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher) {
             },
             &opts,
             None,
+            path,
         )
         .expect("finds a node")
     });
@@ -87,6 +99,87 @@ fn combination(bencher: divan::Bencher, combo: &(&str, &str)) {
             &opts,
             None,
         )
+    });
+}
+
+/// The ten `compare` cells on one loop, through `path`.
+fn compare_cells(op: &[f64], pv: &[f64], path: NodePath) -> usize {
+    let (lo, hi) = op
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let opts = SearchOptions {
+        grid: GridPlan::for_span(hi - lo),
+        ..SearchOptions::default()
+    };
+    let mut found = 0;
+    for (s, l) in combinations() {
+        let model = find_model(s).expect("registered");
+        let Ok(entry) = find_identifier(l) else {
+            continue;
+        };
+        let id = (entry.build)(&[]).expect("default orders");
+        let q = quantify_with(
+            model,
+            id.as_ref(),
+            Problem { op, pv, mv: None },
+            &opts,
+            None,
+            path,
+        );
+        found += usize::from(q.is_ok());
+    }
+    found
+}
+
+#[divan::bench(sample_count = 3, args = ["fast", "sample"])]
+fn compare_paper(bencher: divan::Bencher, path: &str) {
+    let (op, pv) = data();
+    let path = if path == "fast" {
+        NodePath::Fast
+    } else {
+        NodePath::Sample
+    };
+    bencher.bench(|| compare_cells(&op, &pv, path));
+}
+
+#[divan::bench(sample_count = 1)]
+fn fleet(bencher: divan::Bencher) {
+    let loops: u64 = std::env::var("STICTION_FLEET_LOOPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(20);
+    let data: Vec<(Vec<f64>, Vec<f64>)> = (1..=loops)
+        .map(|seed| {
+            // S in [1, 12], J in [0, min(S, 4)], reproducible per seed
+            let s = 1.0 + (seed * 7919 % 1100) as f64 / 100.0;
+            let j = (seed * 104_729 % 400) as f64 / 100.0;
+            let sim = Scenario {
+                valve: Box::new(Kano::params().s(s).j(j.min(s)).check().expect("valid")),
+                seed,
+                ..Scenario::default()
+            }
+            .simulate()
+            .expect("simulates");
+            (sim.op, sim.pv)
+        })
+        .collect();
+    bencher.bench(|| {
+        let start = std::time::Instant::now();
+        let mut found = 0;
+        for (i, (op, pv)) in data.iter().enumerate() {
+            found += compare_cells(op, pv, NodePath::Fast);
+            if (i + 1) % 10 == 0 || i + 1 == data.len() {
+                eprintln!(
+                    "fleet: {}/{} loops, {:.1} s",
+                    i + 1,
+                    data.len(),
+                    start.elapsed().as_secs_f64()
+                );
+            }
+        }
+        found
     });
 }
 

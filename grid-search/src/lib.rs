@@ -18,8 +18,8 @@ mod search;
 pub mod trust;
 
 pub use search::{
-    evaluate_nodes, quantify, quantify_from_surface, Criterion, Fits, GridPlan, Interval, NodeFit,
-    Problem, Quantification, SearchOptions,
+    evaluate_nodes, quantify, quantify_from_surface, quantify_with, Criterion, Fits, GridPlan,
+    Interval, NodeFit, NodePath, Problem, Quantification, SearchOptions,
 };
 pub use trust::{Doubt, Severity, Verdict, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 

@@ -7,7 +7,10 @@ use std::time::Instant;
 use linear_id::{fit_pv, LinearFit, LinearIdentifier};
 use rayon::prelude::*;
 use serde::Serialize;
-use stiction_models::{run_valve_with, Initialization, ModelEntry, StictionModel, ValveScratch};
+use stiction_models::{
+    run_valve_indexed, run_valve_with, Initialization, ModelEntry, OpIndex, StictionModel,
+    ValveScratch,
+};
 
 use crate::trust::{self, Doubt, NEGLIGIBLE_S};
 use crate::{grid, SearchError};
@@ -264,6 +267,9 @@ pub struct Quantification {
     pub warnings: Vec<String>,
     /// What limits the estimate, typed (see [`crate::trust`]).
     pub doubts: Vec<Doubt>,
+    /// Fast path only: nodes whose ARX was solved from sums, and nodes that fell back to the
+    /// QR (poorly conditioned normal equations, see [`linear_id::GRAM_PIVOT_TOL`]).
+    pub arx_from_sums: [usize; 2],
 }
 
 impl Quantification {
@@ -341,12 +347,38 @@ fn erf(x: f64) -> f64 {
     }
 }
 
+/// How the grid nodes are evaluated. Both give the same surface: the same MV at every node,
+/// the same skip reasons, fits equal to round-off (`tests/fast_path.rs`); the best node is
+/// always refitted by the sample path, so the reported model and series are the same bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NodePath {
+    /// Events and segment sums (default): the valve run interval by interval
+    /// ([`stiction_models::run_valve_indexed`]), ARX from normal equations assembled from
+    /// prefix sums and per-node MV sums (with a per-node QR fallback when poorly conditioned),
+    /// the free run in independent chunks, the fits in vectorised sums.
+    #[default]
+    Fast,
+    /// Sample by sample, as before issue 16: every node's valve stepped sample by sample, the
+    /// identifier's own `identify`, a full prediction and simulation.
+    Sample,
+}
+
 struct Ctx<'a, I: ?Sized> {
     entry: &'a ModelEntry,
     identifier: &'a I,
     problem: Problem<'a>,
     init: Initialization,
     split_index: usize,
+    path: NodePath,
+    /// OP indexed for event-driven valve runs (fast path).
+    index: Option<OpIndex>,
+    /// PV's prefix sums for ARX from normal equations (fast path, ARX only).
+    arx_sums: Option<linear_id::ArxOutputSums>,
+    /// Sum of squares of PV about its mean over the validation window.
+    val_ss: f64,
+    /// Nodes whose ARX came from sums / fell back to the QR (fast path).
+    gram_count: [AtomicUsize; 2],
 }
 
 /// Everything computed at one node; the big vectors only kept for the final refit.
@@ -362,6 +394,7 @@ struct Evaluated {
 struct Scratch {
     valve: ValveScratch,
     pred: Vec<f64>,
+    sim: Vec<f64>,
 }
 
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
@@ -444,16 +477,380 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     }
 }
 
+impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
+    /// [`Ctx::evaluate`] without the series, on the fast path (see [`NodePath::Fast`]): same
+    /// checks in the same order, so the same skip reasons.
+    fn evaluate_fast(&self, params: &[f64], scratch: &mut Scratch) -> Result<Fits, String> {
+        let Some(index) = &self.index else {
+            return self.evaluate(params, scratch, false).map(|(f, _)| f);
+        };
+        let model = (self.entry.build)(params).map_err(|e| e.to_string())?;
+        let run = run_valve_indexed(model.as_ref(), index, &self.init, &mut scratch.valve)
+            .map_err(|e| e.to_string())?;
+        let mv = &scratch.valve.mv;
+        let (op, pv) = (self.problem.op, self.problem.pv);
+        let n = op.len();
+        let k0 = run.valid_from;
+        let ni = self.split_index;
+        let needed = self.identifier.min_samples().max(10);
+        if ni <= k0 || ni - k0 < needed {
+            return Err(format!(
+                "the valve's initial state matters until sample {k0}: too few identification samples left"
+            ));
+        }
+        let mv_id = &mv[k0..ni];
+        if distinct_at_least(mv_id, 3) < 3 {
+            return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
+        }
+        let from_sums = self
+            .arx_sums
+            .as_ref()
+            .and_then(|s| s.identify_window(mv, k0, ni));
+        if self.arx_sums.is_some() {
+            self.gram_count[usize::from(from_sums.is_none())].fetch_add(1, Ordering::Relaxed);
+        }
+        let linear = match from_sums {
+            Some(fit) => fit,
+            None => self
+                .identifier
+                .identify(mv_id, &pv[k0..ni])
+                .map_err(|e| e.to_string())?,
+        };
+        linear.check_stable(true).map_err(|e| e.to_string())?;
+        let split = ni - k0;
+        let first = linear.first_sample().min(split);
+        // the denominators of F_PV: identification rows (per node), validation (per record)
+        let ss = (ss_about_mean(&pv[k0 + first..ni]), self.val_ss);
+        let fits_of = |est: &[f64]| {
+            (
+                fit_from(sse(&est[first..split], &pv[k0 + first..ni]), ss.0),
+                fit_from(sse(&est[split..], &pv[ni..]), ss.1),
+            )
+        };
+        let pred_fits =
+            match polynomial_prediction_fits(&linear, mv, pv, k0, ni, ss, &mut scratch.pred) {
+                Some(f) => f,
+                None => {
+                    // anything unusual (a model with C(q) or a bias, a non-finite prediction):
+                    // the sample path's prediction, its errors included
+                    scratch.pred.resize(n - k0, 0.0);
+                    linear
+                        .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
+                        .map_err(|e| e.to_string())?;
+                    fits_of(&scratch.pred)
+                }
+            };
+        let init_len = linear.first_sample().min(n - k0);
+        scratch.sim.resize(n - k0, 0.0);
+        let sim_ok = linear
+            .simulate_blocked_into(&mv[k0..], &pv[k0..k0 + init_len], &mut scratch.sim)
+            .is_ok();
+        let (sim_id, sim_val) = if sim_ok {
+            fits_of(&scratch.sim)
+        } else {
+            (f64::NEG_INFINITY, f64::NEG_INFINITY)
+        };
+        let fits = Fits {
+            pred_id: pred_fits.0,
+            pred_val: pred_fits.1,
+            sim_id,
+            sim_val,
+            mv: self
+                .problem
+                .mv
+                .map(|m| linear_id::fit_mv(&m[k0..], &mv[k0..])),
+            valid_from: k0,
+            init_fell_back: run.fell_back,
+        };
+        if !fits.pred_val.is_finite() {
+            return Err("the prediction is not finite".into());
+        }
+        Ok(fits)
+    }
+}
+
+/// The one-step prediction's F_PV on the identification rows `[k0 + first, ni)` and on the
+/// validation window `[ni, n)` of a polynomial model without C(q) or bias, in one vectorised
+/// pass: each prediction is `predict_one_step`'s tail formula term by term (the same bits),
+/// only the sums of squares are lane-wise. `None` for other models or a non-finite result.
+fn polynomial_prediction_fits(
+    linear: &LinearFit,
+    u: &[f64],
+    y: &[f64],
+    k0: usize,
+    ni: usize,
+    (id_ss, val_ss): (f64, f64),
+    buf: &mut Vec<f64>,
+) -> Option<(f64, f64)> {
+    const L: usize = 8;
+    let linear_id::Structure::Polynomial { a, b, c, delay } = linear.structure() else {
+        return None;
+    };
+    if c.len() != 1 || linear.bias_tracking().is_some() {
+        return None;
+    }
+    let (um, ym) = linear.means();
+    let n = y.len();
+    let first = linear.first_sample().min(ni - k0);
+    let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
+    let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
+    let fit = fit_from;
+    if let Some(r) = fixed_order_sse(a, b, *delay, kconst, ym, u, y, k0 + first, ni) {
+        let (sse_id, sse_val) = r;
+        let (lo, hi) = (k0 + first, ni);
+        if lo >= hi || ni >= n || !(sse_id.is_finite() && sse_val.is_finite()) {
+            return None;
+        }
+        return Some((fit(sse_id, id_ss), fit(sse_val, val_ss)));
+    }
+    // predictions over [lo, n) coefficient by coefficient (vectorised), in `buf`
+    let sse_from = |buf: &mut Vec<f64>, lo: usize| -> (f64, f64) {
+        buf.clear();
+        buf.resize(n - lo, kconst);
+        for (i, &ai) in a.iter().enumerate().skip(1) {
+            for (v, yi) in buf.iter_mut().zip(&y[lo - i..n - i]) {
+                *v -= ai * yi;
+            }
+        }
+        for (j, &bj) in b.iter().enumerate() {
+            let lag = delay + j + 1;
+            for (v, uj) in buf.iter_mut().zip(&u[lo - lag..n - lag]) {
+                *v += bj * uj;
+            }
+        }
+        let sq = |p: &[f64], m: &[f64]| {
+            let mut acc = [0.0; L];
+            let (pc, mc) = (p.chunks_exact(L), m.chunks_exact(L));
+            let (pr, mr) = (pc.remainder(), mc.remainder());
+            for (pp, mm) in pc.zip(mc) {
+                for l in 0..L {
+                    let e = (pp[l] + ym) - mm[l];
+                    acc[l] += e * e;
+                }
+            }
+            let mut s = lanes(acc);
+            for (pp, mm) in pr.iter().zip(mr) {
+                let e = (pp + ym) - mm;
+                s += e * e;
+            }
+            s
+        };
+        let split = ni - lo;
+        (sq(&buf[..split], &y[lo..ni]), sq(&buf[split..], &y[ni..]))
+    };
+    let (lo, hi) = (k0 + first, ni);
+    if lo >= hi || ni >= n {
+        return None;
+    }
+    let (sse_id, sse_val) = sse_from(buf, lo);
+    if !(sse_id.is_finite() && sse_val.is_finite()) {
+        return None;
+    }
+    Some((fit(sse_id, id_ss), fit(sse_val, val_ss)))
+}
+
+/// The squared one-step residuals summed over `[lo, ni)` and `[ni, n)`, for orders up to
+/// (3, 3) as compile-time constants: one fused pass, each prediction summed in
+/// `predict_one_step`'s order (`kconst`, then the A terms, then the B terms, then `ym`).
+#[allow(clippy::too_many_arguments)]
+fn fixed_order_sse(
+    a: &[f64],
+    b: &[f64],
+    delay: usize,
+    kconst: f64,
+    ym: f64,
+    u: &[f64],
+    y: &[f64],
+    lo: usize,
+    ni: usize,
+) -> Option<(f64, f64)> {
+    fn run<const NA: usize, const NB: usize>(
+        a: &[f64],
+        b: &[f64],
+        delay: usize,
+        kconst: f64,
+        ym: f64,
+        u: &[f64],
+        y: &[f64],
+        lo: usize,
+        hi: usize,
+    ) -> Option<f64> {
+        const L: usize = 8;
+        let a: [f64; NA] = a.try_into().ok()?;
+        let b: [f64; NB] = b.try_into().ok()?;
+        if lo < NA.max(delay + NB) || hi > y.len() || lo >= hi {
+            return if lo >= hi { Some(0.0) } else { None };
+        }
+        let pred = |k: usize| {
+            let mut v = kconst;
+            for i in 0..NA {
+                v -= a[i] * y[k - 1 - i];
+            }
+            for j in 0..NB {
+                v += b[j] * u[k - delay - 1 - j];
+            }
+            v + ym
+        };
+        let mut acc = [0.0; L];
+        let mut k = lo;
+        while k + L <= hi {
+            for l in 0..L {
+                let e = pred(k + l) - y[k + l];
+                acc[l] += e * e;
+            }
+            k += L;
+        }
+        let mut s =
+            ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
+        while k < hi {
+            let e = pred(k) - y[k];
+            s += e * e;
+            k += 1;
+        }
+        Some(s)
+    }
+    let n = y.len();
+    let a = &a[1..];
+    if let (&[a1, a2], &[b1, b2]) = (a, b) {
+        // the paper's ARX(2, 2): one zip of the five lagged slices (no index arithmetic, so it
+        // vectorises), the same per-sample order as `run`
+        let sse22 = |lo: usize, hi: usize| -> Option<f64> {
+            if lo < 2.max(delay + 2) || hi > n || lo > hi {
+                return None;
+            }
+            let (y0, y1, y2) = (&y[lo..hi], &y[lo - 1..hi - 1], &y[lo - 2..hi - 2]);
+            let (u1, u2) = (
+                &u[lo - delay - 1..hi - delay - 1],
+                &u[lo - delay - 2..hi - delay - 2],
+            );
+            let mut acc = [0.0; 8];
+            let (c0, c1, c2, c3, c4) = (
+                y0.chunks_exact(8),
+                y1.chunks_exact(8),
+                y2.chunks_exact(8),
+                u1.chunks_exact(8),
+                u2.chunks_exact(8),
+            );
+            let rem = (
+                c0.remainder(),
+                c1.remainder(),
+                c2.remainder(),
+                c3.remainder(),
+                c4.remainder(),
+            );
+            for ((((w0, w1), w2), w3), w4) in c0.zip(c1).zip(c2).zip(c3).zip(c4) {
+                for l in 0..8 {
+                    let mut v = kconst;
+                    v -= a1 * w1[l];
+                    v -= a2 * w2[l];
+                    v += b1 * w3[l];
+                    v += b2 * w4[l];
+                    let e = (v + ym) - w0[l];
+                    acc[l] += e * e;
+                }
+            }
+            let mut s = lanes8(acc);
+            for t in 0..rem.0.len() {
+                let mut v = kconst;
+                v -= a1 * rem.1[t];
+                v -= a2 * rem.2[t];
+                v += b1 * rem.3[t];
+                v += b2 * rem.4[t];
+                let e = (v + ym) - rem.0[t];
+                s += e * e;
+            }
+            Some(s)
+        };
+        return Some((sse22(lo, ni)?, sse22(ni, n)?));
+    }
+    macro_rules! fixed {
+        ($(($na:literal, $nb:literal))*) => {
+            match (a.len(), b.len()) {
+                $(($na, $nb) => Some((
+                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, lo, ni)?,
+                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, ni, n)?,
+                )),)*
+                _ => None,
+            }
+        };
+    }
+    fixed!((1, 1)(1, 2)(1, 3)(2, 1)(2, 2)(2, 3)(3, 1)(3, 2)(3, 3))
+}
+
+fn lanes8(x: [f64; 8]) -> f64 {
+    ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]))
+}
+
+/// `Σ (x - mean(x))²`, lane-wise.
+fn ss_about_mean(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let mut acc = [0.0; 8];
+    let ch = x.chunks_exact(8);
+    let r = ch.remainder();
+    for c in ch {
+        for l in 0..8 {
+            acc[l] += c[l];
+        }
+    }
+    let mean = (lanes8(acc) + r.iter().sum::<f64>()) / x.len() as f64;
+    let mut acc = [0.0; 8];
+    for c in x.chunks_exact(8) {
+        for l in 0..8 {
+            acc[l] += (c[l] - mean) * (c[l] - mean);
+        }
+    }
+    lanes8(acc) + r.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>()
+}
+
+/// `Σ (est - measured)²`, lane-wise.
+fn sse(est: &[f64], measured: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ec, mc) = (est.chunks_exact(8), measured.chunks_exact(8));
+    let (er, mr) = (ec.remainder(), mc.remainder());
+    for (e, m) in ec.zip(mc) {
+        for l in 0..8 {
+            let d = e[l] - m[l];
+            acc[l] += d * d;
+        }
+    }
+    lanes8(acc)
+        + er.iter()
+            .zip(mr)
+            .map(|(e, m)| (e - m) * (e - m))
+            .sum::<f64>()
+}
+
+/// F_PV from its sums, `-inf` where `fit_pv` gives it.
+fn fit_from(num: f64, den: f64) -> f64 {
+    if !num.is_finite() || den.is_nan() || den <= 0.0 {
+        f64::NEG_INFINITY
+    } else {
+        100.0 * (1.0 - num / den)
+    }
+}
+
 /// Number of distinct values, counting up to `cap`.
 fn distinct_at_least(x: &[f64], cap: usize) -> usize {
     let mut seen: Vec<f64> = Vec::with_capacity(cap);
-    for &v in x {
+    let mut i = 0;
+    while i < x.len() {
+        // skip, 8 at a time, the samples equal to a value already seen (a stuck valve's MV is
+        // constant over long stretches)
+        while i + 8 <= x.len() && x[i..i + 8].iter().all(|v| seen.contains(v)) {
+            i += 8;
+        }
+        let Some(&v) = x.get(i) else {
+            break;
+        };
         if !seen.contains(&v) {
             seen.push(v);
             if seen.len() >= cap {
                 break;
             }
         }
+        i += 1;
     }
     seen.len()
 }
@@ -480,8 +877,28 @@ pub fn quantify<I: LinearIdentifier + ?Sized>(
     options: &SearchOptions,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<Quantification, SearchError> {
+    quantify_with(
+        entry,
+        identifier,
+        problem,
+        options,
+        progress,
+        NodePath::Fast,
+    )
+}
+
+/// [`quantify`] with the node evaluation chosen: [`NodePath::Sample`] is the sample-by-sample
+/// path (kept for comparison and benchmarks); both give the same result.
+pub fn quantify_with<I: LinearIdentifier + ?Sized>(
+    entry: &ModelEntry,
+    identifier: &I,
+    problem: Problem<'_>,
+    options: &SearchOptions,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+    path: NodePath,
+) -> Result<Quantification, SearchError> {
     let start = Instant::now();
-    let prep = prepare(entry, identifier, problem, options)?;
+    let prep = prepare(entry, identifier, problem, options, path)?;
     let crit = options.criterion;
     let done = AtomicUsize::new(0);
     let eval_all = |nodes: Vec<Vec<f64>>| -> Vec<NodeFit> {
@@ -530,7 +947,7 @@ pub fn evaluate_nodes<I: LinearIdentifier + ?Sized>(
     options: &SearchOptions,
     nodes: Vec<Vec<f64>>,
 ) -> Result<Vec<NodeFit>, SearchError> {
-    let prep = prepare(entry, identifier, problem, options)?;
+    let prep = prepare(entry, identifier, problem, options, NodePath::Fast)?;
     Ok(prep.ctx.evaluate_all(nodes, &|| {}))
 }
 
@@ -548,7 +965,7 @@ pub fn quantify_from_surface<I: LinearIdentifier + ?Sized>(
     notes: Vec<String>,
 ) -> Result<Quantification, SearchError> {
     let start = Instant::now();
-    let prep = prepare(entry, identifier, problem, options)?;
+    let prep = prepare(entry, identifier, problem, options, NodePath::Sample)?;
     finish(&prep, surface, grid, start, notes)
 }
 
@@ -564,7 +981,10 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         nodes
             .into_par_iter()
             .map_init(Scratch::default, |scratch, params| {
-                let outcome = self.evaluate(&params, scratch, false).map(|(f, _)| f);
+                let outcome = match self.path {
+                    NodePath::Fast => self.evaluate_fast(&params, scratch),
+                    NodePath::Sample => self.evaluate(&params, scratch, false).map(|(f, _)| f),
+                };
                 let eq = (self.entry.build)(&params)
                     .map(|m| m.equivalent())
                     .unwrap_or(stiction_models::Equivalent {
@@ -589,6 +1009,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
     identifier: &'a I,
     problem: Problem<'a>,
     options: &SearchOptions,
+    path: NodePath,
 ) -> Result<Prepared<'a, I>, SearchError> {
     let (op, pv) = (problem.op, problem.pv);
     if op.len() != pv.len() || problem.mv.is_some_and(|m| m.len() != op.len()) {
@@ -672,6 +1093,21 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
         problem,
         init: options.init,
         split_index: ((n as f64) * options.split).floor() as usize,
+        path,
+        index: match path {
+            NodePath::Fast => Some(OpIndex::new(op)?),
+            NodePath::Sample => None,
+        },
+        arx_sums: match path {
+            NodePath::Fast => identifier.as_arx().and_then(|a| a.output_sums(pv)),
+            NodePath::Sample => None,
+        },
+        val_ss: {
+            let val = &pv[((n as f64) * options.split).floor() as usize..];
+            let mean = val.iter().sum::<f64>() / val.len().max(1) as f64;
+            val.iter().map(|v| (v - mean) * (v - mean)).sum()
+        },
+        gram_count: [AtomicUsize::new(0), AtomicUsize::new(0)],
     };
     Ok(Prepared {
         ctx,
@@ -791,6 +1227,10 @@ fn finish<I: LinearIdentifier + ?Sized>(
         span,
         fit_no_stiction,
         elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
+        arx_from_sums: [
+            ctx.gram_count[0].load(Ordering::Relaxed),
+            ctx.gram_count[1].load(Ordering::Relaxed),
+        ],
     })
 }
 
@@ -987,6 +1427,15 @@ mod tests {
 
     #[test]
     fn distinct_counts_up_to_the_cap() {
+        assert_eq!(distinct_at_least(&[1.0; 16], 3), 1);
+        assert_eq!(
+            distinct_at_least(&[[1.0; 16], [2.0; 16], [1.0; 16]].concat(), 3),
+            2
+        );
+        let mut x = vec![5.0; 40];
+        x[37] = 6.0;
+        x[39] = 7.0;
+        assert_eq!(distinct_at_least(&x, 3), 3);
         assert_eq!(distinct_at_least(&[1.0, 1.0, 1.0], 3), 1);
         assert_eq!(distinct_at_least(&[1.0, 2.0, 1.0, 2.0], 3), 2);
         assert_eq!(distinct_at_least(&[1.0, 2.0, 3.0, 4.0], 3), 3);

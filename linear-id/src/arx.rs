@@ -142,6 +142,16 @@ impl Arx {
         ArxParams::default()
     }
 
+    /// `(n, m, delay)`.
+    pub(crate) fn orders_tuple(&self) -> (usize, usize, usize) {
+        (self.n, self.m, self.delay)
+    }
+
+    /// The offset handling.
+    pub fn centering_mode(&self) -> Centering {
+        self.centering
+    }
+
     /// First usable sample `n0 = max(n, m + delay)`.
     fn n0(&self) -> usize {
         self.n.max(self.m + self.delay)
@@ -289,6 +299,9 @@ impl LinearIdentifier for Arx {
             }
             None => self.identify(u, y),
         }
+    }
+    fn as_arx(&self) -> Option<&Arx> {
+        Some(self)
     }
     fn box_clone(&self) -> Box<dyn LinearIdentifier> {
         Box::new(*self)

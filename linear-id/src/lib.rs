@@ -138,6 +138,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod arx;
+mod arx_sums;
 mod error;
 mod fit;
 mod la;
@@ -147,6 +148,7 @@ mod recursive;
 mod registry;
 
 pub use arx::{Arx, ArxParams, Centering};
+pub use arx_sums::{ArxOutputSums, GRAM_PIVOT_TOL};
 pub use error::IdError;
 pub use fit::{
     e_g, fit_mv, fit_percent_unsquared, fit_pv, frequency_grid, polynomial_frequency_response,
@@ -207,6 +209,12 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
         u: &[f64],
     ) -> Result<LinearFit, IdError> {
         self.identify(u, prepared.y())
+    }
+
+    /// This identifier as an [`Arx`], if it is one (grid searches then identify from sums,
+    /// [`Arx::output_sums`]). `None` by default.
+    fn as_arx(&self) -> Option<&Arx> {
+        None
     }
 
     /// A boxed copy.

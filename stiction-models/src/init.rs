@@ -162,7 +162,9 @@ pub struct ValveRun {
 /// thousands of valve runs it makes allocate nothing.
 #[derive(Debug, Clone, Default)]
 pub struct ValveScratch {
-    runs: [Vec<f64>; 4],
+    pub(crate) runs: [Vec<f64>; 4],
+    /// The intervals of the event-driven runs ([`crate::run_valve_indexed`]).
+    pub(crate) segs: [Vec<crate::events::Seg>; 4],
     /// The MV of the last run (see [`ValveRun::mv`]).
     pub mv: Vec<f64>,
 }
@@ -232,22 +234,7 @@ pub fn run_valve_with(
         Initialization::In3 => {
             let merge =
                 model.simulate_starts(op, &InitialState::four_variants(), &mut scratch.runs)?;
-            let runs = &scratch.runs;
-            let mut valid_from = 0;
-            for k in (0..merge.min(n)).rev() {
-                let first = runs[0][k];
-                let tol = 1e-12 * first.abs().max(1.0);
-                if runs[1..].iter().any(|r| (r[k] - first).abs() > tol) {
-                    valid_from = k + 1;
-                    break;
-                }
-            }
-            let fell_back = n > 0 && valid_from == n;
-            let valid_from = if fell_back {
-                (Initialization::IN2_DEFAULT_FRACTION * n as f64).ceil() as usize
-            } else {
-                valid_from
-            };
+            let (valid_from, fell_back) = in3_valid_from(&scratch.runs, merge, n);
             average_into(&scratch.runs, merge, &mut scratch.mv);
             Ok(RunInfo {
                 valid_from,
@@ -257,8 +244,30 @@ pub fn run_valve_with(
     }
 }
 
+/// In.3's stationary time: the sample after the last one (before `merge`) where the four runs
+/// differ by more than `1e-12 · max(1, |MV|)`, and whether it fell back to In.2 (never
+/// coincide).
+pub(crate) fn in3_valid_from(runs: &[Vec<f64>; 4], merge: usize, n: usize) -> (usize, bool) {
+    let mut valid_from = 0;
+    for k in (0..merge.min(n)).rev() {
+        let first = runs[0][k];
+        let tol = 1e-12 * first.abs().max(1.0);
+        if runs[1..].iter().any(|r| (r[k] - first).abs() > tol) {
+            valid_from = k + 1;
+            break;
+        }
+    }
+    let fell_back = n > 0 && valid_from == n;
+    let valid_from = if fell_back {
+        (Initialization::IN2_DEFAULT_FRACTION * n as f64).ceil() as usize
+    } else {
+        valid_from
+    };
+    (valid_from, fell_back)
+}
+
 /// The average of the four runs where they differ (before `merge`), the common value elsewhere.
-fn average_into(runs: &[Vec<f64>], merge: usize, mv: &mut [f64]) {
+pub(crate) fn average_into(runs: &[Vec<f64>], merge: usize, mv: &mut [f64]) {
     mv.copy_from_slice(&runs[0][..mv.len()]);
     for (k, m) in mv.iter_mut().enumerate().take(merge) {
         let first = *m;

@@ -131,6 +131,9 @@ impl StictionModel for Kano {
     ) -> Result<usize, StictionError> {
         self.core().simulate_starts(op, starts, out)
     }
+    fn event_rule(&self) -> Option<crate::EventRule> {
+        Some(self.core().into())
+    }
     fn box_clone(&self) -> Box<dyn StictionModel> {
         Box::new(*self)
     }
@@ -189,6 +192,18 @@ pub(crate) struct KanoCore {
     pub j_up: f64,
     /// OP excursion needed to restart downward after stopping while moving down.
     pub j_dn: f64,
+}
+
+impl From<KanoCore> for crate::EventRule {
+    fn from(c: KanoCore) -> Self {
+        crate::EventRule {
+            offset: c.offset,
+            rev_from_up: c.rev_from_up,
+            rev_from_dn: c.rev_from_dn,
+            j_up: c.j_up,
+            j_dn: c.j_dn,
+        }
+    }
 }
 
 impl KanoCore {

@@ -151,6 +151,9 @@ impl StictionModel for KanoAsym {
     ) -> Result<usize, StictionError> {
         self.core().simulate_starts(op, starts, out)
     }
+    fn event_rule(&self) -> Option<crate::EventRule> {
+        Some(self.core().into())
+    }
     fn box_clone(&self) -> Box<dyn StictionModel> {
         Box::new(*self)
     }

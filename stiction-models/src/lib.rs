@@ -18,12 +18,14 @@
 //! strict (`>`); OP is not clipped by the models (clip before calling, [`clip`]); non-finite
 //! OP is rejected with the index of the first bad sample.
 
+mod events;
 mod he;
 mod init;
 mod kano;
 mod kano_asym;
 mod registry;
 
+pub use events::{run_valve_indexed, EventRule, OpIndex};
 pub use he::{He, HeParams};
 pub use init::{
     run_valve, run_valve_with, Direction, InitialState, Initialization, RunInfo, ValveRun,
@@ -204,6 +206,14 @@ pub trait StictionModel: Send + Sync + fmt::Debug {
         let mut mv = vec![0.0; op.len()];
         self.simulate_into(op, init, &mut mv)?;
         Ok(mv)
+    }
+
+    /// The model as a Kano-type interval rule, if it is one: then [`run_valve_indexed`] runs
+    /// it event by event (stuck and moving intervals found by range queries on OP) instead of
+    /// sample by sample, with the same MV bit for bit. `None` (the default) keeps the sample
+    /// path.
+    fn event_rule(&self) -> Option<EventRule> {
+        None
     }
 
     /// A boxed copy.

@@ -1,0 +1,202 @@
+//! The fast node path (events, ARX from sums, chunked free run) against the sample path on
+//! random simulated loops, for the three built-in valve models as the searched model: the
+//! same surface node by node (same skip reasons, same stationary time, fits equal to 1e-9
+//! relative), the same best node, the same reported fits (the best node is refitted by the
+//! sample path), interval and warnings.
+//!
+//! 500 loops by default (`PROPTEST_CASES` overrides); each loop is short (400-900 samples) and
+//! its grid coarse, so the suite stays fast. The valve-level bit-identity of MV is
+//! `stiction-models/tests/events.rs`; the Cholesky/QR agreement is `linear-id`'s
+//! `arx_sums::tests`.
+#![allow(clippy::unwrap_used)]
+
+use datasets::simulate::{PlantPreset, PlantSpec, Scenario};
+use grid_search::{quantify_with, Criterion, GridPlan, NodePath, Problem, SearchOptions};
+use linear_id::{Arx, LinearIdentifier};
+use proptest::prelude::*;
+use stiction_models::{find_model, He, Initialization, Kano, KanoAsym, StictionModel};
+
+fn close(a: f64, b: f64) -> bool {
+    a == b || (a - b).abs() <= 1e-9 * a.abs().max(1.0)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn compare(
+    valve: Box<dyn StictionModel>,
+    searched: &str,
+    plant: PlantPreset,
+    noise: f64,
+    samples: usize,
+    seed: u64,
+    arx: Arx,
+    init: Initialization,
+    criterion: Criterion,
+    with_mv: bool,
+) -> Result<(), TestCaseError> {
+    let sim = Scenario {
+        plant: PlantSpec::Preset(plant),
+        valve,
+        noise_sigma: noise,
+        samples,
+        warmup: 200,
+        seed,
+        ..Scenario::default()
+    }
+    .simulate()
+    .unwrap();
+    let (lo, hi) = sim
+        .op
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let span = hi - lo;
+    let entry = find_model(searched).unwrap();
+    let step = span / if entry.params.len() == 3 { 6.0 } else { 12.0 };
+    let opts = SearchOptions {
+        grid: GridPlan::Exhaustive { step },
+        init,
+        criterion,
+        ..SearchOptions::default()
+    };
+    let problem = Problem {
+        op: &sim.op,
+        pv: &sim.pv,
+        mv: with_mv.then_some(&sim.mv[..]),
+    };
+    let id: &dyn LinearIdentifier = &arx;
+    let fast = quantify_with(entry, id, problem, &opts, None, NodePath::Fast);
+    let slow = quantify_with(entry, id, problem, &opts, None, NodePath::Sample);
+    let (fast, slow) = match (fast, slow) {
+        (Ok(f), Ok(s)) => (f, s),
+        (Err(f), Err(s)) => {
+            prop_assert_eq!(f.to_string(), s.to_string());
+            return Ok(());
+        }
+        (f, s) => {
+            return Err(TestCaseError::fail(format!(
+                "one path failed: fast {:?} / sample {:?}",
+                f.err(),
+                s.err()
+            )))
+        }
+    };
+    prop_assert_eq!(fast.surface.len(), slow.surface.len());
+    for (f, s) in fast.surface.iter().zip(&slow.surface) {
+        prop_assert_eq!(&f.params, &s.params);
+        match (&f.outcome, &s.outcome) {
+            (Ok(a), Ok(b)) => {
+                prop_assert_eq!(a.valid_from, b.valid_from, "{:?}", f.params);
+                prop_assert_eq!(a.init_fell_back, b.init_fell_back);
+                prop_assert_eq!(a.mv, b.mv, "F_MV at {:?}", f.params);
+                for (x, y, what) in [
+                    (a.pred_id, b.pred_id, "pred_id"),
+                    (a.pred_val, b.pred_val, "pred_val"),
+                    (a.sim_id, b.sim_id, "sim_id"),
+                    (a.sim_val, b.sim_val, "sim_val"),
+                ] {
+                    prop_assert!(close(x, y), "{} at {:?}: {} vs {}", what, f.params, x, y);
+                }
+            }
+            (Err(a), Err(b)) => prop_assert_eq!(a, b, "{:?}", f.params),
+            (a, b) => {
+                return Err(TestCaseError::fail(format!(
+                    "node {:?}: fast {a:?} / sample {b:?}",
+                    f.params
+                )))
+            }
+        }
+    }
+    prop_assert_eq!(fast.stiction.param_values(), slow.stiction.param_values());
+    prop_assert_eq!(fast.fits, slow.fits);
+    prop_assert_eq!(&fast.mv_est, &slow.mv_est);
+    prop_assert_eq!(fast.nodes_skipped, slow.nodes_skipped);
+    prop_assert_eq!(fast.interval.s, slow.interval.s);
+    prop_assert_eq!(fast.interval.j, slow.interval.j);
+    prop_assert_eq!(fast.interval.nodes, slow.interval.nodes);
+    prop_assert!(close(
+        fast.interval.fit_threshold,
+        slow.interval.fit_threshold
+    ));
+    prop_assert_eq!(&fast.warnings, &slow.warnings);
+    Ok(())
+}
+
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(500)
+}
+
+fn init() -> impl Strategy<Value = Initialization> {
+    prop_oneof![
+        6 => Just(Initialization::In3),
+        1 => Just(Initialization::In2 { stationary_fraction: 0.1 }),
+        1 => Just(Initialization::In1(Default::default())),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(), ..ProptestConfig::default() })]
+
+    #[test]
+    fn fast_path_equals_the_sample_path(
+        model in 0usize..3,
+        s in 0.5f64..12.0,
+        jf in 0.0f64..1.0,
+        asym in 0.0f64..1.0,
+        slow_plant in prop::bool::weighted(0.2),
+        noise in prop_oneof![3 => 0.02f64..0.3, 1 => Just(0.0)],
+        samples in 400usize..900,
+        seed in 0u64..1_000_000,
+        orders in prop_oneof![
+            6 => Just((2usize, 2usize, 0usize)),
+            1 => (1usize..4, 1usize..4, 0usize..3),
+        ],
+        init in init(),
+        simulation in prop::bool::weighted(0.15),
+        with_mv in prop::bool::weighted(0.2),
+    ) {
+        let j = jf * s.min(4.0);
+        let (valve, searched): (Box<dyn StictionModel>, &str) = match model {
+            0 => (Box::new(Kano::params().s(s).j(j).check().unwrap()), "kano"),
+            1 => (Box::new(He::from_sj(s, j).unwrap()), "he"),
+            _ => (
+                Box::new(
+                    KanoAsym::params()
+                        .d(s - j)
+                        .j_up(j)
+                        .j_dn(j * asym)
+                        .check()
+                        .unwrap(),
+                ),
+                "kano-asym",
+            ),
+        };
+        let arx = Arx::params().n(orders.0).m(orders.1).delay(orders.2).check().unwrap();
+        let plant = if slow_plant { PlantPreset::Slow } else { PlantPreset::Paper };
+        let criterion = if simulation { Criterion::Simulation } else { Criterion::Prediction };
+        compare(valve, searched, plant, noise, samples, seed, arx, init, criterion, with_mv)?;
+    }
+}
+
+/// The paper's loop at its full size, on a grid coarse enough for the suite.
+#[test]
+fn paper_loop_full_size() {
+    for searched in ["kano", "he", "kano-asym"] {
+        compare(
+            Box::new(Kano::params().s(9.0).j(3.0).check().unwrap()),
+            searched,
+            PlantPreset::Paper,
+            0.1,
+            3000,
+            1,
+            Arx::params().check().unwrap(),
+            Initialization::In3,
+            Criterion::Prediction,
+            false,
+        )
+        .unwrap();
+    }
+}
