@@ -13,6 +13,7 @@
 //! description defines. Nodes are evaluated in parallel (rayon); the result does not depend on
 //! the number of threads. This crate does no IO.
 
+pub mod budget;
 pub mod grid;
 mod search;
 
@@ -85,6 +86,22 @@ pub enum SearchError {
     NotIdentifiable {
         /// Why.
         reason: String,
+    },
+    /// A grid stage has more nodes than the budget ([`SearchOptions::max_nodes`]).
+    #[error(
+        "the {what} at step {step} over the OP span {span:.4} would have {nodes:.3e} nodes, over the node budget of {budget}: give a coarser --step or a larger budget (--max-nodes)"
+    )]
+    Budget {
+        /// Which stage (`grid`, `coarse grid`).
+        what: &'static str,
+        /// Its step, OP units.
+        step: f64,
+        /// OP span.
+        span: f64,
+        /// Nodes it would have (an estimate when huge).
+        nodes: f64,
+        /// The budget.
+        budget: usize,
     },
     /// Every node was skipped: no estimate exists.
     #[error("no grid node could be evaluated ({nodes} nodes); most common reason: {reason}")]
