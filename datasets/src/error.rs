@@ -11,6 +11,14 @@ use stiction_models::StictionError;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DataError {
+    /// `--op-range` is not `LO,HI` with `LO < HI`.
+    #[error("{file}: {message}")]
+    OpRange {
+        /// File name.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The file could not be read.
     #[error("{file}: {error}")]
     Io {
@@ -280,8 +288,9 @@ pub enum DataError {
     },
     /// The closed loop without stiction is not stable for this plant and tuning.
     #[error(
-        "closed loop unstable with Kc = {kc}, KI = {ki}, delay {delay}: largest closed-loop \
-         root modulus {max_modulus:.6} >= 1"
+        "closed loop unstable with Kc = {}, KI = {}, delay {delay}: largest closed-loop \
+         root modulus {} >= 1",
+        short_number(*.kc), short_number(*.ki), if .max_modulus.abs() < 1e9 { format!("{:.6}", .max_modulus) } else { format!("{:.4e}", .max_modulus) }
     )]
     Unstable {
         /// Proportional gain.
@@ -311,4 +320,13 @@ pub enum DataError {
     /// The valve model rejected its input or initial state.
     #[error(transparent)]
     Stiction(#[from] StictionError),
+}
+
+/// A number for a one-line message: plain when moderate, in exponent form when tiny or huge.
+pub(crate) fn short_number(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs()) {
+        format!("{}", (x * 1e6).round() / 1e6)
+    } else {
+        format!("{x:.4e}")
+    }
 }

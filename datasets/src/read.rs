@@ -4,6 +4,7 @@
 //! header line shows them; columns found by name case-insensitively (`PV`, `OP`, `SP`, `MV`,
 //! `t` / `time`), others ignored; empty or `NaN` cells are gaps, refused by default.
 
+use crate::units::OpRange;
 use std::io::Read;
 use std::path::Path;
 
@@ -84,6 +85,9 @@ pub struct ReadOptions {
     /// `cdata.chemicals.loop1` (`""` = the top-level variables); `None` = the top-level
     /// variables when they form a loop, else the file's only loop (see [`crate::list_mat_loops`]).
     pub mat_loop: Option<String>,
+    /// OP's units: detected from its range (default), given (`--op-range LO,HI`), or kept.
+    /// OP (and a measured MV) are rescaled to % of valve span; see [`crate::units`].
+    pub op_range: OpRange,
 }
 
 impl Default for ReadOptions {
@@ -99,6 +103,7 @@ impl Default for ReadOptions {
             min_rows: 3,
             mode: None,
             mat_loop: None,
+            op_range: OpRange::Detect,
         }
     }
 }
@@ -509,6 +514,19 @@ pub fn read_csv(
             Role::Mv => data.mv = Some(values),
             Role::Mode => {}
         }
+    }
+    let units =
+        crate::units::op_units(&data.op, opts.op_range).map_err(|message| DataError::OpRange {
+            file: file.clone(),
+            message,
+        })?;
+    if units.span.is_some() {
+        for v in data.op.iter_mut().chain(data.mv.iter_mut().flatten()) {
+            *v = units.to_percent(*v);
+        }
+    }
+    if let Some(note) = units.note {
+        data.notes.push(note);
     }
     Ok(data)
 }

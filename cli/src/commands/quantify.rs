@@ -202,7 +202,7 @@ pub(crate) fn run_one(
     let bar = Progress::new(s.progress, &format!("{} + {}", entry.name, id_entry.name));
     let tick = |done: usize, total: usize| bar.update(done, total);
     let result = quantify(entry, identifier.as_ref(), problem, &options, Some(&tick))
-        .map_err(|e| data(anyhow!("{}: {e}", d.source)))?;
+        .map_err(|e| data(anyhow::Error::new(e).context(d.source.clone())))?;
     bar.finish();
     Ok(Run {
         stiction: entry,

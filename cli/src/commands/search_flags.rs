@@ -39,7 +39,7 @@ pub(crate) struct SearchFlags {
     pub delay: DelayFlag,
     /// Grid step in OP units (% of span): exhaustive grid at this step. Default: a coarse grid
     /// at span/40 refined at step 0.1 around its best node.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", allow_hyphen_values = true)]
     pub step: Option<f64>,
     /// Initialization of the valve model (paper §2.4).
     #[arg(long, default_value = "In.3", value_parser = parse_init)]
@@ -48,8 +48,22 @@ pub(crate) struct SearchFlags {
     #[arg(long, value_enum, default_value = "prediction")]
     pub criterion: CriterionFlag,
     /// Fraction of the record used for identification (the rest validates).
-    #[arg(long, value_name = "F", default_value = "0.6666666666666666")]
+    #[arg(long, value_name = "F", default_value = "0.6666666666666666", value_parser = parse_fraction, allow_hyphen_values = true)]
     pub split: f64,
+    /// Node budget per grid stage: a grid with more nodes is refused (a usage error) rather
+    /// than run for minutes or out of memory.
+    #[arg(long, value_name = "N", default_value_t = grid_search::budget::DEFAULT_MAX_NODES)]
+    pub max_nodes: usize,
+}
+
+/// A fraction strictly between 0 and 1 (for `--split`).
+pub(crate) fn parse_fraction(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(f) if f > 0.0 && f < 1.0 => Ok(f),
+        _ => Err(format!(
+            "expected a fraction strictly between 0 and 1, got {s:?}"
+        )),
+    }
 }
 
 /// `--criterion`.
@@ -89,6 +103,7 @@ impl SearchFlags {
                 CriterionFlag::Prediction => Criterion::Prediction,
                 CriterionFlag::Simulation => Criterion::Simulation,
             },
+            max_nodes: self.max_nodes,
             ..SearchOptions::default()
         })
     }
