@@ -11,6 +11,14 @@ use stiction_models::StictionError;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DataError {
+    /// An input limit ([`crate::Limits`]) was exceeded.
+    #[error("{file}: {what}")]
+    Limit {
+        /// File name.
+        file: String,
+        /// Which limit, in words.
+        what: String,
+    },
     /// `--op-range` is not `LO,HI` with `LO < HI`.
     #[error("{file}: {message}")]
     OpRange {
@@ -24,8 +32,7 @@ pub enum DataError {
     Io {
         /// File name (or `-` for stdin).
         file: String,
-        /// The underlying error.
-        #[source]
+        /// The underlying error (in the message, not a `source`: `{:#}` would print it twice).
         error: std::io::Error,
     },
     /// The input has no header row (it is empty or only blank).
@@ -257,6 +264,22 @@ pub enum DataError {
         needed: usize,
         /// Number of rows available (after gap handling).
         got: usize,
+    },
+    /// The controller-mode column leaves too short a closed-loop segment.
+    #[error(
+        "{file}: column {column}: the longest closed-loop segment has {got} of {total} rows, {needed} needed (the controller mode changes too often)"
+    )]
+    TooFewClosedLoopRows {
+        /// File name.
+        file: String,
+        /// The mode column's name.
+        column: String,
+        /// Minimum number of rows.
+        needed: usize,
+        /// Rows in the longest closed-loop segment (after the later checks).
+        got: usize,
+        /// Rows before the mode selection.
+        total: usize,
     },
     /// OP or PV does not vary: nothing can be identified.
     #[error("{file}: column {column}: constant ({value:?}) over all {rows} rows")]

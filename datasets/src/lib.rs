@@ -25,6 +25,7 @@
 #![deny(missing_docs)]
 
 mod error;
+pub mod limits;
 mod mat;
 mod read;
 mod registration;
@@ -32,6 +33,7 @@ pub mod simulate;
 pub mod units;
 
 pub use error::DataError;
+pub use limits::Limits;
 pub use mat::{list_mat_loops, read_mat, read_mat_path};
 pub use read::{read_csv, read_csv_path, GapPolicy, ReadOptions};
 pub use registration::{format_epoch, parse_registration_name, RegistrationName};

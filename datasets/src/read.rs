@@ -4,6 +4,7 @@
 //! header line shows them; columns found by name case-insensitively (`PV`, `OP`, `SP`, `MV`,
 //! `t` / `time`), others ignored; empty or `NaN` cells are gaps, refused by default.
 
+use crate::limits::{excerpt, read_limited, Limits};
 use crate::units::OpRange;
 use std::io::Read;
 use std::path::Path;
@@ -88,6 +89,8 @@ pub struct ReadOptions {
     /// OP's units: detected from its range (default), given (`--op-range LO,HI`), or kept.
     /// OP (and a measured MV) are rescaled to % of valve span; see [`crate::units`].
     pub op_range: OpRange,
+    /// Input limits (bytes, line and cell length, rows).
+    pub limits: Limits,
 }
 
 impl Default for ReadOptions {
@@ -104,6 +107,7 @@ impl Default for ReadOptions {
             mode: None,
             mat_loop: None,
             op_range: OpRange::Detect,
+            limits: Limits::default(),
         }
     }
 }
@@ -165,13 +169,7 @@ pub fn read_csv(
     opts: &ReadOptions,
 ) -> Result<LoopData, DataError> {
     let file = source.to_string();
-    let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|error| DataError::Io {
-            file: file.clone(),
-            error,
-        })?;
+    let bytes = read_limited(&mut reader, &file, &opts.limits, true)?;
     let text = match std::str::from_utf8(&bytes) {
         Ok(t) => t,
         Err(e) => {
@@ -207,7 +205,7 @@ pub fn read_csv(
     // A quoted header cell may span lines: keep messages on one line.
     let header: Vec<String> = header
         .iter()
-        .map(|h| h.replace(['\n', '\r'], " "))
+        .map(|h| excerpt(&h.replace(['\n', '\r'], " ")))
         .collect();
     if header.iter().all(String::is_empty) {
         return Err(DataError::Empty { file });
@@ -272,6 +270,22 @@ pub fn read_csv(
                 got: record.len(),
             });
         }
+        if let Some((i, cell)) = record
+            .iter()
+            .enumerate()
+            .find(|(_, c)| c.len() > opts.limits.max_cell)
+        {
+            return Err(DataError::Limit {
+                file,
+                what: format!(
+                    "row {row}, column {}: a cell of {} bytes, over the limit of {} KiB: {:?}",
+                    header.get(i).map_or("?", |h| h.as_str()),
+                    cell.len(),
+                    opts.limits.max_cell >> 10,
+                    excerpt(cell)
+                ),
+            });
+        }
         lines.push(row);
         for col in &mut columns {
             let text = &record[col.index];
@@ -286,7 +300,7 @@ pub fn read_csv(
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
                 Cell::NotANumber | Cell::NotFinite | Cell::BadTime | Cell::BadMode => {
-                    let (file, column, text) = (file, col.name.clone(), text.to_string());
+                    let (file, column, text) = (file, col.name.clone(), excerpt(text));
                     return Err(match value {
                         Cell::BadMode => DataError::BadMode {
                             file,
@@ -462,11 +476,20 @@ pub fn read_csv(
         }
     }
 
-    select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
+    let mode_cut = select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
     check_time(&file, opts.gaps, &mut columns, &mut lines, &mut notes)?;
     check_flat(&file, &columns, &lines, &mut notes)?;
 
     let n = lines.len();
+    if let Some((column, total)) = mode_cut.filter(|_| n < needed) {
+        return Err(DataError::TooFewClosedLoopRows {
+            file,
+            column,
+            needed,
+            got: n,
+            total,
+        });
+    }
     if n < needed {
         return Err(DataError::TooFewRows {
             file,
@@ -673,10 +696,11 @@ fn select_closed_loop(
     columns: &mut Vec<Column>,
     lines: &mut Vec<u64>,
     notes: &mut Vec<String>,
-) -> Result<(), DataError> {
+) -> Result<Option<(String, usize)>, DataError> {
     let Some(mi) = columns.iter().position(|c| c.role == Role::Mode) else {
-        return Ok(());
+        return Ok(None);
     };
+    let mut cut = None;
     let closed: Vec<bool> = columns[mi].values.iter().map(|v| *v == Some(1.0)).collect();
     let n = closed.len();
     let open = closed.iter().filter(|c| !**c).count();
@@ -702,9 +726,10 @@ fn select_closed_loop(
             b - a
         ));
         keep_rows(columns, lines, a, b);
+        cut = Some((columns[mi].name.clone(), n));
     }
     columns.remove(mi);
-    Ok(())
+    Ok(cut)
 }
 
 /// Strictly increasing time; missing samples by the gap policy; jitter reported.

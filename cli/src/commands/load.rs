@@ -43,6 +43,9 @@ pub struct DataFlags {
     /// integer counts), with a note saying which.
     #[arg(long, value_name = "LO,HI", value_parser = parse_op_range, allow_hyphen_values = true)]
     op_range: Option<(f64, f64)>,
+    /// Most data rows read from a file (a longer file is refused, not read for minutes).
+    #[arg(long, value_name = "N", default_value_t = datasets::Limits::default().max_rows)]
+    max_rows: usize,
 }
 
 /// `LO,HI` with finite LO < HI (for `--op-range`).
@@ -113,6 +116,10 @@ impl DataFlags {
             min_rows,
             mode: flags.mode.clone(),
             mat_loop: flags.mat_loop.clone(),
+            limits: datasets::Limits {
+                max_rows: flags.max_rows,
+                ..datasets::Limits::default()
+            },
             op_range: flags
                 .op_range
                 .map_or(datasets::OpRange::Detect, |(lo, hi)| {
