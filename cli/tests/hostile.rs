@@ -173,3 +173,59 @@ fn initial_state_errors_name_the_flag() {
     assert_eq!(code, 2);
     assert!(msg.contains("--us0") && !msg.contains("stuck_at"), "{msg}");
 }
+
+/// Rewrite the loop's CSV (`t,SP,PV,OP`) row by row.
+fn rewrite(csv: &str, header: &str, f: &dyn Fn(&[&str]) -> String) -> String {
+    let mut out = format!("{header}\n");
+    for line in csv.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        out.push_str(&f(&cells));
+        out.push('\n');
+    }
+    out
+}
+
+/// PV = OP gave S = 0.66 with a region excluding zero (while `identify` said singular
+/// regression): refused now, as not identifiable.
+#[test]
+fn pv_equal_to_op_is_refused() {
+    let csv = rewrite(&three_units()[1], "t,SP,PV,OP", &|c| {
+        format!("{},{},{},{}", c[0], c[1], c[3], c[3])
+    });
+    let (code, msg) = err_line(&["quantify", "-"], &csv);
+    assert_eq!(code, 1, "{msg}");
+    assert!(msg.contains("exact linear function of OP"), "{msg}");
+}
+
+/// PV = 1e308 ended as "no grid node could be evaluated ... singular regression" without the
+/// row and column.
+#[test]
+fn an_overflowing_value_names_its_row_and_column() {
+    let csv = rewrite(&three_units()[1], "t,SP,PV,OP", &|c| {
+        let pv: f64 = c[2].parse().unwrap();
+        format!("{},{},{},{}", c[0], c[1], pv * 1e306, c[3])
+    });
+    let (code, msg) = err_line(&["quantify", "-"], &csv);
+    assert_eq!(code, 1, "{msg}");
+    assert!(
+        msg.contains("row 2, column PV") && msg.contains("too large"),
+        "{msg}"
+    );
+}
+
+/// Two PV columns: the note said the other was ignored without saying which is which.
+#[test]
+fn two_pv_columns_say_which_is_used() {
+    let csv = rewrite(&three_units()[1], "t,SP,PV,OP,pv", &|c| {
+        format!("{},{},{},{},{}", c[0], c[1], c[2], c[3], c[2])
+    });
+    let o = run(&["quantify", "-", "--json"], csv.as_bytes());
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    assert!(
+        o.stderr.contains(
+            "PV: 2 columns match; using column 3 (\"PV\"), ignoring column(s) 5 (\"pv\")"
+        ),
+        "{}",
+        o.stderr
+    );
+}

@@ -11,6 +11,20 @@ use stiction_models::StictionError;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DataError {
+    /// A cell so large (|x| > 1e150) that sums of squares overflow.
+    #[error(
+        "{file}: row {row}, column {column}: {text:?} is too large to compute with (|value| > 1e150); rescale the column"
+    )]
+    TooLarge {
+        /// File name.
+        file: String,
+        /// 1-based line number.
+        row: u64,
+        /// Column name.
+        column: String,
+        /// The cell text (an excerpt).
+        text: String,
+    },
     /// An input limit ([`crate::Limits`]) was exceeded.
     #[error("{file}: {what}")]
     Limit {

@@ -218,6 +218,29 @@ pub fn read_csv(
         let found = header
             .iter()
             .position(|h| w.names.iter().any(|n| h.to_lowercase() == *n));
+        if let Some(index) = found {
+            let others: Vec<usize> = header
+                .iter()
+                .enumerate()
+                .filter(|(i, h)| *i != index && w.names.iter().any(|n| h.to_lowercase() == *n))
+                .map(|(i, _)| i + 1)
+                .collect();
+            if !others.is_empty() {
+                notes.push(format!(
+                    "{}: {} columns match; using column {} ({:?}), ignoring column(s) {}; name the one you mean with --{}",
+                    w.label,
+                    others.len() + 1,
+                    index + 1,
+                    header[index],
+                    others
+                        .iter()
+                        .map(|i| format!("{i} ({:?})", header[i - 1]))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    w.label.to_lowercase()
+                ));
+            }
+        }
         match found {
             Some(index) => columns.push(Column {
                 role: w.role,
@@ -299,7 +322,11 @@ pub fn read_csv(
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
-                Cell::NotANumber | Cell::NotFinite | Cell::BadTime | Cell::BadMode => {
+                Cell::NotANumber
+                | Cell::NotFinite
+                | Cell::TooLarge
+                | Cell::BadTime
+                | Cell::BadMode => {
                     let (file, column, text) = (file, col.name.clone(), excerpt(text));
                     return Err(match value {
                         Cell::BadMode => DataError::BadMode {
@@ -309,6 +336,12 @@ pub fn read_csv(
                             text,
                         },
                         Cell::NotFinite => DataError::NotFinite {
+                            file,
+                            row,
+                            column,
+                            text,
+                        },
+                        Cell::TooLarge => DataError::TooLarge {
                             file,
                             row,
                             column,
@@ -601,11 +634,16 @@ fn detect_delimiter(text: &str) -> u8 {
     }
 }
 
+/// Values beyond this magnitude overflow in sums of squares (identification, fits).
+const TOO_LARGE: f64 = 1e150;
+
 enum Cell {
     Gap,
     Value(f64),
     NotANumber,
     NotFinite,
+    /// Finite but so large that its square overflows (|x| > 1e150).
+    TooLarge,
     BadTime,
     BadMode,
 }
@@ -633,6 +671,7 @@ fn parse_number(text: &str, decimal_comma: bool, decimal_commas: &mut usize) -> 
         None => Cell::NotANumber,
         Some(v) if v.is_nan() => Cell::Gap,
         Some(v) if v.is_infinite() => Cell::NotFinite,
+        Some(v) if v.abs() > TOO_LARGE => Cell::TooLarge,
         Some(v) => Cell::Value(v),
     }
 }

@@ -14,6 +14,7 @@
 //! the number of threads. This crate does no IO.
 
 pub mod budget;
+pub mod degenerate;
 pub mod grid;
 mod search;
 

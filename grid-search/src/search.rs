@@ -667,6 +667,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
             value: plo,
         });
     }
+    crate::degenerate::check_identifiable(op, pv)?;
     let span = hi - lo;
     let reversal_band = 0.01 * span;
     if reversals(op, reversal_band) == 0 {
