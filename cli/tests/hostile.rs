@@ -229,3 +229,15 @@ fn two_pv_columns_say_which_is_used() {
         o.stderr
     );
 }
+
+/// `identify` named the input signal `u` (the MV column) instead of its column.
+#[test]
+fn identify_names_the_users_columns() {
+    let mut csv = String::from("PV,OP,MV\n");
+    for i in 0..200 {
+        csv.push_str(&format!("{},{},5\n", (i as f64 * 0.3).sin(), 50 + i % 7));
+    }
+    let (code, msg) = err_line(&["identify", "-", "--linear", "arx"], &csv);
+    assert_eq!(code, 1, "{msg}");
+    assert!(msg.contains("column MV is constant"), "{msg}");
+}
