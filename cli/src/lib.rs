@@ -136,11 +136,28 @@ where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
-    let cli = match Cli::try_parse_from(args) {
+    // Negative numbers are values wherever a flag takes one (`--split -0.1` is a bad split,
+    // not an unknown flag `-0`); no flag of ours is a digit.
+    let command = <Cli as clap::CommandFactory>::command()
+        .mut_subcommands(|c| c.allow_negative_numbers(true));
+    let parsed = command
+        .try_get_matches_from(args)
+        .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m));
+    let cli = match parsed {
         Ok(cli) => cli,
         Err(e) => {
             let code = if e.use_stderr() { 2 } else { 0 };
-            let rendered = e.render().to_string();
+            let mut rendered = e.render().to_string();
+            if code != 0 {
+                // One line: clap's message up to its first blank line (the usage and the
+                // `--help` hint follow it).
+                let head: Vec<&str> = rendered
+                    .lines()
+                    .take_while(|l| !l.trim().is_empty())
+                    .map(str::trim)
+                    .collect();
+                rendered = format!("{} (see --help)\n", head.join(" "));
+            }
             let sink: &mut dyn Write = if code == 0 {
                 streams.stdout
             } else {
@@ -168,10 +185,15 @@ where
         }
         Err(f) if is_broken_pipe(f.error()) => 0,
         Err(f) => {
+            let code = if is_usage_in_disguise(f.error()) {
+                2
+            } else {
+                f.code()
+            };
             let _ = streams.stdout.flush();
             let msg = one_line(f.error());
             let _ = writeln!(streams.stderr, "error: {msg}");
-            f.code()
+            code
         }
     }
 }
@@ -192,6 +214,26 @@ pub(crate) fn one_line(e: &anyhow::Error) -> String {
         msg.push_str(&text);
     }
     msg
+}
+
+/// A library error that is the user's choice of options (a grid over the node budget, an
+/// option out of range): bad usage, exit 2, wherever it surfaced.
+fn is_usage_in_disguise(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        matches!(
+            c.downcast_ref::<grid_search::SearchError>(),
+            Some(
+                grid_search::SearchError::Budget { .. }
+                    | grid_search::SearchError::InvalidOption { .. }
+            )
+        ) || matches!(
+            c.downcast_ref::<monitoring::MonitoringError>(),
+            Some(monitoring::MonitoringError::Search(
+                grid_search::SearchError::Budget { .. }
+                    | grid_search::SearchError::InvalidOption { .. }
+            ))
+        )
+    })
 }
 
 /// A closed stdout (`stiction ... | head`) ends the run quietly, as other Unix tools do.

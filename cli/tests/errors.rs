@@ -161,7 +161,7 @@ fn mat_struct_of_loops_needs_a_loop_path() {
     assert!(
         msg.ends_with(
             "loop_isdb.mat: 2 loops (cdata.chemicals.loop1, cdata.chemicals.loop2): select one \
-             (ReadOptions::mat_loop, --loop PATH)"
+             with --loop PATH"
         ),
         "{msg}"
     );

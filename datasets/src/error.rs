@@ -11,13 +11,42 @@ use stiction_models::StictionError;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DataError {
+    /// A cell so large (|x| > 1e150) that sums of squares overflow.
+    #[error(
+        "{file}: row {row}, column {column}: {text:?} is too large to compute with (|value| > 1e150); rescale the column"
+    )]
+    TooLarge {
+        /// File name.
+        file: String,
+        /// 1-based line number.
+        row: u64,
+        /// Column name.
+        column: String,
+        /// The cell text (an excerpt).
+        text: String,
+    },
+    /// An input limit ([`crate::Limits`]) was exceeded.
+    #[error("{file}: {what}")]
+    Limit {
+        /// File name.
+        file: String,
+        /// Which limit, in words.
+        what: String,
+    },
+    /// `--op-range` is not `LO,HI` with `LO < HI`.
+    #[error("{file}: {message}")]
+    OpRange {
+        /// File name.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The file could not be read.
     #[error("{file}: {error}")]
     Io {
         /// File name (or `-` for stdin).
         file: String,
-        /// The underlying error.
-        #[source]
+        /// The underlying error (in the message, not a `source`: `{:#}` would print it twice).
         error: std::io::Error,
     },
     /// The input has no header row (it is empty or only blank).
@@ -250,6 +279,22 @@ pub enum DataError {
         /// Number of rows available (after gap handling).
         got: usize,
     },
+    /// The controller-mode column leaves too short a closed-loop segment.
+    #[error(
+        "{file}: column {column}: the longest closed-loop segment has {got} of {total} rows, {needed} needed (the controller mode changes too often)"
+    )]
+    TooFewClosedLoopRows {
+        /// File name.
+        file: String,
+        /// The mode column's name.
+        column: String,
+        /// Minimum number of rows.
+        needed: usize,
+        /// Rows in the longest closed-loop segment (after the later checks).
+        got: usize,
+        /// Rows before the mode selection.
+        total: usize,
+    },
     /// OP or PV does not vary: nothing can be identified.
     #[error("{file}: column {column}: constant ({value:?}) over all {rows} rows")]
     Constant {
@@ -280,8 +325,9 @@ pub enum DataError {
     },
     /// The closed loop without stiction is not stable for this plant and tuning.
     #[error(
-        "closed loop unstable with Kc = {kc}, KI = {ki}, delay {delay}: largest closed-loop \
-         root modulus {max_modulus:.6} >= 1"
+        "closed loop unstable with Kc = {}, KI = {}, delay {delay}: largest closed-loop \
+         root modulus {} >= 1",
+        short_number(*.kc), short_number(*.ki), if .max_modulus.abs() < 1e9 { format!("{:.6}", .max_modulus) } else { format!("{:.4e}", .max_modulus) }
     )]
     Unstable {
         /// Proportional gain.
@@ -311,4 +357,13 @@ pub enum DataError {
     /// The valve model rejected its input or initial state.
     #[error(transparent)]
     Stiction(#[from] StictionError),
+}
+
+/// A number for a one-line message: plain when moderate, in exponent form when tiny or huge.
+pub(crate) fn short_number(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs()) {
+        format!("{}", (x * 1e6).round() / 1e6)
+    } else {
+        format!("{x:.4e}")
+    }
 }

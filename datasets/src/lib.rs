@@ -25,15 +25,19 @@
 #![deny(missing_docs)]
 
 mod error;
+pub mod limits;
 mod mat;
 mod read;
 mod registration;
 pub mod simulate;
+pub mod units;
 
 pub use error::DataError;
+pub use limits::Limits;
 pub use mat::{list_mat_loops, read_mat, read_mat_path};
 pub use read::{read_csv, read_csv_path, GapPolicy, ReadOptions};
 pub use registration::{format_epoch, parse_registration_name, RegistrationName};
+pub use units::OpRange;
 
 /// Read a registration from a file, by its extension: `.mat` with [`read_mat_path`], anything
 /// else with [`read_csv_path`].
@@ -70,7 +74,8 @@ pub struct LoopData {
     pub sp: Option<Vec<f64>>,
     /// Process variable (controlled variable).
     pub pv: Option<Vec<f64>>,
-    /// Controller output (valve command), % of span.
+    /// Controller output (valve command), % of valve span (rescaled by the reader when OP
+    /// was logged as a fraction or in counts; see [`units`]).
     pub op: Vec<f64>,
     /// Measured valve position, when available.
     pub mv: Option<Vec<f64>>,

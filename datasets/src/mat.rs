@@ -403,10 +403,11 @@ fn at_path<'a>(fields: &'a [(String, MatValue)], path: &str) -> Option<&'a [(Str
 
 fn open(path: &Path) -> Result<(String, Vec<u8>), DataError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|error| DataError::Io {
+    let file = std::fs::File::open(path).map_err(|error| DataError::Io {
         file: name.clone(),
         error,
     })?;
+    let bytes = crate::limits::read_limited(file, &name, &crate::Limits::default(), false)?;
     Ok((name, bytes))
 }
 
@@ -447,13 +448,7 @@ pub fn read_mat(
     opts: &ReadOptions,
 ) -> Result<LoopData, DataError> {
     let file = source.to_string();
-    let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|error| DataError::Io {
-            file: file.clone(),
-            error,
-        })?;
+    let bytes = crate::limits::read_limited(&mut reader, &file, &opts.limits, false)?;
     let mat_err = |message: String| DataError::Mat {
         file: file.clone(),
         message,
@@ -485,7 +480,7 @@ pub fn read_mat(
         }
         None => {
             return Err(mat_err(format!(
-                "{} loops ({}): select one (ReadOptions::mat_loop, --loop PATH)",
+                "{} loops ({}): select one with --loop PATH",
                 loops.len(),
                 loops.join(", ")
             )))

@@ -4,6 +4,8 @@
 //! header line shows them; columns found by name case-insensitively (`PV`, `OP`, `SP`, `MV`,
 //! `t` / `time`), others ignored; empty or `NaN` cells are gaps, refused by default.
 
+use crate::limits::{excerpt, read_limited, Limits};
+use crate::units::OpRange;
 use std::io::Read;
 use std::path::Path;
 
@@ -84,6 +86,11 @@ pub struct ReadOptions {
     /// `cdata.chemicals.loop1` (`""` = the top-level variables); `None` = the top-level
     /// variables when they form a loop, else the file's only loop (see [`crate::list_mat_loops`]).
     pub mat_loop: Option<String>,
+    /// OP's units: detected from its range (default), given (`--op-range LO,HI`), or kept.
+    /// OP (and a measured MV) are rescaled to % of valve span; see [`crate::units`].
+    pub op_range: OpRange,
+    /// Input limits (bytes, line and cell length, rows).
+    pub limits: Limits,
 }
 
 impl Default for ReadOptions {
@@ -99,6 +106,8 @@ impl Default for ReadOptions {
             min_rows: 3,
             mode: None,
             mat_loop: None,
+            op_range: OpRange::Detect,
+            limits: Limits::default(),
         }
     }
 }
@@ -160,13 +169,7 @@ pub fn read_csv(
     opts: &ReadOptions,
 ) -> Result<LoopData, DataError> {
     let file = source.to_string();
-    let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|error| DataError::Io {
-            file: file.clone(),
-            error,
-        })?;
+    let bytes = read_limited(&mut reader, &file, &opts.limits, true)?;
     let text = match std::str::from_utf8(&bytes) {
         Ok(t) => t,
         Err(e) => {
@@ -202,7 +205,7 @@ pub fn read_csv(
     // A quoted header cell may span lines: keep messages on one line.
     let header: Vec<String> = header
         .iter()
-        .map(|h| h.replace(['\n', '\r'], " "))
+        .map(|h| excerpt(&h.replace(['\n', '\r'], " ")))
         .collect();
     if header.iter().all(String::is_empty) {
         return Err(DataError::Empty { file });
@@ -215,6 +218,29 @@ pub fn read_csv(
         let found = header
             .iter()
             .position(|h| w.names.iter().any(|n| h.to_lowercase() == *n));
+        if let Some(index) = found {
+            let others: Vec<usize> = header
+                .iter()
+                .enumerate()
+                .filter(|(i, h)| *i != index && w.names.iter().any(|n| h.to_lowercase() == *n))
+                .map(|(i, _)| i + 1)
+                .collect();
+            if !others.is_empty() {
+                notes.push(format!(
+                    "{}: {} columns match; using column {} ({:?}), ignoring column(s) {}; name the one you mean with --{}",
+                    w.label,
+                    others.len() + 1,
+                    index + 1,
+                    header[index],
+                    others
+                        .iter()
+                        .map(|i| format!("{i} ({:?})", header[i - 1]))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    w.label.to_lowercase()
+                ));
+            }
+        }
         match found {
             Some(index) => columns.push(Column {
                 role: w.role,
@@ -267,6 +293,22 @@ pub fn read_csv(
                 got: record.len(),
             });
         }
+        if let Some((i, cell)) = record
+            .iter()
+            .enumerate()
+            .find(|(_, c)| c.len() > opts.limits.max_cell)
+        {
+            return Err(DataError::Limit {
+                file,
+                what: format!(
+                    "row {row}, column {}: a cell of {} bytes, over the limit of {} KiB: {:?}",
+                    header.get(i).map_or("?", |h| h.as_str()),
+                    cell.len(),
+                    opts.limits.max_cell >> 10,
+                    excerpt(cell)
+                ),
+            });
+        }
         lines.push(row);
         for col in &mut columns {
             let text = &record[col.index];
@@ -280,8 +322,12 @@ pub fn read_csv(
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
-                Cell::NotANumber | Cell::NotFinite | Cell::BadTime | Cell::BadMode => {
-                    let (file, column, text) = (file, col.name.clone(), text.to_string());
+                Cell::NotANumber
+                | Cell::NotFinite
+                | Cell::TooLarge
+                | Cell::BadTime
+                | Cell::BadMode => {
+                    let (file, column, text) = (file, col.name.clone(), excerpt(text));
                     return Err(match value {
                         Cell::BadMode => DataError::BadMode {
                             file,
@@ -290,6 +336,12 @@ pub fn read_csv(
                             text,
                         },
                         Cell::NotFinite => DataError::NotFinite {
+                            file,
+                            row,
+                            column,
+                            text,
+                        },
+                        Cell::TooLarge => DataError::TooLarge {
                             file,
                             row,
                             column,
@@ -457,11 +509,20 @@ pub fn read_csv(
         }
     }
 
-    select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
+    let mode_cut = select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
     check_time(&file, opts.gaps, &mut columns, &mut lines, &mut notes)?;
     check_flat(&file, &columns, &lines, &mut notes)?;
 
     let n = lines.len();
+    if let Some((column, total)) = mode_cut.filter(|_| n < needed) {
+        return Err(DataError::TooFewClosedLoopRows {
+            file,
+            column,
+            needed,
+            got: n,
+            total,
+        });
+    }
     if n < needed {
         return Err(DataError::TooFewRows {
             file,
@@ -509,6 +570,19 @@ pub fn read_csv(
             Role::Mv => data.mv = Some(values),
             Role::Mode => {}
         }
+    }
+    let units =
+        crate::units::op_units(&data.op, opts.op_range).map_err(|message| DataError::OpRange {
+            file: file.clone(),
+            message,
+        })?;
+    if units.span.is_some() {
+        for v in data.op.iter_mut().chain(data.mv.iter_mut().flatten()) {
+            *v = units.to_percent(*v);
+        }
+    }
+    if let Some(note) = units.note {
+        data.notes.push(note);
     }
     Ok(data)
 }
@@ -560,11 +634,16 @@ fn detect_delimiter(text: &str) -> u8 {
     }
 }
 
+/// Values beyond this magnitude overflow in sums of squares (identification, fits).
+const TOO_LARGE: f64 = 1e150;
+
 enum Cell {
     Gap,
     Value(f64),
     NotANumber,
     NotFinite,
+    /// Finite but so large that its square overflows (|x| > 1e150).
+    TooLarge,
     BadTime,
     BadMode,
 }
@@ -592,6 +671,7 @@ fn parse_number(text: &str, decimal_comma: bool, decimal_commas: &mut usize) -> 
         None => Cell::NotANumber,
         Some(v) if v.is_nan() => Cell::Gap,
         Some(v) if v.is_infinite() => Cell::NotFinite,
+        Some(v) if v.abs() > TOO_LARGE => Cell::TooLarge,
         Some(v) => Cell::Value(v),
     }
 }
@@ -655,10 +735,11 @@ fn select_closed_loop(
     columns: &mut Vec<Column>,
     lines: &mut Vec<u64>,
     notes: &mut Vec<String>,
-) -> Result<(), DataError> {
+) -> Result<Option<(String, usize)>, DataError> {
     let Some(mi) = columns.iter().position(|c| c.role == Role::Mode) else {
-        return Ok(());
+        return Ok(None);
     };
+    let mut cut = None;
     let closed: Vec<bool> = columns[mi].values.iter().map(|v| *v == Some(1.0)).collect();
     let n = closed.len();
     let open = closed.iter().filter(|c| !**c).count();
@@ -684,9 +765,10 @@ fn select_closed_loop(
             b - a
         ));
         keep_rows(columns, lines, a, b);
+        cut = Some((columns[mi].name.clone(), n));
     }
     columns.remove(mi);
-    Ok(())
+    Ok(cut)
 }
 
 /// Strictly increasing time; missing samples by the gap policy; jitter reported.

@@ -67,7 +67,7 @@ fn isdb_struct_of_loops() {
             e.to_string(),
             format!(
                 "{}: 2 loops (cdata.chemicals.loop1, cdata.chemicals.loop2): select one \
-                 (ReadOptions::mat_loop, --loop PATH)",
+                 with --loop PATH",
                 fixture(name).display()
             )
         );

@@ -39,8 +39,12 @@ pub fn nodes_in_box(
 }
 
 /// Multiples of `step` in `[lo, hi]` (with a relative tolerance of 1e-9 at the ends).
+///
+/// Callers bound the size first ([`crate::budget::count_nodes`]); an axis of more than 2^32
+/// values (or a non-finite or non-positive step) is empty rather than an allocation failure.
 fn axis(lo: f64, hi: f64, step: f64) -> Vec<f64> {
-    if hi < lo {
+    let len = crate::budget::axis_len(lo, hi, step);
+    if hi < lo || !(len > 0.0 && len <= 4_294_967_296.0) {
         return Vec::new();
     }
     let first = (lo / step - 1e-9).ceil().max(0.0) as usize;

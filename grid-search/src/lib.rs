@@ -13,6 +13,8 @@
 //! description defines. Nodes are evaluated in parallel (rayon); the result does not depend on
 //! the number of threads. This crate does no IO.
 
+pub mod budget;
+pub mod degenerate;
 pub mod grid;
 mod search;
 pub mod trust;
@@ -73,7 +75,7 @@ pub enum SearchError {
         why: String,
     },
     /// An option is out of range.
-    #[error("invalid option {name} = {value}: expected {expected}")]
+    #[error("invalid option {name} = {}: expected {expected}", short_number(*.value))]
     InvalidOption {
         /// Option name.
         name: &'static str,
@@ -88,6 +90,23 @@ pub enum SearchError {
         /// Why.
         reason: String,
     },
+    /// A grid stage has more nodes than the budget ([`SearchOptions::max_nodes`]).
+    #[error(
+        "the {what} at step {} over the OP span {span:.4} would have {} nodes, over the node budget of {budget}: give a coarser --step or a larger budget (--max-nodes)",
+        short_number(*.step), if *.nodes < 1e9 { format!("{}", .nodes) } else { format!("{:.3e}", .nodes) }
+    )]
+    Budget {
+        /// Which stage (`grid`, `coarse grid`).
+        what: &'static str,
+        /// Its step, OP units.
+        step: f64,
+        /// OP span.
+        span: f64,
+        /// Nodes it would have (an estimate when huge).
+        nodes: f64,
+        /// The budget.
+        budget: usize,
+    },
     /// Every node was skipped: no estimate exists.
     #[error("no grid node could be evaluated ({nodes} nodes); most common reason: {reason}")]
     NoValidNode {
@@ -100,3 +119,13 @@ pub enum SearchError {
 
 mod delay;
 pub use delay::{estimate_delay, DelayScan};
+
+/// A number for a one-line message: plain when moderate, in exponent form when tiny or huge
+/// (`5e-324`, not 324 digits).
+pub(crate) fn short_number(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}

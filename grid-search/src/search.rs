@@ -75,9 +75,18 @@ impl GridPlan {
     /// valve span, or at the largest of 0.05, 0.02, 0.01, ... that is at most a fifth of the
     /// coarse step when the span is under 20 %. Coarse-to-fine finds the exhaustive grid's
     /// optimum on the paper's loops (`tests/search.rs`).
+    ///
+    /// Relative to the span: the 0.1 is 0.1 % of a 0-100 valve span; for an OP span above 100
+    /// (OP not in %, its valve span unknown) the fine step is 0.1 % of the OP span, so the
+    /// number of nodes is bounded whatever OP's units (41²/2 coarse nodes and a refinement box
+    /// of at most 101² for two parameters).
     pub fn for_span(span: f64) -> GridPlan {
         let coarse = span / 40.0;
-        let fine = nice_step_at_most((coarse / 5.0).min(0.1));
+        let fine = if span > 100.0 {
+            span / 1000.0
+        } else {
+            nice_step_at_most((coarse / 5.0).min(0.1))
+        };
         if coarse <= fine {
             GridPlan::Exhaustive { step: fine }
         } else {
@@ -119,6 +128,9 @@ pub struct SearchOptions {
     pub criterion: Criterion,
     /// Confidence level of the interval, in `(0, 1)`.
     pub confidence: f64,
+    /// Node budget per grid stage ([`crate::budget`]): a grid over it is
+    /// [`SearchError::Budget`], never an allocation failure.
+    pub max_nodes: usize,
 }
 
 impl Default for SearchOptions {
@@ -129,6 +141,7 @@ impl Default for SearchOptions {
             split: 2.0 / 3.0,
             criterion: Criterion::Prediction,
             confidence: 0.95,
+            max_nodes: crate::budget::DEFAULT_MAX_NODES,
         }
     }
 }
@@ -910,13 +923,19 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
             }
         })
     };
+    let max_nodes = options.max_nodes;
+    let mut notes = Vec::new();
     let surface = match options.grid {
-        GridPlan::Exhaustive { step } => eval_all(grid::nodes(entry, prep.span, step)),
+        GridPlan::Exhaustive { step } => {
+            crate::budget::check_grid(entry, prep.span, step, max_nodes, "grid")?;
+            eval_all(grid::nodes(entry, prep.span, step))
+        }
         GridPlan::CoarseToFine {
             coarse,
             fine,
             radius,
         } => {
+            crate::budget::check_grid(entry, prep.span, coarse, max_nodes, "coarse grid")?;
             let mut all = eval_all(grid::nodes(entry, prep.span, coarse));
             if let Some(b) = best_index(&all, crit) {
                 let bounds: Vec<(f64, f64)> = all[b]
@@ -924,6 +943,19 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
                     .iter()
                     .map(|&c| (c - radius * coarse, c + radius * coarse))
                     .collect();
+                let fine = match crate::budget::fit_refinement(
+                    entry, prep.span, fine, coarse, &bounds, max_nodes,
+                ) {
+                    Some((f, coarsened)) => {
+                        if coarsened {
+                            notes.push(format!(
+                                "refinement step coarsened to {f} to stay within the node budget of {max_nodes}"
+                            ));
+                        }
+                        f
+                    }
+                    None => coarse,
+                };
                 let fine_nodes: Vec<Vec<f64>> =
                     grid::nodes_in_box(entry, prep.span, fine, Some(&bounds))
                         .into_iter()
@@ -934,7 +966,7 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
             all
         }
     };
-    finish(&prep, surface, options.grid, start, Vec::new())
+    finish(&prep, surface, options.grid, start, notes)
 }
 
 /// Evaluate an explicit list of nodes (parameter vectors of `entry`) exactly as [`quantify`]
@@ -1060,6 +1092,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
             value: plo,
         });
     }
+    crate::degenerate::check_identifiable(op, pv)?;
     let span = hi - lo;
     let reversal_band = 0.01 * span;
     if reversals(op, reversal_band) == 0 {
@@ -1086,6 +1119,9 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
                 expected: format!("{name} > 0 (OP units)"),
             });
         }
+    }
+    for (name, step) in crate::budget::plan_steps(&options.grid) {
+        crate::budget::check_step_against_span(step, span, name)?;
     }
     let ctx = Ctx {
         entry,

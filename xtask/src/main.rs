@@ -7,6 +7,7 @@
 //! | `bench [ARGS...]` | the divan benchmarks of every crate (`cargo bench --workspace`) |
 //! | `reproduce [--runs N] [--out DIR] [--only ...]` | the paper's §3 simulation study, the criterion study and the recovery rates ([`reproduce`]) |
 //! | `suite [--size N]` | the hidden-effect suite of `diagnose` at full size (release build) |
+//! | `fuzz [--minutes N]` | mutated plant and generated loop data through the reader and the search, in process, with a time and memory budget per case ([`fuzz`]) |
 //! | `report-check [--out DIR] [--plant DIR] [--html FILE...]` | the CLI's HTML reports (`--report DIR`) opened in headless Chromium and checked, screenshots saved ([`browser`]) |
 
 use std::process::Command;
@@ -14,7 +15,12 @@ use std::process::Command;
 use anyhow::{bail, Context, Result};
 
 mod browser;
+mod fuzz;
 mod reproduce;
+
+/// Counts live memory for the fuzzer's per-case budget (a relaxed atomic add per allocation).
+#[global_allocator]
+static ALLOC: fuzz::Counting = fuzz::Counting;
 
 const USAGE: &str = "\
 usage: cargo xtask <task>
@@ -28,6 +34,10 @@ tasks:
   reproduce [--runs N] [--out DIR] [--only table1|table2|fig5|fig6|fig7|criterion|recovery]
                        the paper's simulation study (§3) next to the paper's numbers, CSVs in DIR
                        (default runs 10, out target/reproduce); `reproduce --help` for all options
+  fuzz [--minutes N] [--seed N] [--case-seconds S] [--memory-mb M] [--no-plant]
+                       mutate plant (../shared) and generated CSV/MAT loops, run the reader and the
+                       search in process; a panic, abort, time-out or memory overrun is saved under
+                       datasets/tests/fuzz-regressions (default 1 minute; `cargo xtask test` runs it)
   report-check [--out DIR] [--plant DIR] [--html FILE...]
                        build the CLI, write its HTML reports (--report) into DIR (default
                        target/report-check) and check them in headless Chromium (console errors,
@@ -61,6 +71,7 @@ fn run() -> Result<()> {
         "proptest" => proptest(rest),
         "bench" => bench(rest),
         "reproduce" => reproduce_release(rest),
+        "fuzz" => fuzz_release(rest),
         "suite" => suite(rest),
         "report-check" => browser::report_check(rest),
         "help" | "--help" | "-h" => {
@@ -99,7 +110,7 @@ fn test(rest: &[String]) -> Result<()> {
         .output()
         .map(|o| o.status.success())
         .unwrap_or(false);
-    phase(1, 3, "formatting check (cargo fmt --all --check)");
+    phase(1, 4, "formatting check (cargo fmt --all --check)");
     if fmt_available {
         status(cargo().args(["fmt", "--all", "--check"]))?;
     } else {
@@ -107,17 +118,45 @@ fn test(rest: &[String]) -> Result<()> {
     }
     phase(
         2,
-        3,
+        4,
         "building the tests (the first build compiles every crate: several minutes on 2 cores)",
     );
     status(cargo().args(["test", "--workspace", "--no-run"]).args(rest))?;
-    phase(3, 3, "running the fast test suite");
+    phase(3, 4, "running the fast test suite");
     status(cargo().args(["test", "--workspace"]).args(rest))?;
+    // The short fuzz run (about a minute; `cargo xtask fuzz --minutes N` for a long one).
+    phase(
+        4,
+        4,
+        "a one-minute fuzz run (release build of xtask; `cargo xtask fuzz --minutes N` for more)",
+    );
+    fuzz_release(&["--minutes".to_string(), "1".to_string()])?;
     eprintln!(
         "xtask test: all phases passed in {:.0} s",
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// `fuzz` runs searches: like `reproduce`, re-run xtask in the release profile.
+fn fuzz_release(rest: &[String]) -> Result<()> {
+    if cfg!(debug_assertions) && std::env::var_os("XTASK_FUZZ_NO_RELEASE").is_none() {
+        return status(
+            cargo()
+                .env("XTASK_FUZZ_NO_RELEASE", "1")
+                .args([
+                    "run",
+                    "--quiet",
+                    "--release",
+                    "--package",
+                    "xtask",
+                    "--",
+                    "fuzz",
+                ])
+                .args(rest),
+        );
+    }
+    fuzz::fuzz(rest)
 }
 
 fn proptest(rest: &[String]) -> Result<()> {

@@ -103,6 +103,40 @@ fn read_labels(path: &Path) -> anyhow::Result<std::collections::HashMap<String, 
     Ok(out)
 }
 
+/// The rows of an OUT.jsonl and the line numbers of lines that are not a JSON object (a torn
+/// last line is what an interrupted run leaves).
+fn read_jsonl(f: std::fs::File) -> std::io::Result<(Vec<Value>, Vec<usize>)> {
+    let (mut rows, mut torn) = (Vec::new(), Vec::new());
+    for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
+        let line = line?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        match serde_json::from_str::<Value>(&line) {
+            Ok(v) if v.is_object() => rows.push(v),
+            _ => torn.push(i + 1),
+        }
+    }
+    Ok((rows, torn))
+}
+
+/// What resuming does about unreadable lines, in words.
+fn torn_note(path: &Path, torn: &[usize]) -> Option<String> {
+    match torn {
+        [] => None,
+        [line] => Some(format!(
+            "{}: line {line} is torn (an interrupted run): its registration is computed again",
+            path.display()
+        )),
+        lines => Some(format!(
+            "{}: {} unreadable lines (first: line {}): their registrations are computed again",
+            path.display(),
+            lines.len(),
+            lines[0]
+        )),
+    }
+}
+
 /// Identity of a file for resuming: name, size, modification time (s).
 fn identity(p: &Path) -> (u64, Option<u64>) {
     let meta = std::fs::metadata(p).ok();
@@ -186,11 +220,10 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let mut previous: Vec<Value> = Vec::new();
     if let Some(path) = &jsonl {
         if let Ok(f) = std::fs::File::open(path) {
-            for line in std::io::BufReader::new(f).lines() {
-                let line = line.map_err(data)?;
-                if let Ok(v) = serde_json::from_str::<Value>(&line) {
-                    previous.push(v);
-                }
+            let (rows, torn) = read_jsonl(f).map_err(data)?;
+            previous = rows;
+            if let Some(note) = torn_note(path, &torn) {
+                let _ = writeln!(s.stderr, "note: {note}");
             }
         }
     }

@@ -118,6 +118,10 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let mut dg = match outcome {
         Ok(dg) => dg,
         Err(e @ discrepancy::DiagnoseError::UnknownCause { .. }) => return Err(usage(e)),
+        Err(discrepancy::DiagnoseError::Search(
+            e @ (grid_search::SearchError::Budget { .. }
+            | grid_search::SearchError::InvalidOption { .. }),
+        )) => return Err(usage(anyhow::Error::new(e).context(d.source.clone()))),
         Err(other) => return Err(refused(data(anyhow!("{}: {other}", d.source)), s)),
     };
     if args.report.report.is_some() {

@@ -52,6 +52,27 @@ pub struct Args {
     json: bool,
 }
 
+/// An identifier's error with its signals `u`, `y` named by the user's columns.
+fn in_user_words(e: &linear_id::IdError, input: &str, output: &str) -> String {
+    let column = |signal: &str| match signal {
+        "u" => format!("column {input}"),
+        "y" => format!("column {output}"),
+        other => other.to_string(),
+    };
+    match e {
+        linear_id::IdError::ConstantInput { signal, value } => format!(
+            "{} is constant over the identification window (value {value})",
+            column(signal)
+        ),
+        linear_id::IdError::NonFinite {
+            signal,
+            index,
+            value,
+        } => format!("{} sample {index} is not finite ({value})", column(signal)),
+        other => other.to_string(),
+    }
+}
+
 fn pairs(v: &[(f64, f64)]) -> Value {
     json!(v.iter().map(|(re, im)| [re, im]).collect::<Vec<_>>())
 }
@@ -88,9 +109,11 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             identifier.min_samples()
         )));
     }
-    let fit = identifier
-        .identify(&u[..ni], &y[..ni])
-        .map_err(|e| data(anyhow!("{}: {e}", d.source)))?;
+    let output_name = args.output.clone().unwrap_or_else(|| "PV".into());
+    let fit = identifier.identify(&u[..ni], &y[..ni]).map_err(|e| {
+        let msg = in_user_words(&e, &input_name, &output_name);
+        data(anyhow!("{}: {msg}", d.source))
+    })?;
     let pred = fit.predict_one_step(u, y).map_err(data)?;
     let first = fit.first_sample().min(ni);
     let fit_id = fit_pv(&y[first..ni], &pred[first..ni]);

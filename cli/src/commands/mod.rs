@@ -60,6 +60,14 @@ pub(crate) fn initial_state(
         stuck_at: us0,
         position: mv0,
     };
+    // The flags' names, not the library's fields (`stuck_at`, `position`).
+    for (flag, v) in [("--us0", us0), ("--mv0", mv0)] {
+        if let Some(v) = v.filter(|v| !v.is_finite()) {
+            return Err(usage(anyhow::anyhow!(
+                "{flag} {v}: expected a finite OP value"
+            )));
+        }
+    }
     st.validate().map_err(usage)?;
     Ok(st)
 }

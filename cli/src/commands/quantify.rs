@@ -168,7 +168,8 @@ pub(crate) fn run_one(
     let tick = |done: usize, total: usize| bar.update(done, total);
     let run = combination.run(problem, Some(&tick));
     bar.finish();
-    run.map_err(|e| data(anyhow!("{}: {e}", d.source)))
+    // Keep the error's type (a node budget breach is bad usage, see `crate::run_from`).
+    run.map_err(|e| data(anyhow::Error::new(e).context(d.source.clone())))
 }
 
 fn round(x: f64, digits: i32) -> Value {

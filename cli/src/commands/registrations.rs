@@ -181,8 +181,43 @@ pub(crate) struct Plan<'a> {
 }
 
 /// Read and quantify one registration with every combination. Never fails: a problem is
-/// recorded in the registration.
+/// recorded in the registration — a panic too (the registration runs isolated, so one bad
+/// file cannot end a batch or a trend).
 pub(crate) fn evaluate(path: &Path, plan: &Plan<'_>) -> Registration {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        evaluate_unguarded(path, plan)
+    })) {
+        Ok(reg) => reg,
+        Err(payload) => {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            let file = file_name(path);
+            let name = parse_registration_name(&file);
+            Registration {
+                path: path.to_path_buf(),
+                integrating: plan.integrating.applies(&name.valve),
+                file,
+                valve: name.valve,
+                start: name.start,
+                time_source: if name.start.is_some() {
+                    "file name"
+                } else {
+                    "unknown"
+                },
+                notes: Vec::new(),
+                outcome: Err(format!(
+                    "internal error on this registration (a bug, please report it): {}",
+                    what.replace('\n', " ")
+                )),
+            }
+        }
+    }
+}
+
+fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
     let file = file_name(path);
     let name = parse_registration_name(&file);
     let integrating = plan.integrating.applies(&name.valve);
@@ -200,6 +235,12 @@ pub(crate) fn evaluate(path: &Path, plan: &Plan<'_>) -> Registration {
         notes: Vec::new(),
         outcome: Err(String::new()),
     };
+    // Tests prove the isolation with a registration that panics (debug builds only).
+    if cfg!(debug_assertions)
+        && std::env::var_os("STICTION_TEST_PANIC_ON").is_some_and(|v| *v == *reg.file)
+    {
+        panic!("test panic on {}", reg.file);
+    }
     let opts = plan.data.read_options(true, 30);
     let d = match datasets::read_path(path, &opts) {
         Ok(d) => d,

@@ -66,7 +66,7 @@ pub(crate) struct SearchFlags {
     pub delay: DelayFlag,
     /// Grid step in OP units (% of span): exhaustive grid at this step. Default: a coarse grid
     /// at span/40 refined at step 0.1 around its best node.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", allow_hyphen_values = true)]
     pub step: Option<f64>,
     /// Initialization of the valve model (paper §2.4).
     #[arg(long, default_value = "In.3", value_parser = parse_init)]
@@ -76,8 +76,12 @@ pub(crate) struct SearchFlags {
     pub criterion: CriterionFlag,
     /// Fraction of the record used for identification (the rest validates): a decimal or a
     /// fraction such as `3/4`.
-    #[arg(long, value_name = "F", default_value = "2/3", value_parser = parse_split)]
+    #[arg(long, value_name = "F", default_value = "2/3", value_parser = parse_split, allow_hyphen_values = true)]
     pub split: f64,
+    /// Node budget per grid stage: a grid with more nodes is refused (a usage error) rather
+    /// than run for minutes or out of memory.
+    #[arg(long, value_name = "N", default_value_t = grid_search::budget::DEFAULT_MAX_NODES)]
+    pub max_nodes: usize,
 }
 
 /// `--criterion`.
@@ -117,6 +121,7 @@ impl SearchFlags {
                 CriterionFlag::Prediction => Criterion::Prediction,
                 CriterionFlag::Simulation => Criterion::Simulation,
             },
+            max_nodes: self.max_nodes,
             ..SearchOptions::default()
         })
     }

@@ -70,6 +70,9 @@ pub struct Args {
     output: Option<PathBuf>,
 }
 
+/// The largest controller gain `--kc` / `--ki` accept.
+const MAX_GAIN: f64 = 1e6;
+
 fn scenario(args: &Args, s: &mut Streams<'_>) -> Result<Scenario, Failure> {
     let mut sc = match &args.config {
         Some(path) => {
@@ -120,6 +123,15 @@ fn scenario(args: &Args, s: &mut Streams<'_>) -> Result<Scenario, Failure> {
         }
         pairs.extend(args.params.iter().cloned());
         sc.valve = entry.build_named(&pairs).map_err(usage)?;
+    }
+    // Gains beyond any process's are a typo, not a tuning (1e308 overflows the simulation):
+    // bad usage, named as given. An unstable but plausible tuning is a failed computation.
+    for (flag, v) in [("--kc", args.kc), ("--ki", args.ki)] {
+        if let Some(v) = v.filter(|v| !(v.is_finite() && v.abs() <= MAX_GAIN)) {
+            return Err(bad_usage(format!(
+                "{flag} {v:e}: expected a finite controller gain of magnitude at most {MAX_GAIN:e}"
+            )));
+        }
     }
     if let Some(kc) = args.kc {
         sc.controller.kc = kc;

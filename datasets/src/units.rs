@@ -1,0 +1,171 @@
+//! OP units: which valve span OP is expressed in, and OP rescaled to % of that span.
+//!
+//! Stiction S and J are "% of valve span" (the paper, the CLI contract). Historians log OP
+//! as % (0-100), as a fraction (0-1), or as raw counts of an analogue output (0-4095,
+//! 0-16383, 0-27648, 0-32767, 0-65535, ...). The search itself works in OP units; so that S
+//! and J — and every decision made from them (negligible stiction, the diagnosis) — mean
+//! the same whatever the units, the reader rescales OP to % of the valve span and says so in
+//! [`crate::LoopData::notes`].
+//!
+//! Decisions:
+//! * "Span" is the **valve span** (the full range OP can command, 0-100 %), not the OP range
+//!   seen in the record (which is what the grid covers). The valve span cannot be measured
+//!   from the data, only assumed from the range seen; the assumption is always named in the
+//!   notes and `--op-range LO,HI` ([`OpRange::Given`]) states it.
+//! * Fraction: every OP in [-0.05, 1.05] → valve span 0-1, OP × 100.
+//! * Percent: every OP in [-10, 110] (controllers over-range by a few %) → unchanged.
+//! * Counts: every OP an integer in [0, 65535] and above 110 → the smallest of the usual
+//!   full scales ([`FULL_SCALES`]) that holds the largest OP; OP × 100 / full scale.
+//! * Anything else (values beyond 110 that are not integer counts, or negative beyond -10):
+//!   the valve span is unknown; OP is kept as it is, S and J are in OP's own units, and the
+//!   note says so and how to state the range. The grid is relative to the OP span
+//!   (`grid_search::GridPlan::for_span`), so the search stays bounded either way.
+//! * A measured MV column is taken to be in OP's units and rescaled with it.
+
+/// The usual full scales of analogue outputs in counts (8, 10, 12, 14 bit, Siemens S7 27648,
+/// signed and unsigned 16 bit).
+pub const FULL_SCALES: [f64; 7] = [255.0, 1023.0, 4095.0, 16383.0, 27648.0, 32767.0, 65535.0];
+
+/// How the reader finds OP's valve span.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum OpRange {
+    /// Assume it from the range seen (see the module documentation).
+    #[default]
+    Detect,
+    /// OP is in these units: `lo` is the closed valve, `hi` the fully open one
+    /// (`--op-range LO,HI`).
+    Given(f64, f64),
+    /// Keep OP as it is, without a note (callers that know OP is in %).
+    Keep,
+}
+
+// `Given` is checked finite with lo < hi before use; equality is never asked of NaN.
+impl Eq for OpRange {}
+
+/// The units assumed for OP and the affine map to % of valve span.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct OpUnits {
+    /// Valve span `(lo, hi)` in OP's units; `None` when unknown.
+    pub span: Option<(f64, f64)>,
+    /// What was assumed, for the notes (`None`: OP already in %, nothing to say).
+    pub note: Option<String>,
+}
+
+impl OpUnits {
+    /// Map `x` (OP units) to % of valve span.
+    pub fn to_percent(&self, x: f64) -> f64 {
+        match self.span {
+            // Kept exact for the % case; `x * 100 / (hi - lo)` keeps counts and fractions
+            // consistent with a file holding `counts * 100 / full_scale`.
+            Some((lo, hi)) if !(lo == 0.0 && hi == 100.0) => (x - lo) * 100.0 / (hi - lo),
+            _ => x,
+        }
+    }
+}
+
+/// Decide OP's units from `op` (finite values) and `range`; `Err` for an invalid given range.
+pub(crate) fn op_units(op: &[f64], range: OpRange) -> Result<OpUnits, String> {
+    let (lo, hi) = op
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    match range {
+        OpRange::Keep => Ok(OpUnits {
+            span: None,
+            note: None,
+        }),
+        OpRange::Given(a, b) => {
+            if !(a.is_finite() && b.is_finite() && a < b) {
+                return Err(format!(
+                    "OP range {a},{b}: expected LO,HI with LO < HI (the closed and the fully open valve)"
+                ));
+            }
+            let note = (!(a == 0.0 && b == 100.0))
+                .then(|| format!("OP in {a}-{b} (as given): rescaled to % of valve span"));
+            Ok(OpUnits {
+                span: Some((a, b)),
+                note,
+            })
+        }
+        OpRange::Detect => {
+            if !(lo.is_finite() && hi.is_finite()) {
+                return Ok(OpUnits {
+                    span: None,
+                    note: None,
+                });
+            }
+            let shown = |x: f64| format!("{}", (x * 1e4).round() / 1e4);
+            if lo >= -0.05 && hi <= 1.05 {
+                return Ok(OpUnits {
+                    span: Some((0.0, 1.0)),
+                    note: Some(format!(
+                        "OP ranges {}-{}: taken as a fraction of valve span (0-1) and rescaled to %; give --op-range to state otherwise",
+                        shown(lo),
+                        shown(hi)
+                    )),
+                });
+            }
+            if lo >= -10.0 && hi <= 110.0 {
+                return Ok(OpUnits {
+                    span: Some((0.0, 100.0)),
+                    note: None,
+                });
+            }
+            let integral = op.iter().all(|v| v.fract() == 0.0);
+            if integral && lo >= 0.0 {
+                if let Some(&fs) = FULL_SCALES.iter().find(|&&fs| hi <= fs) {
+                    return Ok(OpUnits {
+                        span: Some((0.0, fs)),
+                        note: Some(format!(
+                            "OP ranges {}-{} in integer steps: taken as counts of a 0-{fs} output and rescaled to % of valve span; give --op-range to state otherwise",
+                            shown(lo),
+                            shown(hi)
+                        )),
+                    });
+                }
+            }
+            Ok(OpUnits {
+                span: None,
+                note: Some(format!(
+                    "OP ranges {}-{}, neither 0-1, 0-100 nor integer counts: the valve span is unknown, so S and J are in OP's units, not %; give --op-range LO,HI to state it",
+                    shown(lo),
+                    shown(hi)
+                )),
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn span_of(op: &[f64]) -> Option<(f64, f64)> {
+        op_units(op, OpRange::Detect).unwrap().span
+    }
+
+    #[test]
+    fn detects_fraction_percent_counts_and_unknown() {
+        assert_eq!(span_of(&[0.2, 0.7]), Some((0.0, 1.0)));
+        assert_eq!(span_of(&[20.0, 70.0]), Some((0.0, 100.0)));
+        assert_eq!(span_of(&[0.78, 6.64]), Some((0.0, 100.0)));
+        assert_eq!(span_of(&[-3.0, 104.0]), Some((0.0, 100.0)));
+        assert_eq!(span_of(&[3277.0, 11468.0]), Some((0.0, 16383.0)));
+        assert_eq!(span_of(&[200.0, 900.0]), Some((0.0, 1023.0)));
+        assert_eq!(span_of(&[389.5, 395.5]), None);
+        assert_eq!(span_of(&[2e10, 6e10]), None);
+        assert_eq!(span_of(&[-50.0, 50.0]), None);
+    }
+
+    #[test]
+    fn given_ranges_are_checked_and_used() {
+        let u = op_units(&[5.0, 15.0], OpRange::Given(4.0, 20.0)).unwrap();
+        assert_eq!(u.to_percent(12.0), 50.0);
+        assert!(op_units(&[1.0], OpRange::Given(1.0, 1.0)).is_err());
+        assert!(op_units(&[1.0], OpRange::Given(f64::NAN, 1.0)).is_err());
+        let pct = op_units(&[5.0, 15.0], OpRange::Given(0.0, 100.0)).unwrap();
+        assert_eq!(pct.note, None);
+        assert_eq!(pct.to_percent(12.345), 12.345);
+    }
+}
