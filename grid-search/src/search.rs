@@ -431,16 +431,8 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let n = op.len();
         let k0 = run.valid_from;
         let ni = self.split_index;
-        let needed = self.identifier.min_samples().max(10);
-        if ni <= k0 || ni - k0 < needed {
-            return Err(format!(
-                "the valve's initial state matters until sample {k0}: too few identification samples left"
-            ));
-        }
+        self.identifiable(mv, k0)?;
         let mv_id = &mv[k0..ni];
-        if distinct_at_least(mv_id, 3) < 3 {
-            return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
-        }
         let linear = self
             .identifier
             .identify(mv_id, &pv[k0..ni])
@@ -488,6 +480,23 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         });
         Ok((fits, full))
     }
+
+    /// The skip reasons both node paths check before identifying, in this order: too few
+    /// identification samples after the valve's initial state washed out (`k0`), or an
+    /// estimated MV that hardly moves in the identification window.
+    fn identifiable(&self, mv: &[f64], k0: usize) -> Result<(), String> {
+        let ni = self.split_index;
+        let needed = self.identifier.min_samples().max(10);
+        if ni <= k0 || ni - k0 < needed {
+            return Err(format!(
+                "the valve's initial state matters until sample {k0}: too few identification samples left"
+            ));
+        }
+        if distinct_at_least(&mv[k0..ni], 3) < 3 {
+            return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
+        }
+        Ok(())
+    }
 }
 
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
@@ -505,16 +514,8 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let n = op.len();
         let k0 = run.valid_from;
         let ni = self.split_index;
-        let needed = self.identifier.min_samples().max(10);
-        if ni <= k0 || ni - k0 < needed {
-            return Err(format!(
-                "the valve's initial state matters until sample {k0}: too few identification samples left"
-            ));
-        }
+        self.identifiable(mv, k0)?;
         let mv_id = &mv[k0..ni];
-        if distinct_at_least(mv_id, 3) < 3 {
-            return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
-        }
         let from_sums = self
             .arx_sums
             .as_ref()

@@ -140,10 +140,22 @@ fn test(rest: &[String]) -> Result<()> {
 
 /// `fuzz` runs searches: like `reproduce`, re-run xtask in the release profile.
 fn fuzz_release(rest: &[String]) -> Result<()> {
-    if cfg!(debug_assertions) && std::env::var_os("XTASK_FUZZ_NO_RELEASE").is_none() {
+    in_release("fuzz", "XTASK_FUZZ_NO_RELEASE", rest, fuzz::fuzz)
+}
+
+/// Run `task` here when this xtask is an optimised build (or `no_release_env` is set),
+/// otherwise re-run xtask itself in the release profile with that variable set: the
+/// compute-bound tasks would run the workspace crates unoptimised in `cargo xtask`'s build.
+fn in_release(
+    task: &str,
+    no_release_env: &str,
+    rest: &[String],
+    run: fn(&[String]) -> Result<()>,
+) -> Result<()> {
+    if cfg!(debug_assertions) && std::env::var_os(no_release_env).is_none() {
         return status(
             cargo()
-                .env("XTASK_FUZZ_NO_RELEASE", "1")
+                .env(no_release_env, "1")
                 .args([
                     "run",
                     "--quiet",
@@ -151,12 +163,12 @@ fn fuzz_release(rest: &[String]) -> Result<()> {
                     "--package",
                     "xtask",
                     "--",
-                    "fuzz",
+                    task,
                 ])
                 .args(rest),
         );
     }
-    fuzz::fuzz(rest)
+    run(rest)
 }
 
 fn proptest(rest: &[String]) -> Result<()> {
@@ -191,26 +203,14 @@ fn bench(rest: &[String]) -> Result<()> {
     status(&mut cmd)
 }
 
-/// `reproduce` is compute-bound: in a debug build of xtask (what `cargo xtask` gives) the
-/// workspace crates are unoptimised, so re-run xtask itself in the release profile.
+/// `reproduce` is compute-bound: run it in the release profile ([`in_release`]).
 fn reproduce_release(rest: &[String]) -> Result<()> {
-    if cfg!(debug_assertions) && std::env::var_os("XTASK_REPRODUCE_NO_RELEASE").is_none() {
-        return status(
-            cargo()
-                .env("XTASK_REPRODUCE_NO_RELEASE", "1")
-                .args([
-                    "run",
-                    "--quiet",
-                    "--release",
-                    "--package",
-                    "xtask",
-                    "--",
-                    "reproduce",
-                ])
-                .args(rest),
-        );
-    }
-    reproduce::reproduce(rest)
+    in_release(
+        "reproduce",
+        "XTASK_REPRODUCE_NO_RELEASE",
+        rest,
+        reproduce::reproduce,
+    )
 }
 
 /// `cargo xtask suite [--size N]`: the hidden-effect suite of `discrepancy` at full size
