@@ -32,6 +32,8 @@ pub const DEFAULT_MAX_NODES: usize = 200_000;
 const ENUMERATE_FACTOR: f64 = 8.0;
 
 /// The number of multiples of `step` in `[lo, hi]`, as `f64` (may be huge or infinite).
+// `!(a >= b)` is deliberate: it is true for NaN too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub(crate) fn axis_len(lo: f64, hi: f64, step: f64) -> f64 {
     if !(hi >= lo) || !(step > 0.0) {
         return 0.0;
@@ -64,6 +66,8 @@ pub(crate) fn box_bounds(
 /// The number of nodes of [`crate::grid::nodes_in_box`] for these arguments, counted without
 /// storing them; `Err(estimate)` when the box alone has more than `ENUMERATE_FACTOR · limit`
 /// nodes (then the count is at least over `limit`, and `estimate` is the box's size).
+// `!(a <= b)` is deliberate: it is true for NaN too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub fn count_nodes(
     entry: &ModelEntry,
     span: f64,

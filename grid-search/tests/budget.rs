@@ -1,6 +1,8 @@
 //! Hostile grids (issue 15): every grid is bounded by the node budget and defined relative to
 //! the OP span; a request beyond the budget is an error naming it, never an allocation failure
 //! or a panic; a step coarser than the span is refused, not answered with one node.
+// Test helpers outside #[test] functions may unwrap too: a panic is how a test fails.
+#![allow(clippy::unwrap_used)]
 
 use datasets::simulate::Scenario;
 use grid_search::{quantify, GridPlan, Problem, SearchError, SearchOptions};

@@ -1,4 +1,6 @@
 //! The grid search on simulated loops with known stiction.
+// Test helpers outside #[test] functions may unwrap too: a panic is how a test fails.
+#![allow(clippy::unwrap_used)]
 
 use datasets::simulate::{PlantPreset, PlantSpec, Scenario};
 use grid_search::{quantify, Criterion, GridPlan, Problem, SearchError, SearchOptions};

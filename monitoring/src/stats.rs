@@ -100,7 +100,7 @@ mod tests {
         pts[4].1 = 100.0;
         let m = theil_sen(&pts).unwrap_or(f64::NAN);
         assert!((m - 0.5).abs() < 1e-12, "{m}");
-        assert_eq!(median(&[]).is_nan(), true);
+        assert!(median(&[]).is_nan());
         assert_eq!(median(&[3.0, 1.0, 2.0, 10.0]), 2.5);
     }
 }

@@ -27,6 +27,7 @@ pub use html::{Block, Report, Section, WriteOptions, Written};
 
 /// What can go wrong while drawing or writing a report.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ReportError {
     /// plotters or resvg refused a figure.
     #[error("plot: {0}")]

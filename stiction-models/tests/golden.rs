@@ -219,6 +219,8 @@ struct SpecKanoAsym {
 }
 
 impl SpecKanoAsym {
+    // Transcribed branch by branch from the specification's pseudo-code, repeats included.
+    #[allow(clippy::if_same_then_else)]
     fn step(&mut self, op_k: f64) -> f64 {
         let u = op_k;
         let du = u - self.u_prev;

@@ -570,7 +570,7 @@ fn mutate_bytes(rng: &mut Rng, b: &mut Vec<u8>) {
             *b = text.into_bytes();
         }
         5 => {
-            let d = *rng.pick(&[b';', b'\t', b' ', b'|']);
+            let d = *rng.pick(b";\t |");
             for x in b.iter_mut() {
                 if *x == b',' {
                     *x = d;

@@ -2,7 +2,7 @@
 //!
 //! | task | what it runs |
 //! |------|--------------|
-//! | `test` | formatting check, then the fast test suite of every crate (what CI runs) |
+//! | `test` | formatting check, clippy `-D warnings` and the tidy rules ([`tidy`]), the fast test suite of every crate, a one-minute fuzz run (what CI runs) |
 //! | `proptest [--cases N]` | the property tests at scale (`PROPTEST_CASES=N`, default 10000) |
 //! | `bench [ARGS...]` | the divan benchmarks of every crate (`cargo bench --workspace`) |
 //! | `reproduce [--runs N] [--out DIR] [--only ...]` | the paper's §3 simulation study, the criterion study and the recovery rates ([`reproduce`]) |
@@ -17,6 +17,7 @@ use anyhow::{bail, Context, Result};
 mod browser;
 mod fuzz;
 mod reproduce;
+mod tidy;
 
 /// Counts live memory for the fuzzer's per-case budget (a relaxed atomic add per allocation).
 #[global_allocator]
@@ -110,7 +111,7 @@ fn test(rest: &[String]) -> Result<()> {
         .output()
         .map(|o| o.status.success())
         .unwrap_or(false);
-    phase(1, 4, "formatting check (cargo fmt --all --check)");
+    phase(1, 5, "formatting check (cargo fmt --all --check)");
     if fmt_available {
         status(cargo().args(["fmt", "--all", "--check"]))?;
     } else {
@@ -118,16 +119,49 @@ fn test(rest: &[String]) -> Result<()> {
     }
     phase(
         2,
-        4,
+        5,
+        "clippy on every target, warnings are errors (the workspace lints), and the tidy rules",
+    );
+    let clippy_available = cargo()
+        .args(["clippy", "--version"])
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
+    if clippy_available {
+        status(cargo().args([
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ]))?;
+    } else {
+        eprintln!("xtask: clippy is not installed; skipping the lint check");
+    }
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let broken = tidy::check_workspace(&root).context("reading the sources for the tidy rules")?;
+    if !broken.is_empty() {
+        for v in &broken {
+            eprintln!("{v}");
+        }
+        bail!(
+            "{} of ARCHITECTURE.md's rules broken (xtask/src/tidy.rs)",
+            broken.len()
+        );
+    }
+    phase(
+        3,
+        5,
         "building the tests (the first build compiles every crate: several minutes on 2 cores)",
     );
     status(cargo().args(["test", "--workspace", "--no-run"]).args(rest))?;
-    phase(3, 4, "running the fast test suite");
+    phase(4, 5, "running the fast test suite");
     status(cargo().args(["test", "--workspace"]).args(rest))?;
     // The short fuzz run (about a minute; `cargo xtask fuzz --minutes N` for a long one).
     phase(
-        4,
-        4,
+        5,
+        5,
         "a one-minute fuzz run (release build of xtask; `cargo xtask fuzz --minutes N` for more)",
     );
     fuzz_release(&["--minutes".to_string(), "1".to_string()])?;

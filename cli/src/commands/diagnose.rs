@@ -290,7 +290,7 @@ fn diagnose_report(
     let name = reporting::loop_name(d);
     let rep_err = |e: report::ReportError| data(anyhow!("report: {e}"));
     let base = &dg.baseline_fit;
-    let base_label = reporting::combo(&base);
+    let base_label = reporting::combo(base);
     let chosen = dg
         .chosen
         .and_then(|i| dg.findings.get(i))
@@ -360,9 +360,9 @@ fn diagnose_report(
         &base.result,
         &format!("Before the diagnosis, the baseline {base_label}"),
     )));
-    baseline.push(reporting::facts(&base));
+    baseline.push(reporting::facts(base));
     if let Some(sig) = &sig {
-        for f in reporting::run_figures(sig, &base, "baseline-", "baseline")? {
+        for f in reporting::run_figures(sig, base, "baseline-", "baseline")? {
             baseline.push(Block::Figure(f));
         }
     }
@@ -391,7 +391,7 @@ fn diagnose_report(
                 ),
             ),
         ]));
-        let ext = chosen.map(|(f, x)| (x, format!("{} ({})", reporting::combo(&x), f.cause)));
+        let ext = chosen.map(|(f, x)| (x, format!("{} ({})", reporting::combo(x), f.cause)));
         let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
         res.push(Block::Figure(
             figures::residual_trends(sig, (&base.result, &base_label), ext_ref, "residuals")
@@ -404,7 +404,7 @@ fn diagnose_report(
         later.push(res);
         if let Some((f, x)) = chosen {
             let view = x;
-            let label = reporting::combo(&view);
+            let label = reporting::combo(view);
             let mut sec = Section::new(format!("Extended model for {}: {label}", f.cause));
             sec.push(Block::Paragraph(format!(
                 "{} The extension changes the validation F_PV by {:+.2} points, S by {:+.2} and \
@@ -414,7 +414,7 @@ fn diagnose_report(
                 f.delta_s,
                 f.delta_j
             )));
-            sec.push(reporting::facts(&view));
+            sec.push(reporting::facts(view));
             if let Some(fig) =
                 figures::disturbance(sig, &view.result, &label, "disturbance").map_err(rep_err)?
             {
@@ -422,7 +422,7 @@ fn diagnose_report(
             }
             for fig in reporting::run_figures(
                 sig,
-                &view,
+                view,
                 "extended-",
                 &format!("extended for {}", f.cause),
             )? {

@@ -274,7 +274,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         let name = reporting::loop_name(&d);
         let view = &r;
         let mut result = Section::new("Result");
-        result.push(reporting::facts(&view));
+        result.push(reporting::facts(view));
         result.push(Block::Paragraph(format!(
             "Verdict: {}.",
             reporting::verdict_line(&r.result)
@@ -284,14 +284,14 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         }
         let mut figs = Section::new("Figures");
         if let Some(sig) = reporting::signals(&d, &name) {
-            for f in reporting::run_figures(&sig, &view, "", "")? {
+            for f in reporting::run_figures(&sig, view, "", "")? {
                 figs.push(Block::Figure(f));
             }
         }
         let rep = Report {
-            title: format!("quantify: loop {name}, {}", reporting::combo(&view)),
+            title: format!("quantify: loop {name}, {}", reporting::combo(view)),
             subtitle: format!("{} · {} samples · stiction quantify", d.source, d.len()),
-            summary: vec![reporting::verdict(&r.result, &reporting::combo(&view))],
+            summary: vec![reporting::verdict(&r.result, &reporting::combo(view))],
             sections: vec![result, figs],
         };
         reporting::write(&rep, &args.report, started, s)?;
@@ -577,7 +577,7 @@ fn compare_report(
     if let Some(b) = best {
         summary.push(format!(
             "Best validation fit: {}",
-            reporting::verdict(&b.result, &reporting::combo(&b))
+            reporting::verdict(&b.result, &reporting::combo(b))
         ));
         let mut ss: Vec<f64> = ok.iter().map(|r| r.result.s).collect();
         ss.sort_by(f64::total_cmp);
@@ -611,18 +611,18 @@ fn compare_report(
     let sig = reporting::signals(d, &name);
     for r in &ok {
         let view = r;
-        let mut sec = Section::new(reporting::combo(&view));
+        let mut sec = Section::new(reporting::combo(view));
         sec.push(Block::Paragraph(reporting::verdict(
             &r.result,
-            &reporting::combo(&view),
+            &reporting::combo(view),
         )));
-        sec.push(reporting::facts(&view));
+        sec.push(reporting::facts(view));
         for w in &r.result.warnings {
             sec.push(Block::Note(w.clone()));
         }
         if let Some(sig) = &sig {
             let prefix = format!("{}-{}-", r.stiction.name, r.linear);
-            for f in reporting::run_figures(sig, &view, &prefix, "")? {
+            for f in reporting::run_figures(sig, view, &prefix, "")? {
                 sec.push(Block::Figure(f));
             }
         }

@@ -82,14 +82,13 @@ fn looks_like_loop(f: &Path, op: &str) -> Result<(), String> {
     }
 }
 
+/// The registration files of [`expand`], and the files of a directory left out with why.
+pub(crate) type Expanded = (Vec<PathBuf>, Vec<(PathBuf, String)>);
+
 /// Expand files and directories into registration files (directories: their files with a
 /// known extension whose header names the OP column `op`, sorted by name, minus `exclude`);
 /// the files of a directory left out as not being loops are returned with the reason.
-pub(crate) fn expand(
-    paths: &[PathBuf],
-    exclude: &[PathBuf],
-    op: &str,
-) -> anyhow::Result<(Vec<PathBuf>, Vec<(PathBuf, String)>)> {
+pub(crate) fn expand(paths: &[PathBuf], exclude: &[PathBuf], op: &str) -> anyhow::Result<Expanded> {
     let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
         (Ok(x), Ok(y)) => x == y,
         _ => a == b,
