@@ -17,12 +17,14 @@ pub mod budget;
 pub mod degenerate;
 pub mod grid;
 mod search;
+mod skip;
 pub mod trust;
 
 pub use search::{
     evaluate_nodes, quantify, quantify_from_surface, quantify_with, Criterion, Fits, GridPlan,
     Interval, NodeFit, NodePath, Problem, Quantification, SearchOptions,
 };
+pub use skip::Skip;
 pub use trust::{Doubt, Severity, Verdict, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 
 pub use linear_id;

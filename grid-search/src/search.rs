@@ -12,6 +12,7 @@ use stiction_models::{
     ValveScratch,
 };
 
+use crate::skip::Skip;
 use crate::trust::{self, Doubt, NEGLIGIBLE_S};
 use crate::{grid, SearchError};
 
@@ -198,7 +199,7 @@ pub struct NodeFit {
     #[serde(rename = "J")]
     pub j: f64,
     /// The fits, or why the node was skipped.
-    pub outcome: Result<Fits, String>,
+    pub outcome: Result<Fits, Skip>,
 }
 
 impl NodeFit {
@@ -417,15 +418,14 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         params: &[f64],
         scratch: &mut Scratch,
         keep: bool,
-    ) -> Result<(Fits, Option<Evaluated>), String> {
-        let model = (self.entry.build)(params).map_err(|e| e.to_string())?;
+    ) -> Result<(Fits, Option<Evaluated>), Skip> {
+        let model = (self.entry.build)(params)?;
         let run = run_valve_with(
             model.as_ref(),
             self.problem.op,
             &self.init,
             &mut scratch.valve,
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
         let mv = &scratch.valve.mv;
         let (op, pv) = (self.problem.op, self.problem.pv);
         let n = op.len();
@@ -433,15 +433,10 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let ni = self.split_index;
         self.identifiable(mv, k0)?;
         let mv_id = &mv[k0..ni];
-        let linear = self
-            .identifier
-            .identify(mv_id, &pv[k0..ni])
-            .map_err(|e| e.to_string())?;
-        linear.check_stable(true).map_err(|e| e.to_string())?;
+        let linear = self.identifier.identify(mv_id, &pv[k0..ni])?;
+        linear.check_stable(true)?;
         scratch.pred.resize(n - k0, 0.0);
-        linear
-            .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
-            .map_err(|e| e.to_string())?;
+        linear.predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)?;
         let pred = &scratch.pred;
         let init_len = linear.first_sample().min(n - k0);
         let sim = linear
@@ -470,7 +465,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             init_fell_back: run.fell_back,
         };
         if !fits.pred_val.is_finite() {
-            return Err("the prediction is not finite".into());
+            return Err(Skip::NonFinitePrediction);
         }
         let full = keep.then(|| Evaluated {
             linear,
@@ -484,16 +479,14 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     /// The skip reasons both node paths check before identifying, in this order: too few
     /// identification samples after the valve's initial state washed out (`k0`), or an
     /// estimated MV that hardly moves in the identification window.
-    fn identifiable(&self, mv: &[f64], k0: usize) -> Result<(), String> {
+    fn identifiable(&self, mv: &[f64], k0: usize) -> Result<(), Skip> {
         let ni = self.split_index;
         let needed = self.identifier.min_samples().max(10);
         if ni <= k0 || ni - k0 < needed {
-            return Err(format!(
-                "the valve's initial state matters until sample {k0}: too few identification samples left"
-            ));
+            return Err(Skip::InitialState { valid_from: k0 });
         }
         if distinct_at_least(&mv[k0..ni], 3) < 3 {
-            return Err("estimated MV takes fewer than 3 values in the identification window (the valve hardly moves)".into());
+            return Err(Skip::ValveHardlyMoves);
         }
         Ok(())
     }
@@ -502,13 +495,12 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     /// [`Ctx::evaluate`] without the series, on the fast path (see [`NodePath::Fast`]): same
     /// checks in the same order, so the same skip reasons.
-    fn evaluate_fast(&self, params: &[f64], scratch: &mut Scratch) -> Result<Fits, String> {
+    fn evaluate_fast(&self, params: &[f64], scratch: &mut Scratch) -> Result<Fits, Skip> {
         let Some(index) = &self.index else {
             return self.evaluate(params, scratch, false).map(|(f, _)| f);
         };
-        let model = (self.entry.build)(params).map_err(|e| e.to_string())?;
-        let run = run_valve_indexed(model.as_ref(), index, &self.init, &mut scratch.valve)
-            .map_err(|e| e.to_string())?;
+        let model = (self.entry.build)(params)?;
+        let run = run_valve_indexed(model.as_ref(), index, &self.init, &mut scratch.valve)?;
         let mv = &scratch.valve.mv;
         let (op, pv) = (self.problem.op, self.problem.pv);
         let n = op.len();
@@ -525,12 +517,9 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         }
         let linear = match from_sums {
             Some(fit) => fit,
-            None => self
-                .identifier
-                .identify(mv_id, &pv[k0..ni])
-                .map_err(|e| e.to_string())?,
+            None => self.identifier.identify(mv_id, &pv[k0..ni])?,
         };
-        linear.check_stable(true).map_err(|e| e.to_string())?;
+        linear.check_stable(true)?;
         let split = ni - k0;
         let first = linear.first_sample().min(split);
         // the denominators of F_PV: identification rows (per node), validation (per record)
@@ -548,9 +537,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                     // anything unusual (a model with C(q) or a bias, a non-finite prediction):
                     // the sample path's prediction, its errors included
                     scratch.pred.resize(n - k0, 0.0);
-                    linear
-                        .predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)
-                        .map_err(|e| e.to_string())?;
+                    linear.predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)?;
                     fits_of(&scratch.pred)
                 }
             };
@@ -577,7 +564,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             init_fell_back: run.fell_back,
         };
         if !fits.pred_val.is_finite() {
-            return Err("the prediction is not finite".into());
+            return Err(Skip::NonFinitePrediction);
         }
         Ok(fits)
     }
@@ -1180,15 +1167,15 @@ fn finish<I: LinearIdentifier + ?Sized>(
 
     let skipped = surface.iter().filter(|n| n.outcome.is_err()).count();
     let Some(best) = best_index(&surface, crit) else {
-        let mut counts: HashMap<&str, usize> = HashMap::new();
+        let mut counts: HashMap<String, usize> = HashMap::new();
         for nf in &surface {
             if let Err(r) = &nf.outcome {
-                *counts.entry(r.as_str()).or_default() += 1;
+                *counts.entry(r.to_string()).or_default() += 1;
             }
         }
         let reason = counts
             .into_iter()
-            .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(a.0)))
+            .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
             .map_or_else(
                 || "no nodes in the grid".to_string(),
                 |(r, _)| r.to_string(),
@@ -1205,7 +1192,7 @@ fn finish<I: LinearIdentifier + ?Sized>(
         .evaluate(&best_params, &mut Scratch::default(), true)
         .map_err(|r| SearchError::NoValidNode {
             nodes: surface.len(),
-            reason: r,
+            reason: r.to_string(),
         })?;
     let ev = full.ok_or_else(|| SearchError::NoValidNode {
         nodes: surface.len(),

@@ -98,7 +98,9 @@ fn compare(
                     prop_assert!(close(x, y), "{} at {:?}: {} vs {}", what, f.params, x, y);
                 }
             }
-            (Err(a), Err(b)) => prop_assert_eq!(a, b, "{:?}", f.params),
+            // The same reason as reported (an unstable pole's modulus may differ in the last
+            // bits between the paths; its sentence does not).
+            (Err(a), Err(b)) => prop_assert_eq!(a.to_string(), b.to_string(), "{:?}", f.params),
             (a, b) => {
                 return Err(TestCaseError::fail(format!(
                     "node {:?}: fast {a:?} / sample {b:?}",

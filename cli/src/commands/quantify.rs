@@ -416,7 +416,7 @@ fn write_surface(path: &Path, r: &Run) -> anyhow::Result<()> {
             }
             Err(reason) => {
                 row.extend(std::iter::repeat_n(String::new(), 6));
-                row.push(reason.clone());
+                row.push(reason.to_string());
             }
         }
         w.write_record(&row)?;
