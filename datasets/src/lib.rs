@@ -27,6 +27,7 @@
 mod error;
 pub mod limits;
 mod mat;
+mod note;
 mod read;
 mod registration;
 pub mod simulate;
@@ -35,6 +36,7 @@ pub mod units;
 pub use error::DataError;
 pub use limits::Limits;
 pub use mat::{list_mat_loops, read_mat, read_mat_path};
+pub use note::{Note, NoteKind};
 pub use read::{read_csv, read_csv_path, GapPolicy, ReadOptions};
 pub use registration::{format_epoch, parse_registration_name, RegistrationName};
 pub use units::OpRange;
@@ -80,7 +82,7 @@ pub struct LoopData {
     /// Measured valve position, when available.
     pub mv: Option<Vec<f64>>,
     /// What was done to the data on the way in (gap filling, dropped rows, ignored columns).
-    pub notes: Vec<String>,
+    pub notes: Vec<Note>,
 }
 
 impl LoopData {

@@ -24,7 +24,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use crate::{read_csv, DataError, LoopData, ReadOptions};
+use crate::{read_csv, DataError, LoopData, Note, NoteKind, ReadOptions};
 
 /// Deepest nesting of arrays accepted (a guard against hostile files).
 const MAX_DEPTH: usize = 64;
@@ -469,13 +469,13 @@ pub fn read_mat(
                     }
                 ))
             })?;
-            notes.push(format!("loop {p}"));
+            notes.push(Note::new(NoteKind::Source, format!("loop {p}")));
             f
         }
         Some(_) => &vars,
         None if is_loop(&vars, opts) || loops.is_empty() => &vars,
         None if loops.len() == 1 => {
-            notes.push(format!("loop {}", loops[0]));
+            notes.push(Note::new(NoteKind::Source, format!("loop {}", loops[0])));
             at_path(&vars, &loops[0]).unwrap_or(&vars)
         }
         None => {
@@ -547,7 +547,10 @@ pub fn read_mat(
                 MatValue::Numeric(v, _) if v.len() == 1 && v[0].is_finite() && v[0] > 0.0 => {
                     let ts = v[0];
                     columns.insert(0, ("t", (0..len).map(|i| i as f64 * ts).collect()));
-                    notes.push(format!("time from the sampling time Ts = {ts} s"));
+                    notes.push(Note::new(
+                        NoteKind::Source,
+                        format!("time from the sampling time Ts = {ts} s"),
+                    ));
                 }
                 _ => {
                     return Err(mat_err(format!(

@@ -9,7 +9,7 @@ use crate::units::OpRange;
 use std::io::Read;
 use std::path::Path;
 
-use crate::{DataError, LoopData};
+use crate::{DataError, LoopData, Note, NoteKind};
 
 /// What to do with empty or `NaN` cells in the used columns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -226,7 +226,7 @@ pub fn read_csv(
                 .map(|(i, _)| i + 1)
                 .collect();
             if !others.is_empty() {
-                notes.push(format!(
+                notes.push(Note::new(NoteKind::Columns, format!(
                     "{}: {} columns match; using column {} ({:?}), ignoring column(s) {}; name the one you mean with --{}",
                     w.label,
                     others.len() + 1,
@@ -238,7 +238,7 @@ pub fn read_csv(
                         .collect::<Vec<_>>()
                         .join(", "),
                     w.label.to_lowercase()
-                ));
+                )));
             }
         }
         match found {
@@ -272,7 +272,10 @@ pub fn read_csv(
         .map(|(_, h)| h.as_str())
         .collect();
     if !ignored.is_empty() {
-        notes.push(format!("ignored column(s): {}", ignored.join(", ")));
+        notes.push(Note::new(
+            NoteKind::Columns,
+            format!("ignored column(s): {}", ignored.join(", ")),
+        ));
     }
 
     // Parse the rows.
@@ -365,8 +368,9 @@ pub fn read_csv(
         }
     }
     if decimal_commas > 0 {
-        notes.push(format!(
-            "read {decimal_commas} cell(s) with a decimal comma"
+        notes.push(Note::new(
+            NoteKind::Format,
+            format!("read {decimal_commas} cell(s) with a decimal comma"),
         ));
     }
     let needed = opts.min_rows.max(1);
@@ -388,9 +392,9 @@ pub fn read_csv(
                     column: col.name,
                 });
             }
-            notes.push(format!(
-                "column {} ignored: every cell is empty or NaN",
-                col.name
+            notes.push(Note::new(
+                NoteKind::Columns,
+                format!("column {} ignored: every cell is empty or NaN", col.name),
             ));
         } else {
             kept.push(col);
@@ -402,9 +406,12 @@ pub fn read_csv(
     for col in columns.iter_mut().filter(|c| c.role == Role::Mode) {
         let unknown = col.values.iter().filter(|v| v.is_none()).count();
         if unknown > 0 {
-            notes.push(format!(
-                "column {}: {unknown} empty cell(s), taken as not in closed loop",
-                col.name
+            notes.push(Note::new(
+                NoteKind::Mode,
+                format!(
+                    "column {}: {unknown} empty cell(s), taken as not in closed loop",
+                    col.name
+                ),
             ));
             for v in &mut col.values {
                 v.get_or_insert(0.0);
@@ -445,9 +452,12 @@ pub fn read_csv(
                     let lead = col.values.iter().take_while(|v| v.is_none()).count();
                     if col.role == Role::Time {
                         interpolate(&mut col.values);
-                        notes.push(format!(
+                        notes.push(Note::new(
+                            NoteKind::GapsFilled,
+                            format!(
                             "filled {count} gap(s) in column {} by linear interpolation of time",
                             col.name
+                        ),
                         ));
                         continue;
                     }
@@ -466,9 +476,12 @@ pub fn read_csv(
                             None => *v = last,
                         }
                     }
-                    notes.push(format!(
-                        "filled {count} gap(s) in column {} by holding the last value",
-                        col.name
+                    notes.push(Note::new(
+                        NoteKind::GapsFilled,
+                        format!(
+                            "filled {count} gap(s) in column {} by holding the last value",
+                            col.name
+                        ),
                     ));
                 }
             }
@@ -488,17 +501,23 @@ pub fn read_csv(
                 }
                 let (a, b) = best;
                 if b > a {
-                    notes.push(format!(
-                        "dropped gaps: kept rows {}-{} ({} of {} data rows), the longest \
+                    notes.push(Note::new(
+                        NoteKind::RowsDropped,
+                        format!(
+                            "dropped gaps: kept rows {}-{} ({} of {} data rows), the longest \
                          segment without empty or NaN cells ({gap_count} gap cell(s) in total)",
-                        lines[a],
-                        lines[b - 1],
-                        b - a,
-                        n
+                            lines[a],
+                            lines[b - 1],
+                            b - a,
+                            n
+                        ),
                     ));
                 } else {
-                    notes.push(format!(
-                        "dropped gaps: no data row is free of empty or NaN cells ({n} rows)"
+                    notes.push(Note::new(
+                        NoteKind::RowsDropped,
+                        format!(
+                            "dropped gaps: no data row is free of empty or NaN cells ({n} rows)"
+                        ),
                     ));
                 }
                 for col in &mut columns {
@@ -582,7 +601,7 @@ pub fn read_csv(
         }
     }
     if let Some(note) = units.note {
-        data.notes.push(note);
+        data.notes.push(Note::new(NoteKind::Units, note));
     }
     Ok(data)
 }
@@ -734,7 +753,7 @@ fn select_closed_loop(
     file: &str,
     columns: &mut Vec<Column>,
     lines: &mut Vec<u64>,
-    notes: &mut Vec<String>,
+    notes: &mut Vec<Note>,
 ) -> Result<Option<(String, usize)>, DataError> {
     let Some(mi) = columns.iter().position(|c| c.role == Role::Mode) else {
         return Ok(None);
@@ -757,13 +776,13 @@ fn select_closed_loop(
             .enumerate()
             .filter(|(i, c)| !**c && (*i == 0 || closed[i - 1]))
             .count();
-        notes.push(format!(
+        notes.push(Note::new(NoteKind::Mode, format!(
             "column {}: {open} of {n} rows not in closed loop (manual or unknown mode, {stretches} stretch(es)); kept rows {}-{} ({} rows), the longest closed-loop segment",
             columns[mi].name,
             lines[a],
             lines[b - 1],
             b - a
-        ));
+        )));
         keep_rows(columns, lines, a, b);
         cut = Some((columns[mi].name.clone(), n));
     }
@@ -777,7 +796,7 @@ fn check_time(
     gaps: GapPolicy,
     columns: &mut [Column],
     lines: &mut Vec<u64>,
-    notes: &mut Vec<String>,
+    notes: &mut Vec<Note>,
 ) -> Result<(), DataError> {
     let Some(ti) = columns.iter().position(|c| c.role == Role::Time) else {
         return Ok(());
@@ -843,13 +862,13 @@ fn check_time(
                     }
                 }
                 let (a, b) = best;
-                notes.push(format!(
+                notes.push(Note::new(NoteKind::RowsDropped, format!(
                     "column {name}: {} interval(s) longer than 1.5 x the median sampling time {ts} s (up to {largest} s): kept rows {}-{} ({} rows), the longest regularly sampled segment",
                     long.len(),
                     lines[a],
                     lines[b - 1],
                     b - a
-                ));
+                )));
                 keep_rows(columns, lines, a, b);
             }
             GapPolicy::FillHold => {
@@ -884,10 +903,10 @@ fn check_time(
                     col.values = v;
                 }
                 *lines = new_lines;
-                notes.push(format!(
+                notes.push(Note::new(NoteKind::RowsInserted, format!(
                     "column {name}: {} interval(s) longer than 1.5 x the median sampling time {ts} s (up to {largest} s): inserted {inserted} row(s) holding the last values, at the median sampling time",
                     long.len()
-                ));
+                )));
             }
         }
     }
@@ -905,10 +924,10 @@ fn check_time(
     if !dt.is_empty() && ts > 0.0 && (hi - lo) > 1e-6 * ts {
         let dev = ((hi - ts).abs().max((ts - lo).abs())) / ts * 100.0;
         let irregular = dt.iter().filter(|&&d| (d - ts).abs() > 1e-6 * ts).count();
-        notes.push(format!(
+        notes.push(Note::new(NoteKind::Jitter, format!(
             "column {name}: sampling jitter: {irregular} of {} intervals differ from the median {ts} s (from {lo} to {hi} s, up to {dev:.1} %); treated as uniformly sampled",
             dt.len()
-        ));
+        )));
     }
     Ok(())
 }
@@ -922,7 +941,7 @@ fn check_flat(
     file: &str,
     columns: &[Column],
     lines: &[u64],
-    notes: &mut Vec<String>,
+    notes: &mut Vec<Note>,
 ) -> Result<(), DataError> {
     let n = lines.len();
     if n < FLAT_MIN_ROWS {
@@ -957,10 +976,10 @@ fn check_flat(
             });
         }
         if best >= 5 || 20 * repeats >= n {
-            notes.push(format!(
+            notes.push(Note::new(NoteKind::Flat, format!(
                 "column {}: {repeats} of {n} samples repeat the previous value exactly, the longest flat stretch {best} samples from row {} (historian compression or a frozen value?); kept",
                 col.name, lines[best_start]
-            ));
+            )));
         }
     }
     Ok(())

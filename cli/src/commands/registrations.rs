@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use datasets::{parse_registration_name, LoopData};
+use datasets::{parse_registration_name, LoopData, NoteKind};
 use grid_search::Quantification;
 use serde_json::Value;
 
@@ -164,7 +164,7 @@ pub(crate) struct Registration {
     pub time_source: &'static str,
     pub integrating: bool,
     /// Notes of the reader (what was done to the data).
-    pub notes: Vec<String>,
+    pub notes: Vec<datasets::Note>,
     /// Results per combination, or the reason the file could not be used at all.
     pub outcome: Result<Vec<ComboOutcome>, String>,
 }
@@ -289,7 +289,7 @@ fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
     reg
 }
 
-fn fit_of(r: &Run, d: &LoopData, notes: &[String], plan: &Plan<'_>) -> ComboFit {
+fn fit_of(r: &Run, d: &LoopData, notes: &[datasets::Note], plan: &Plan<'_>) -> ComboFit {
     let q = &r.result;
     let json = quantify_json(r, plan.search.init.label());
     let fit_val = q.fits_score(q.criterion);
@@ -322,8 +322,10 @@ pub(crate) fn increments(d: &LoopData) -> LoopData {
         mv: d.mv.as_ref().map(tail),
         notes: d.notes.clone(),
     };
-    out.notes
-        .push("integrating loop: identified from MV to the PV increment ΔPV".into());
+    out.notes.push(datasets::Note::new(
+        datasets::NoteKind::Integrating,
+        "integrating loop: identified from MV to the PV increment ΔPV",
+    ));
     out
 }
 
@@ -335,7 +337,7 @@ pub(crate) fn increments(d: &LoopData) -> LoopData {
 /// front of this evidence; the diagnosis runs only for the registrations that need it.
 pub(crate) trait ExplainFit {
     /// Sentences a plant engineer can read; empty when nothing stands out.
-    fn explain(&self, d: &LoopData, q: &Quantification, notes: &[String]) -> Vec<String>;
+    fn explain(&self, d: &LoopData, q: &Quantification, notes: &[datasets::Note]) -> Vec<String>;
 }
 
 /// The evidence available from the quantification itself.
@@ -353,7 +355,7 @@ pub(crate) struct FitEvidence {
 }
 
 impl ExplainFit for FitEvidence {
-    fn explain(&self, d: &LoopData, q: &Quantification, notes: &[String]) -> Vec<String> {
+    fn explain(&self, d: &LoopData, q: &Quantification, notes: &[datasets::Note]) -> Vec<String> {
         let mut why = Vec::new();
         let fit = q.fits_score(q.criterion);
         if fit < self.min_fit {
@@ -404,11 +406,8 @@ impl ExplainFit for FitEvidence {
             why.push("no stiction needed: S = 0 is inside the likelihood-ratio region".into());
         }
         for n in notes {
-            if n.contains("repeat the previous value")
-                || n.contains("filled")
-                || n.contains("kept rows")
-                || n.contains("inserted")
-            {
+            // Samples made up or left out, a closed-loop segment cut out, flat stretches.
+            if n.kind.changes_samples() || matches!(n.kind, NoteKind::Mode | NoteKind::Flat) {
                 why.push(format!("data: {n}"));
             }
         }

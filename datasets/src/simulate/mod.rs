@@ -642,9 +642,12 @@ impl SimulatedLoop {
             pv: Some(self.pv.clone()),
             op: self.op.clone(),
             mv: Some(self.mv.clone()),
-            notes: vec![format!(
-                "simulated: seed {}, {} samples after a warm-up of {}",
-                self.scenario.seed, self.scenario.samples, self.scenario.warmup
+            notes: vec![crate::Note::new(
+                crate::NoteKind::Source,
+                format!(
+                    "simulated: seed {}, {} samples after a warm-up of {}",
+                    self.scenario.seed, self.scenario.samples, self.scenario.warmup
+                ),
             )],
         }
     }
