@@ -1,8 +1,8 @@
 //! The fast node path (events, ARX from sums, chunked free run) against the sample path on
 //! random simulated loops, for the three built-in valve models as the searched model: the
-//! same surface node by node (same skip reasons, same stationary time, fits equal to 1e-9
-//! relative), the same best node, the same reported fits (the best node is refitted by the
-//! sample path), interval and warnings.
+//! same surface node by node (same skip reasons, same stationary time, fits equal to 1e-4
+//! percentage points), the same best node, the same reported fits (the best node is refitted
+//! by the sample path), interval and warnings.
 //!
 //! 500 loops by default (`PROPTEST_CASES` overrides); each loop is short (400-900 samples) and
 //! its grid coarse, so the suite stays fast. The valve-level bit-identity of MV is
@@ -16,8 +16,17 @@ use linear_id::{Arx, LinearIdentifier};
 use proptest::prelude::*;
 use stiction_models::{find_model, He, Initialization, Kano, KanoAsym, StictionModel};
 
+/// Fits are percentages: compare them on that scale, to 1e-4 percentage points (1e-6 relative
+/// beyond ±100 %). The fast path solves ARX from sums (normal equations, Cholesky), the sample
+/// path by QR of the regression matrix, so the last bits of the coefficients differ, and a
+/// free-run fit near 0 % amplifies them: CI once saw -0.6982960834 vs -0.6982960857 (712
+/// samples; the regression file's fifth case), and a validation fit of -8.3e11 % (validation
+/// PV nearly constant) came out 2.4e-8 relative apart (the seventh). The sixth case was a real
+/// defect: a window where the noise-free PV had settled to its last digits (spread 1e-12),
+/// "identified" by both solvers into fits that were round-off; such a window is now constant
+/// (`linear_id::CONSTANT_SPREAD`).
 fn close(a: f64, b: f64) -> bool {
-    a == b || (a - b).abs() <= 1e-9 * a.abs().max(1.0)
+    a == b || (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(100.0)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -109,7 +118,27 @@ fn compare(
             }
         }
     }
-    prop_assert_eq!(fast.stiction.param_values(), slow.stiction.param_values());
+    // The best node: the same one, unless two nodes tie within the fits' tolerance (then
+    // either is a right answer and the reported fits, refitted at it, differ).
+    if fast.stiction.param_values() != slow.stiction.param_values() {
+        let score = |params: &[f64]| {
+            slow.surface
+                .iter()
+                .find(|n| n.params == params)
+                .map_or(f64::NEG_INFINITY, |n| n.score(criterion))
+        };
+        let (a, b) = (
+            score(&fast.stiction.param_values()),
+            score(&slow.stiction.param_values()),
+        );
+        prop_assert!(
+            close(a, b),
+            "best nodes differ beyond a tie: {} vs {}",
+            a,
+            b
+        );
+        return Ok(());
+    }
     prop_assert_eq!(fast.fits, slow.fits);
     prop_assert_eq!(&fast.mv_est, &slow.mv_est);
     prop_assert_eq!(fast.nodes_skipped, slow.nodes_skipped);

@@ -377,6 +377,25 @@ mod tests {
         (u, y)
     }
 
+    /// An output that settles to the last digits (spread 1e-12 at 47: below any logged
+    /// signal's resolution) is constant for both solvers; a spread of 1e-6 is identified.
+    #[test]
+    fn a_numerically_constant_output_is_refused() {
+        let (u, _) = data(40);
+        let arx = Arx::params().check().unwrap();
+        let flat: Vec<f64> = (0..40).map(|k| 47.3 + 1e-12 / (1.0 + k as f64)).collect();
+        assert!(matches!(
+            arx.identify(&u, &flat),
+            Err(IdError::ConstantInput { signal: "y", .. })
+        ));
+        let sums = arx.output_sums(&flat).unwrap();
+        assert!(sums.identify_window(&u, 0, 40).is_none());
+        let small: Vec<f64> = (0..40)
+            .map(|k| 47.3 + 1e-6 * ((k * 7 % 5) as f64))
+            .collect();
+        assert!(arx.identify(&u, &small).is_ok());
+    }
+
     #[test]
     fn fast_diagnostics_match_prediction() {
         let (u, y) = data(1500);

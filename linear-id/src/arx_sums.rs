@@ -175,8 +175,7 @@ impl ArxOutputSums {
         if uw.iter().any(|v| !v.is_finite()) {
             return None;
         }
-        let y0 = yw[0];
-        if yw.iter().all(|&v| v == y0) {
+        if crate::error::numerically_constant(yw) || crate::error::numerically_constant(uw) {
             return None;
         }
         let d = n + m;
