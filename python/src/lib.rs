@@ -1,0 +1,274 @@
+//! `stiction._native`: the workspace's library crates seen from Python.
+//!
+//! This module is the thin, typed layer; the friendly signatures (pandas DataFrames, keyword
+//! arguments, docstrings) are in `stiction/__init__.py`. Conventions:
+//! - Records cross as CSV text read by `datasets::read_csv`, the reader the CLI uses, so column
+//!   names, units detection, gap handling, notes and error messages are the CLI's own.
+//! - Results cross as JSON text built by the library (the CLI prints the same documents), which
+//!   the Python side turns into plain dicts, or as numpy arrays for series.
+//! - Every long computation runs with the interpreter released (`Python::detach`), so Python
+//!   threads (and Dask's threaded workers) run beside it.
+//! - Errors are exceptions carrying the library's one-line message: `DataError` for input the
+//!   reader or the search refuses, `UsageError` for options that cannot work.
+
+use std::collections::BTreeMap;
+
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use datasets::{GapPolicy, LoopData, OpRange, ReadOptions};
+use stiction_models::{find_model, run_valve, Initialization};
+
+create_exception!(
+    _native,
+    StictionError,
+    PyException,
+    "Base class of the errors raised by stiction."
+);
+create_exception!(
+    _native,
+    DataError,
+    StictionError,
+    "The data were refused (the message names file, row and column where it can)."
+);
+create_exception!(
+    _native,
+    UsageError,
+    StictionError,
+    "An option or argument cannot work (unknown model, bad parameter, ...)."
+);
+
+fn data_err(e: impl std::fmt::Display) -> PyErr {
+    DataError::new_err(e.to_string())
+}
+
+fn usage_err(e: impl std::fmt::Display) -> PyErr {
+    UsageError::new_err(e.to_string())
+}
+
+/// The reader's options from a dict with the CLI's flag names (`pv`, `op`, `sp`, `mv`,
+/// `time`, `mode`, `gaps` = "refuse" | "hold" | "drop", `op_range` = (lo, hi) or None,
+/// `max_rows`).
+#[derive(Debug, Default)]
+struct ReadArgs {
+    pv: Option<String>,
+    op: Option<String>,
+    sp: Option<String>,
+    mv: Option<String>,
+    time: Option<String>,
+    mode: Option<String>,
+    gaps: Option<String>,
+    op_range: Option<(f64, f64)>,
+    max_rows: Option<usize>,
+}
+
+/// [`ReadArgs`] from a dict; an unknown key is a [`UsageError`] (a misspelt option must not be
+/// ignored).
+fn read_args(d: Option<&Bound<'_, PyDict>>) -> PyResult<ReadArgs> {
+    let mut a = ReadArgs::default();
+    let Some(d) = d else { return Ok(a) };
+    for (k, v) in d.iter() {
+        let key: String = k.extract()?;
+        if v.is_none() {
+            continue;
+        }
+        let bad = |e: PyErr| usage_err(format!("reader option {key}: {e}"));
+        match key.as_str() {
+            "pv" => a.pv = Some(v.extract().map_err(bad)?),
+            "op" => a.op = Some(v.extract().map_err(bad)?),
+            "sp" => a.sp = Some(v.extract().map_err(bad)?),
+            "mv" => a.mv = Some(v.extract().map_err(bad)?),
+            "time" => a.time = Some(v.extract().map_err(bad)?),
+            "mode" => a.mode = Some(v.extract().map_err(bad)?),
+            "gaps" => a.gaps = Some(v.extract().map_err(bad)?),
+            "op_range" => a.op_range = Some(v.extract().map_err(bad)?),
+            "max_rows" => a.max_rows = Some(v.extract().map_err(bad)?),
+            other => {
+                return Err(usage_err(format!(
+                    "unknown reader option {other:?}; known: pv, op, sp, mv, time, mode, gaps, op_range, max_rows"
+                )))
+            }
+        }
+    }
+    Ok(a)
+}
+
+impl ReadArgs {
+    fn options(&self, require_pv: bool, min_rows: usize) -> PyResult<ReadOptions> {
+        let gaps = match self.gaps.as_deref() {
+            None | Some("refuse") => GapPolicy::Refuse,
+            Some("hold") => GapPolicy::FillHold,
+            Some("drop") => GapPolicy::DropGaps,
+            Some(other) => {
+                return Err(usage_err(format!(
+                    "gaps={other:?}: expected \"refuse\", \"hold\" or \"drop\""
+                )))
+            }
+        };
+        let op_range = match self.op_range {
+            None => OpRange::Detect,
+            Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo < hi => {
+                OpRange::Given(lo, hi)
+            }
+            Some((lo, hi)) => {
+                return Err(usage_err(format!(
+                    "op_range=({lo}, {hi}): expected (LO, HI) with LO < HI, the closed and the fully open valve in OP's units"
+                )))
+            }
+        };
+        let mut limits = datasets::Limits::default();
+        if let Some(n) = self.max_rows {
+            limits.max_rows = n;
+        }
+        Ok(ReadOptions {
+            pv: self.pv.clone(),
+            op: self.op.clone(),
+            sp: self.sp.clone(),
+            mv: self.mv.clone(),
+            time: self.time.clone(),
+            require_pv,
+            gaps,
+            min_rows,
+            mode: self.mode.clone(),
+            mat_loop: None,
+            op_range,
+            limits,
+        })
+    }
+}
+
+fn read_text(text: &str, source: &str, args: &ReadArgs, require_pv: bool) -> PyResult<LoopData> {
+    let opts = args.options(require_pv, 3)?;
+    datasets::read_csv(text.as_bytes(), source, &opts).map_err(data_err)
+}
+
+fn series<'py>(py: Python<'py>, v: &Option<Vec<f64>>) -> Option<Bound<'py, PyArray1<f64>>> {
+    v.as_ref().map(|v| v.clone().into_pyarray(py))
+}
+
+/// Read a registration from CSV text as the CLI reads a file: a dict with `t`, `sp`, `pv`,
+/// `op`, `mv` (numpy arrays or None), `start` (seconds since the epoch or None), `source` and
+/// `notes` (what the reader did: filled gaps, rescaled OP, ...).
+#[pyfunction]
+#[pyo3(signature = (text, source, options = None, require_pv = true))]
+fn read_csv<'py>(
+    py: Python<'py>,
+    text: &str,
+    source: &str,
+    options: Option<&Bound<'py, PyDict>>,
+    require_pv: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let options = read_args(options)?;
+    let d = py.detach(|| read_text(text, source, &options, require_pv))?;
+    loop_dict(py, &d)
+}
+
+/// Read a registration from a file (CSV or MATLAB) as the CLI does; the same dict as
+/// [`read_csv`].
+#[pyfunction]
+#[pyo3(signature = (path, options = None, require_pv = true))]
+fn read_path<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    options: Option<&Bound<'py, PyDict>>,
+    require_pv: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let opts = read_args(options)?.options(require_pv, 3)?;
+    let d = py
+        .detach(|| datasets::read_path(path, &opts))
+        .map_err(data_err)?;
+    loop_dict(py, &d)
+}
+
+fn loop_dict<'py>(py: Python<'py>, d: &LoopData) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    out.set_item("source", &d.source)?;
+    out.set_item("start", d.start)?;
+    out.set_item("t", series(py, &d.t))?;
+    out.set_item("sp", series(py, &d.sp))?;
+    out.set_item("pv", series(py, &d.pv))?;
+    out.set_item("op", d.op.clone().into_pyarray(py))?;
+    out.set_item("mv", series(py, &d.mv))?;
+    let notes: Vec<String> = d.notes.iter().map(|n| n.to_string()).collect();
+    out.set_item("notes", notes)?;
+    Ok(out)
+}
+
+/// Run a registered stiction model over OP: `(mv, valid_from, fell_back)`.
+#[pyfunction]
+#[pyo3(signature = (op, model, params, init = "In.1"))]
+fn valve<'py>(
+    py: Python<'py>,
+    op: PyReadonlyArray1<'py, f64>,
+    model: &str,
+    params: BTreeMap<String, f64>,
+    init: &str,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, usize, bool)> {
+    let entry = find_model(model).map_err(usage_err)?;
+    let pairs: Vec<(String, f64)> = params.into_iter().collect();
+    let built = entry.build_named(&pairs).map_err(usage_err)?;
+    let init = Initialization::parse(init).ok_or_else(|| {
+        usage_err(format!(
+            "init={init:?}: expected \"In.1\", \"In.2\" or \"In.3\""
+        ))
+    })?;
+    let op = op.as_slice()?.to_vec();
+    let run = py
+        .detach(|| run_valve(built.as_ref(), &op, &init))
+        .map_err(data_err)?;
+    Ok((run.mv.into_pyarray(py), run.valid_from, run.fell_back))
+}
+
+/// Simulate the closed loop described by a scenario (the JSON of `stiction simulate
+/// --print-config`): `(columns, summary)`, columns `t`, `SP`, `PV`, `OP`, `MV` as numpy arrays
+/// (the CSV the CLI writes) and the summary line it prints.
+#[pyfunction]
+fn simulate<'py>(
+    py: Python<'py>,
+    scenario_json: &str,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    let sc = datasets::simulate::Scenario::from_json(scenario_json).map_err(usage_err)?;
+    sc.validate().map_err(usage_err)?;
+    let sim = py.detach(|| sc.simulate()).map_err(data_err)?;
+    let eq = sc.valve.equivalent();
+    let summary = format!(
+        "simulated {} samples (warm-up {} discarded), seed {}: valve {} (S = {}, J = {}), stuck at {:.1} % of samples",
+        sim.len(),
+        sc.warmup,
+        sc.seed,
+        sc.valve.name(),
+        eq.s,
+        eq.j,
+        100.0 * sim.stuck_fraction()
+    );
+    let out = PyDict::new(py);
+    out.set_item("t", sim.t.into_pyarray(py))?;
+    out.set_item("SP", sim.sp.into_pyarray(py))?;
+    out.set_item("PV", sim.pv.into_pyarray(py))?;
+    out.set_item("OP", sim.op.into_pyarray(py))?;
+    out.set_item("MV", sim.mv.into_pyarray(py))?;
+    Ok((out, summary))
+}
+
+/// The default scenario (the paper's benchmark) as JSON.
+#[pyfunction]
+fn default_scenario() -> String {
+    datasets::simulate::Scenario::default().to_json()
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("StictionError", py.get_type::<StictionError>())?;
+    m.add("DataError", py.get_type::<DataError>())?;
+    m.add("UsageError", py.get_type::<UsageError>())?;
+    m.add_function(wrap_pyfunction!(read_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(read_path, m)?)?;
+    m.add_function(wrap_pyfunction!(valve, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(default_scenario, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,116 @@
+"""stiction: how sticky is a control valve, from the data the plant already logs.
+
+The functions take what historian clients and notebooks hold — a pandas DataFrame with the
+reader's column names (`SP`, `PV`, `OP`, optionally `MV` and a time column `t`/`time`, any
+case; a DatetimeIndex becomes the time column), or a dict of numpy arrays — and return plain
+dicts with the keys of the CLI's JSON output (docs/CLI.md). The computation runs in Rust with
+the interpreter released. Errors are exceptions carrying the CLI's one-line messages:
+`DataError` for refused data, `UsageError` for options that cannot work; both derive from
+`StictionError`.
+
+Example:
+    >>> import stiction
+    >>> loop = stiction.simulate(valve={"kind": "kano", "S": 4.0, "J": 1.0}, samples=1500)
+    >>> r = stiction.quantify(loop[["t", "SP", "PV", "OP"]])
+    >>> round(r["S"], 1), round(r["J"], 1)   # doctest: +SKIP
+    (4.0, 1.0)
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Dict, Mapping, Optional, Tuple
+
+import numpy as np
+import pandas as pd
+
+from . import _data
+from ._native import DataError, StictionError, UsageError
+from . import _native
+
+__all__ = [
+    "DataError",
+    "StictionError",
+    "UsageError",
+    "read",
+    "simulate",
+    "valve",
+]
+
+
+def read(
+    data: Any,
+    *,
+    source: Optional[str] = None,
+    require_pv: bool = True,
+    **reader: Any,
+) -> Dict[str, Any]:
+    """Read a registration as the CLI does, and say what the reader did.
+
+    `data` is a DataFrame, a dict of columns or a path (CSV). Reader options, with the CLI's
+    flag names: `pv`, `op`, `sp`, `mv`, `time` (column names), `mode` (controller-mode column),
+    `gaps` ("refuse", "hold", "drop"), `op_range` ((lo, hi) in OP's units), `max_rows`.
+
+    Returns a dict: `t`, `sp`, `pv`, `op`, `mv` (numpy arrays, or None when absent), `start`
+    (seconds since the epoch, or None), `source`, `notes` (list of sentences).
+
+    >>> r = stiction.read({"OP": [0.2, 0.4, 0.5, 0.3], "PV": [1.0, 2.0, 2.5, 1.5]})
+    >>> r["op"]            # rescaled from a 0-1 span to % # doctest: +SKIP
+    array([20., 40., 50., 30.])
+    """
+    if _data.is_path(data):
+        return _native.read_path(str(data), _data.options(reader), require_pv)
+    text = _data.csv_text(data)
+    return _native.read_csv(text, _data.source_name(data, source), _data.options(reader), require_pv)
+
+
+def valve(
+    op: Any,
+    model: str = "kano",
+    params: Optional[Mapping[str, float]] = None,
+    init: str = "In.1",
+) -> Tuple[np.ndarray, int]:
+    """Run a registered stiction model over OP: `(mv, valid_from)`.
+
+    `params` in OP's units, e.g. `{"S": 4, "J": 1}` for kano, `{"fs": 2.5, "fd": 1.5}` for he,
+    `{"D": 3, "J_up": 0.5, "J_dn": 2}` for kano-asym; missing ones are 0. `init` is the paper's
+    initialization "In.1" (valve at rest at OP(0)), "In.2" or "In.3"; `valid_from` is the first
+    sample whose MV does not depend on the valve's unknown initial state (0 for In.1).
+
+    >>> mv, k0 = stiction.valve(np.array([50, 52, 55, 53, 50.0]), "kano", {"S": 4, "J": 1})
+    """
+    arr = np.ascontiguousarray(np.asarray(op, dtype=np.float64))
+    if arr.ndim != 1:
+        raise UsageError(f"op: expected a 1-D series, got shape {arr.shape}")
+    mv, valid_from, _fell_back = _native.valve(arr, model, dict(params or {}), init)
+    return mv, valid_from
+
+
+def simulate(config: Optional[Mapping[str, Any]] = None, **overrides: Any) -> pd.DataFrame:
+    """Simulate a closed loop with a sticky valve (the CLI's `stiction simulate`).
+
+    `config` is a scenario (the JSON of `stiction simulate --print-config`, as a dict or a JSON
+    string); keyword arguments override its top-level keys, e.g.
+    `valve={"kind": "kano", "S": 9, "J": 3}`, `noise_sigma=0.05`, `samples=3000`, `seed=7`,
+    `plant="slow"`, `controller={"kc": 0.5, "ki": 0.5}`. Defaults: the paper's benchmark.
+
+    Returns a DataFrame with the columns of the CLI's CSV: `t`, `SP`, `PV`, `OP`, `MV`; its
+    `attrs["summary"]` is the line the CLI prints.
+
+    >>> loop = stiction.simulate(valve={"kind": "kano", "S": 9, "J": 3}, seed=7)
+    """
+    scenario = json.loads(_native.default_scenario())
+    if isinstance(config, str):
+        config = json.loads(config)
+    if config is not None:
+        scenario.update(config)
+    unknown = set(overrides) - set(scenario)
+    if unknown:
+        raise UsageError(
+            f"unknown scenario key(s) {sorted(unknown)}; known: {sorted(scenario)}"
+        )
+    scenario.update(overrides)
+    columns, summary = _native.simulate(json.dumps(scenario))
+    df = pd.DataFrame(columns, columns=["t", "SP", "PV", "OP", "MV"])
+    df.attrs["summary"] = summary
+    return df

@@ -1,0 +1,81 @@
+"""Turning what Python users hold (DataFrames, dicts of arrays, files) into what the reader reads.
+
+Every record reaches the Rust side as CSV text and is read by the reader the CLI uses
+(`datasets::read_csv`), so the column conventions, OP units detection, gap handling, notes and
+error messages are the same as for a file given to `stiction quantify`.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from typing import Any, Mapping, Optional
+
+import numpy as np
+import pandas as pd
+
+#: The reader's options, with the CLI's flag names.
+READ_OPTIONS = ("pv", "op", "sp", "mv", "time", "mode", "gaps", "op_range", "max_rows")
+
+
+def frame(data: Any) -> pd.DataFrame:
+    """A DataFrame from a DataFrame, a dict of columns, or a structured numpy array.
+
+    A DatetimeIndex (or any named index) becomes a column, so the time stamps a historian
+    client puts in the index reach the reader as its `time` column.
+    """
+    if isinstance(data, pd.DataFrame):
+        df = data
+    elif isinstance(data, Mapping):
+        df = pd.DataFrame({k: np.asarray(v) for k, v in data.items() if v is not None})
+    elif isinstance(data, np.ndarray) and data.dtype.names:
+        df = pd.DataFrame(data)
+    else:
+        raise TypeError(
+            "expected a pandas DataFrame, a dict of columns (e.g. {'OP': op, 'PV': pv}) "
+            f"or a structured numpy array, got {type(data).__name__}"
+        )
+    index = df.index
+    if isinstance(index, pd.DatetimeIndex) or index.name is not None:
+        name = index.name if index.name is not None else "time"
+        if isinstance(index, pd.DatetimeIndex):
+            if index.tz is not None:
+                index = index.tz_convert("UTC").tz_localize(None)
+            values = index.strftime("%Y-%m-%dT%H:%M:%S.%f")
+        else:
+            values = index
+        df = df.reset_index(drop=True)
+        df.insert(0, str(name), values)
+    return df
+
+
+def csv_text(data: Any) -> str:
+    """The CSV text the reader gets for `data` (floats written in their shortest exact form)."""
+    buf = io.StringIO()
+    frame(data).to_csv(buf, index=False)
+    return buf.getvalue()
+
+
+def options(kwargs: Mapping[str, Any]) -> dict:
+    """The reader's options (None values dropped); an unknown name is an error, so a misspelt
+    option is never ignored."""
+    from ._native import UsageError
+
+    unknown = sorted(set(kwargs) - set(READ_OPTIONS))
+    if unknown:
+        raise UsageError(
+            f"unknown option(s) {unknown}; the reader's are {', '.join(READ_OPTIONS)}"
+        )
+    return {k: v for k, v in kwargs.items() if v is not None}
+
+
+def is_path(data: Any) -> bool:
+    return isinstance(data, (str, os.PathLike))
+
+
+def source_name(data: Any, source: Optional[str]) -> str:
+    if source is not None:
+        return source
+    if isinstance(data, pd.DataFrame):
+        return "DataFrame"
+    return "data"
