@@ -7,10 +7,13 @@
 //! no IO and never prints.
 
 mod combination;
+pub mod doc;
+pub mod settings;
 pub mod stats;
 pub mod trend;
 
 pub use combination::{span_of, Combination, Delay, FitSummary, Fitted, MAX_AUTO_DELAY};
+pub use settings::{DelaySetting, SearchSettings};
 pub use stats::{median, roc, theil_sen, Roc};
 pub use trend::{maintenance, trend, Flag, Maintenance, Point, Trend};
 
@@ -27,4 +30,12 @@ pub enum MonitoringError {
     /// The search failed.
     #[error(transparent)]
     Search(#[from] grid_search::SearchError),
+    /// A search setting cannot work (the message names the CLI's flag).
+    #[error("{message}")]
+    Setting {
+        /// The CLI flag of the setting, e.g. `--orders`.
+        flag: &'static str,
+        /// The whole sentence.
+        message: String,
+    },
 }

@@ -20,6 +20,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use datasets::{GapPolicy, LoopData, OpRange, ReadOptions};
+use grid_search::Problem;
+use monitoring::{MonitoringError, SearchSettings};
 use stiction_models::{find_model, run_valve, Initialization};
 
 create_exception!(
@@ -166,6 +168,147 @@ fn read_csv<'py>(
     loop_dict(py, &d)
 }
 
+/// What a quantify or compare call asks for: the combination(s) and the search settings.
+struct Request {
+    stiction: Vec<String>,
+    linear: Vec<String>,
+    settings: SearchSettings,
+}
+
+fn names(v: Option<serde_json::Value>, key: &str, default: &str) -> PyResult<Vec<String>> {
+    match v {
+        None => Ok(vec![default.to_string()]),
+        Some(serde_json::Value::String(s)) => Ok(vec![s]),
+        Some(serde_json::Value::Array(a)) if !a.is_empty() => a
+            .into_iter()
+            .map(|x| match x {
+                serde_json::Value::String(s) => Ok(s),
+                other => Err(usage_err(format!("{key}: expected names, got {other}"))),
+            })
+            .collect(),
+        Some(other) => Err(usage_err(format!(
+            "{key}: expected a name or a list of names, got {other}"
+        ))),
+    }
+}
+
+fn request(settings_json: &str) -> PyResult<Request> {
+    let mut v: serde_json::Map<String, serde_json::Value> =
+        serde_json::from_str(settings_json).map_err(usage_err)?;
+    let stiction = names(v.remove("stiction"), "stiction", "kano")?;
+    let linear = names(v.remove("linear"), "linear", "arx")?;
+    let settings: SearchSettings =
+        serde_json::from_value(serde_json::Value::Object(v)).map_err(usage_err)?;
+    Ok(Request {
+        stiction,
+        linear,
+        settings,
+    })
+}
+
+/// A failed search: bad usage (node budget, invalid option) or refused data, with the source.
+fn search_err(source: &str, e: MonitoringError) -> PyErr {
+    use grid_search::SearchError;
+    match &e {
+        MonitoringError::Search(SearchError::Budget { .. } | SearchError::InvalidOption { .. })
+        | MonitoringError::Setting { .. } => usage_err(format!("{source}: {e}")),
+        _ => data_err(format!("{source}: {e}")),
+    }
+}
+
+/// One combination on a record: the quantify document (with `source`), or the error.
+fn quantify_doc(
+    d: &LoopData,
+    stiction: &str,
+    linear: &str,
+    settings: &SearchSettings,
+) -> Result<serde_json::Value, PyErr> {
+    let combination = settings
+        .combination(stiction, linear)
+        .map_err(|e| search_err(&d.source, e))?;
+    let pv = d.require_pv().map_err(data_err)?;
+    let problem = Problem {
+        op: &d.op,
+        pv,
+        mv: d.mv.as_deref(),
+    };
+    let fitted = combination
+        .run(problem, None)
+        .map_err(|e| search_err(&d.source, e))?;
+    let mut v = monitoring::doc::quantify(&fitted, &settings.init);
+    v["source"] = serde_json::json!(d.source);
+    Ok(v)
+}
+
+/// `command` ("quantify" or "compare") on a record: the CLI's JSON document as text.
+fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
+    let doc = match command {
+        "quantify" => quantify_doc(d, &req.stiction[0], &req.linear[0], &req.settings)?,
+        "compare" => {
+            // settings that cannot work are an error of the call, not of a combination
+            req.settings.options(1.0).map_err(usage_err)?;
+            let mut results = Vec::new();
+            let mut errors = Vec::new();
+            for st in &req.stiction {
+                for li in &req.linear {
+                    match quantify_doc(d, st, li, &req.settings) {
+                        Ok(mut v) => {
+                            if let Some(o) = v.as_object_mut() {
+                                o.remove("source");
+                            }
+                            results.push(v)
+                        }
+                        Err(e) => {
+                            let msg = Python::attach(|py| e.value(py).to_string());
+                            errors.push(monitoring::doc::compare_error(st, li, &msg))
+                        }
+                    }
+                }
+            }
+            monitoring::doc::compare(&d.source, results, errors)
+        }
+        other => return Err(usage_err(format!("unknown command {other:?}"))),
+    };
+    serde_json::to_string(&doc).map_err(data_err)
+}
+
+/// `quantify` / `compare` on CSV text: the JSON document.
+#[pyfunction]
+#[pyo3(signature = (command, text, source, options, settings_json))]
+fn run_csv(
+    py: Python<'_>,
+    command: &str,
+    text: &str,
+    source: &str,
+    options: Option<&Bound<'_, PyDict>>,
+    settings_json: &str,
+) -> PyResult<String> {
+    let reader = read_args(options)?;
+    let req = request(settings_json)?;
+    py.detach(|| {
+        let d = read_text(text, source, &reader, true)?;
+        run_command(command, &d, &req)
+    })
+}
+
+/// `quantify` / `compare` on a file: the JSON document.
+#[pyfunction]
+#[pyo3(signature = (command, path, options, settings_json))]
+fn run_path(
+    py: Python<'_>,
+    command: &str,
+    path: std::path::PathBuf,
+    options: Option<&Bound<'_, PyDict>>,
+    settings_json: &str,
+) -> PyResult<String> {
+    let opts = read_args(options)?.options(true, 3)?;
+    let req = request(settings_json)?;
+    py.detach(|| {
+        let d = datasets::read_path(path, &opts).map_err(data_err)?;
+        run_command(command, &d, &req)
+    })
+}
+
 /// Read a registration from a file (CSV or MATLAB) as the CLI does; the same dict as
 /// [`read_csv`].
 #[pyfunction]
@@ -226,10 +369,7 @@ fn valve<'py>(
 /// --print-config`): `(columns, summary)`, columns `t`, `SP`, `PV`, `OP`, `MV` as numpy arrays
 /// (the CSV the CLI writes) and the summary line it prints.
 #[pyfunction]
-fn simulate<'py>(
-    py: Python<'py>,
-    scenario_json: &str,
-) -> PyResult<(Bound<'py, PyDict>, String)> {
+fn simulate<'py>(py: Python<'py>, scenario_json: &str) -> PyResult<(Bound<'py, PyDict>, String)> {
     let sc = datasets::simulate::Scenario::from_json(scenario_json).map_err(usage_err)?;
     sc.validate().map_err(usage_err)?;
     let sim = py.detach(|| sc.simulate()).map_err(data_err)?;
@@ -267,6 +407,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("UsageError", py.get_type::<UsageError>())?;
     m.add_function(wrap_pyfunction!(read_csv, m)?)?;
     m.add_function(wrap_pyfunction!(read_path, m)?)?;
+    m.add_function(wrap_pyfunction!(run_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(run_path, m)?)?;
     m.add_function(wrap_pyfunction!(valve, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(default_scenario, m)?)?;

@@ -32,10 +32,91 @@ __all__ = [
     "DataError",
     "StictionError",
     "UsageError",
+    "compare",
+    "quantify",
+    "quantify_file",
     "read",
     "simulate",
     "valve",
 ]
+
+#: Search options, with the names of the CLI's flags (`stiction quantify --help`).
+SEARCH_OPTIONS = ("orders", "delay", "step", "init", "criterion", "split", "max_nodes")
+
+
+def _split(kwargs: Dict[str, Any], allowed: Tuple[str, ...]) -> Tuple[dict, dict]:
+    """Separate the reader's options from the command's; anything else is a UsageError."""
+    reader = {k: v for k, v in kwargs.items() if k in _data.READ_OPTIONS}
+    command = {k: v for k, v in kwargs.items() if k in allowed and v is not None}
+    unknown = sorted(set(kwargs) - set(reader) - set(allowed))
+    if unknown:
+        raise UsageError(
+            f"unknown option(s) {unknown}; this function takes {', '.join(allowed)} "
+            f"and the reader's {', '.join(_data.READ_OPTIONS)}"
+        )
+    return _data.options(reader), command
+
+
+def _run(command: str, data: Any, source: Optional[str], allowed: Tuple[str, ...], kwargs) -> Dict[str, Any]:
+    reader, settings = _split(kwargs, allowed)
+    if _data.is_path(data):
+        doc = _native.run_path(command, str(data), reader, json.dumps(settings))
+    else:
+        text = _data.csv_text(data)
+        doc = _native.run_csv(command, text, _data.source_name(data, source), reader, json.dumps(settings))
+    return json.loads(doc)
+
+
+def quantify(
+    data: Any,
+    *,
+    stiction: str = "kano",
+    linear: str = "arx",
+    source: Optional[str] = None,
+    **options: Any,
+) -> Dict[str, Any]:
+    """Quantify stiction in one registration (the CLI's `stiction quantify --json`).
+
+    `data`: a DataFrame or dict of columns (`OP`, `PV`, optionally `SP`, `MV`, time) or a
+    path. `stiction`: a registered stiction model (kano, he, kano-asym, or one a plugin
+    registered); `linear`: an identifier (arx, armax, earx, earmax, ss). Search options, as the
+    CLI's flags: `orders` ("2,2" or "na=2,nb=2"), `delay` (samples or "auto"), `step` (grid
+    step, % of span), `init` ("In.1", "In.2", "In.3"), `criterion` ("prediction",
+    "simulation"), `split` (identification fraction), `max_nodes`; and the reader's options.
+
+    Returns the quantify document: `S`, `J` (% of valve span), `interval`, `fit_pv_val`,
+    `warnings`, ... (docs/CLI.md lists every key).
+
+    >>> r = stiction.quantify(pd.read_csv("loop.csv"))                   # doctest: +SKIP
+    >>> r["S"], r["J"], r["interval"]["S"]                               # doctest: +SKIP
+    """
+    options.update(stiction=stiction, linear=linear)
+    return _run("quantify", data, source, ("stiction", "linear") + SEARCH_OPTIONS, options)
+
+
+def quantify_file(path: Any, **options: Any) -> Dict[str, Any]:
+    """`quantify` on a file (CSV or MATLAB .mat, read by the library as the CLI reads it)."""
+    if not _data.is_path(path):
+        raise UsageError(f"quantify_file: expected a path, got {type(path).__name__}")
+    return quantify(path, **options)
+
+
+def compare(
+    data: Any,
+    *,
+    stiction: Any = ("kano", "he"),
+    linear: Any = ("arx", "armax", "earx", "earmax", "ss"),
+    source: Optional[str] = None,
+    **options: Any,
+) -> Dict[str, Any]:
+    """Every stiction x linear combination on one registration (`stiction compare --json`):
+    `results` (quantify documents) and `errors`. Same options as `quantify`."""
+    options.update(stiction=_names(stiction), linear=_names(linear))
+    return _run("compare", data, source, ("stiction", "linear") + SEARCH_OPTIONS, options)
+
+
+def _names(v: Any) -> list:
+    return [v] if isinstance(v, str) else list(v)
 
 
 def read(

@@ -73,7 +73,7 @@ fn num(x: f64) -> Value {
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let delay = match args.search.delay {
-        DelayFlag::Fixed(d) => d,
+        DelayFlag::Samples(d) => d,
         DelayFlag::Auto => {
             return Err(usage(anyhow!(
                 "--delay auto: diagnose tests the dead time itself (cause time-delay); give the baseline's fixed dead time"

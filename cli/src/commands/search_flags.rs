@@ -2,32 +2,23 @@
 //! the dead time, and the grid.
 
 use anyhow::anyhow;
-use grid_search::{Criterion, GridPlan, SearchOptions};
+use grid_search::SearchOptions;
 use linear_id::{find_identifier, IdentifierEntry, LinearIdentifier};
+use monitoring::settings::parse_orders;
+use monitoring::SearchSettings;
 use stiction_models::Initialization;
 
 use super::valve::parse_init;
 use crate::{usage, Failure};
 
 /// The dead time: fixed or estimated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum DelayFlag {
-    /// A fixed number of samples.
-    Fixed(usize),
-    /// Estimated by the search (`auto`).
-    Auto,
-}
+/// `--delay N|auto` (the library's [`DelaySetting`]).
+pub(crate) use monitoring::DelaySetting as DelayFlag;
 
 pub(crate) fn parse_delay(s: &str) -> Result<DelayFlag, String> {
-    if s.eq_ignore_ascii_case("auto") {
-        return Ok(DelayFlag::Auto);
-    }
-    s.parse::<usize>()
-        .map(DelayFlag::Fixed)
-        .map_err(|_| format!("expected a number of samples or `auto`, got {s:?}"))
+    DelayFlag::parse(s)
 }
 
-/// `--split`: a decimal or `a/b`, strictly between 0 and 1.
 pub(crate) fn parse_split(s: &str) -> Result<f64, String> {
     let v = match s.split_once('/') {
         Some((a, b)) => {
@@ -103,75 +94,48 @@ impl SearchFlags {
         }
     }
 
-    pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
-        let grid = match self.step {
-            Some(step) if step.is_finite() && step > 0.0 => GridPlan::Exhaustive { step },
-            Some(step) => {
-                return Err(usage(anyhow!(
-                    "--step {step}: expected a positive step in OP units"
-                )))
-            }
-            None => GridPlan::for_span(span),
-        };
-        Ok(SearchOptions {
-            init: self.init,
-            grid,
-            split: self.split,
+    /// The library's settings for these flags.
+    pub(crate) fn settings(&self) -> SearchSettings {
+        SearchSettings {
+            orders: self.orders.clone(),
+            delay: self.delay,
+            step: self.step,
+            init: self.init.label().to_string(),
             criterion: match self.criterion {
-                CriterionFlag::Prediction => Criterion::Prediction,
-                CriterionFlag::Simulation => Criterion::Simulation,
-            },
+                CriterionFlag::Prediction => "prediction",
+                CriterionFlag::Simulation => "simulation",
+            }
+            .to_string(),
+            split: self.split,
             max_nodes: self.max_nodes,
-            ..SearchOptions::default()
-        })
+        }
+    }
+
+    pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
+        self.settings().options(span).map_err(usage)
     }
 }
 
 impl SearchFlags {
-    /// The combination `stiction` × `linear` these flags describe: orders, dead time (`auto`
-    /// scans 0..=`monitoring::MAX_AUTO_DELAY`), grid (`--step` = exhaustive, else the default
-    /// for the record's span), initialization, split and criterion. Names, orders and the step
-    /// are checked here (bad usage).
+    /// `stiction` × `linear` with these flags (`SearchSettings::combination`).
     pub(crate) fn combination(
         &self,
         stiction: &str,
         linear: &str,
     ) -> Result<monitoring::Combination, Failure> {
-        let stiction = stiction_models::find_model(stiction).map_err(usage)?;
-        let delay = match self.delay {
-            DelayFlag::Fixed(d) => d,
-            DelayFlag::Auto => 0,
-        };
-        // Builds the identifier once: unknown names, bad orders and a dead time the identifier
-        // has no option for are usage errors.
-        let (_, entry) = build_identifier(linear, self.orders.as_deref(), delay)?;
-        let mut orders = parse_orders(entry, self.orders.as_deref().unwrap_or(""))?;
-        orders.retain(|(k, _)| k != "delay");
-        let options = self.options(1.0)?;
-        Ok(monitoring::Combination {
-            stiction,
-            linear: entry,
-            orders,
-            delay: match self.delay {
-                DelayFlag::Fixed(d) => monitoring::Delay::Fixed(d),
-                DelayFlag::Auto => monitoring::Delay::Auto {
-                    max: monitoring::MAX_AUTO_DELAY,
-                },
-            },
-            grid: self.step.map(|_| options.grid),
-            search: options,
-        })
+        self.settings().combination(stiction, linear).map_err(usage)
     }
 }
 
-/// Build a registered identifier from `--orders` and a delay.
+/// The identifier `name` with `--orders` text and a dead time (usage errors for unknown names,
+/// bad orders, a dead time the identifier has no option for).
 pub(crate) fn build_identifier(
     name: &str,
     orders: Option<&str>,
     delay: usize,
 ) -> Result<(Box<dyn LinearIdentifier>, &'static IdentifierEntry), Failure> {
     let entry = find_identifier(name).map_err(usage)?;
-    let mut pairs = parse_orders(entry, orders.unwrap_or(""))?;
+    let mut pairs = parse_orders(entry, orders.unwrap_or("")).map_err(usage)?;
     pairs.retain(|(k, _)| k != "delay");
     if entry.orders.iter().any(|o| o.name == "delay") {
         pairs.push(("delay".into(), delay as f64));
@@ -183,40 +147,4 @@ pub(crate) fn build_identifier(
     }
     let id = (entry.build)(&pairs).map_err(usage)?;
     Ok((id, entry))
-}
-
-fn parse_orders(entry: &IdentifierEntry, s: &str) -> Result<Vec<(String, f64)>, Failure> {
-    let positional: Vec<&str> = entry
-        .orders
-        .iter()
-        .map(|o| o.name)
-        .filter(|n| *n != "delay")
-        .collect();
-    let mut out = Vec::new();
-    for (i, item) in s
-        .split(',')
-        .map(str::trim)
-        .filter(|t| !t.is_empty())
-        .enumerate()
-    {
-        let (name, value) = match item.split_once('=') {
-            Some((k, v)) => (k.trim().to_string(), v.trim()),
-            None => {
-                let name = positional.get(i).ok_or_else(|| {
-                    usage(anyhow!(
-                        "--orders {s:?}: {} takes at most {} positional orders ({})",
-                        entry.name,
-                        positional.len(),
-                        positional.join(", ")
-                    ))
-                })?;
-                (name.to_string(), item)
-            }
-        };
-        let value: f64 = value
-            .parse()
-            .map_err(|_| usage(anyhow!("--orders: {name} = {value:?} is not a number")))?;
-        out.push((name, value));
-    }
-    Ok(out)
 }

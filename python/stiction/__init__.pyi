@@ -1,0 +1,29 @@
+from os import PathLike
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import pandas as pd
+
+Data = Union[pd.DataFrame, Mapping[str, Any], str, PathLike]
+Names = Union[str, Sequence[str]]
+
+class StictionError(Exception): ...
+class DataError(StictionError): ...
+class UsageError(StictionError): ...
+
+SEARCH_OPTIONS: Tuple[str, ...]
+
+def read(data: Data, *, source: Optional[str] = ..., require_pv: bool = ..., pv: Optional[str] = ...,
+         op: Optional[str] = ..., sp: Optional[str] = ..., mv: Optional[str] = ..., time: Optional[str] = ...,
+         mode: Optional[str] = ..., gaps: Optional[str] = ..., op_range: Optional[Tuple[float, float]] = ...,
+         max_rows: Optional[int] = ...) -> Dict[str, Any]: ...
+def valve(op: Any, model: str = ..., params: Optional[Mapping[str, float]] = ...,
+          init: str = ...) -> Tuple[np.ndarray, int]: ...
+def simulate(config: Optional[Union[Mapping[str, Any], str]] = ..., **overrides: Any) -> pd.DataFrame: ...
+def quantify(data: Data, *, stiction: str = ..., linear: str = ..., source: Optional[str] = ...,
+             orders: Optional[str] = ..., delay: Optional[Union[int, str]] = ..., step: Optional[float] = ...,
+             init: Optional[str] = ..., criterion: Optional[str] = ..., split: Optional[float] = ...,
+             max_nodes: Optional[int] = ..., **reader: Any) -> Dict[str, Any]: ...
+def quantify_file(path: Union[str, PathLike], **options: Any) -> Dict[str, Any]: ...
+def compare(data: Data, *, stiction: Names = ..., linear: Names = ..., source: Optional[str] = ...,
+            **options: Any) -> Dict[str, Any]: ...
