@@ -13,14 +13,19 @@
 //!   [`TestEntry`], like the stiction models; [`registry`] lists them.
 //! * [`run_all`] runs every registered test; a test that cannot judge the registration gives
 //!   an `inconclusive` outcome with the reason.
+//! * [`detect`] runs them and combines their statistics into a score in `[0, 1]` and one
+//!   verdict ([`score`]: a logistic model whose coefficients come from
+//!   `cargo xtask detect-calibrate`).
 //!
 //! ```
-//! use detection::{run_all, Registration, Verdict};
+//! use detection::{detect, Registration, Verdict};
 //! // A loop whose OP and PV never move: nothing to detect.
 //! let pv = vec![50.0; 400];
 //! let op = vec![30.0; 400];
 //! let reg = Registration::new(&pv, &op, 1.0)?;
-//! assert!(run_all(&reg).iter().all(|t| t.verdict != Verdict::Stiction));
+//! let d = detect(&reg);
+//! assert_eq!(d.verdict, Verdict::Inconclusive);
+//! assert!(d.reason.contains("OP is flat"));
 //! # Ok::<(), detection::DetectionError>(())
 //! ```
 //!
@@ -32,7 +37,9 @@
 //! **Hook for more evidence.** A test implemented in another crate (e.g. the Hammerstein
 //! likelihood ratio of the best stiction model against S = J = 0, which needs the grid search
 //! of the `monitoring` crate) registers a [`TestEntry`] the same way; [`detect`] runs it and
-//! lists its outcome.
+//! lists its outcome. It enters the score once [`score::FEATURES`] has a feature for it and
+//! `cargo xtask detect-calibrate` has re-fitted [`score::WEIGHTS`]; a caller that computes such
+//! evidence itself appends its outcome and calls [`combine`].
 
 use std::sync::OnceLock;
 
@@ -41,12 +48,14 @@ pub mod curve_fit;
 pub mod horch;
 pub mod logistic;
 pub mod oscillation;
+pub mod score;
 pub mod shape;
 mod signal;
 #[cfg(test)]
 mod testing;
 
 pub use oscillation::Oscillation;
+pub use score::{combine, detect, detect_with, Detection, Model};
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.
 pub use inventory;

@@ -10,15 +10,16 @@
 //!   not; Yamashita's index is the share of OP's motion during which the proxy is steady.
 //!   Our version, noise-aware where the papers threshold raw differences: OP and the proxy
 //!   `y` are smoothed over 5 samples and cut into windows of an eighth of the oscillation's
-//!   period (5 to 60 samples; 10 without a regular oscillation); the loop's gain
-//!   `K = Σ ΔOP·Δy / Σ ΔOP²` over the windows; a window is *informative* when `K·ΔOP` is
+//!   period (5 to 60 samples; 10 without a regular oscillation); the free valve's gain `K` is
+//!   the median of `Δy/ΔOP` over the windows where `y` clearly moved (more than three noise
+//!   deviations; at least three such windows), since a least-squares gain over all windows
+//!   is pulled towards 0 by the stuck ones; a window is *informative* when `K·ΔOP` is
 //!   larger than four noise deviations of `Δy` (OP moved enough that a free valve would
 //!   have moved `y` visibly), and *stuck* when besides `|Δy|` is below a quarter of `|K·ΔOP|`.
 //!   Statistic: the stuck share of OP's motion over the informative windows,
-//!   `ρ = Σ_stuck |ΔOP| / Σ_informative |ΔOP|`. Verdict: stiction above 0.2, no stiction
-//!   below 0.1, inconclusive between or with fewer than ten informative windows (our
-//!   thresholds: a free valve in a simulated loop gives ρ near 0, a Kano valve with S = 4 %
-//!   about 0.2 to 0.3, because the gain `K` is itself lowered by the stuck windows).
+//!   `ρ = Σ_stuck |ΔOP| / Σ_informative |ΔOP|`. Verdict: stiction above 0.1, no stiction
+//!   below 0.05, inconclusive between or with fewer than ten informative windows (our
+//!   thresholds).
 //! * **Area ratio** — Singhal & Salsbury, "A simple method for detecting valve stiction in
 //!   oscillating control loops", Journal of Process Control 15 (2005) 371-382. In a
 //!   self-regulating PI loop oscillating through stiction the control error builds up while
@@ -58,14 +59,19 @@ pub(crate) fn stick_slip(op: &[f64], y: &[f64], window: usize) -> Option<(f64, u
             (xs[b] - xs[a], ys[b] - ys[a])
         })
         .collect();
-    let sxx: f64 = windows.iter().map(|(dx, _)| dx * dx).sum();
-    let sxy: f64 = windows.iter().map(|(dx, dy)| dx * dy).sum();
-    if sxx <= 0.0 {
-        return None;
-    }
-    let gain = sxy / sxx;
     // Noise of a difference of two 5-sample means of white noise of deviation σ: σ·√(2/5).
     let sigma_dy = noise_scale(&y[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt();
+    // The free valve's gain from the windows where the proxy clearly moved (a stuck valve's
+    // windows would pull a least-squares gain towards 0).
+    let moved: Vec<f64> = windows
+        .iter()
+        .filter(|(dx, dy)| dy.abs() > 3.0 * sigma_dy && *dx != 0.0)
+        .map(|(dx, dy)| dy / dx)
+        .collect();
+    if moved.len() < 3 {
+        return None;
+    }
+    let gain = median(&moved);
     let (mut informative, mut stuck, mut count) = (0.0, 0.0, 0usize);
     for (dx, dy) in windows {
         let expected = (gain * dx).abs();
@@ -111,9 +117,9 @@ impl DetectionTest for StickSlip {
         };
         let verdict = if windows < 10 {
             Verdict::Inconclusive
-        } else if rho > 0.2 {
+        } else if rho > 0.1 {
             Verdict::Stiction
-        } else if rho < 0.1 {
+        } else if rho < 0.05 {
             Verdict::NoStiction
         } else {
             Verdict::Inconclusive
@@ -255,8 +261,8 @@ mod tests {
         let free: Vec<f64> = op.iter().zip(&nz).map(|(a, b)| a + b).collect();
         let (rs, _) = stick_slip(&op, &sticky, WINDOW).unwrap();
         let (rf, _) = stick_slip(&op, &free, WINDOW).unwrap();
-        assert!(rs > 0.2, "sticky {rs}");
-        assert!(rf < 0.1, "free {rf}");
+        assert!(rs > 0.1, "sticky {rs}");
+        assert!(rf < 0.05, "free {rf}");
     }
 
     #[test]

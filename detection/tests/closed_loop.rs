@@ -250,3 +250,46 @@ fn degenerate_records_are_never_called_sticky_and_never_panic() {
     assert!(Registration::new(&flat, &short, 1.0).is_err());
     assert!(Registration::new(&flat, &flat, 0.0).is_err());
 }
+
+/// The combined verdict on the same loops: the calibrated score calls the sticky
+/// self-regulating loop sticky, never the healthy one with an external oscillation, and gives
+/// degenerate records `inconclusive` with the reason.
+#[test]
+fn the_combined_verdict_on_known_loops() {
+    for seed in 1..=3 {
+        let l = sticky(false, seed);
+        let reg = Registration::new(&l.pv, &l.op, 1.0)
+            .unwrap()
+            .with_sp(&l.sp)
+            .unwrap();
+        let d = detection::detect(&reg);
+        assert_eq!(
+            d.verdict,
+            Verdict::Stiction,
+            "seed {seed}: {} {}",
+            d.score,
+            d.reason
+        );
+        assert!(d.oscillating && d.period_s.is_some());
+        for integrating in [false, true] {
+            let l = external(integrating, seed);
+            let reg = Registration::new(&l.pv, &l.op, 1.0)
+                .unwrap()
+                .with_sp(&l.sp)
+                .unwrap()
+                .integrating(integrating);
+            let d = detection::detect(&reg);
+            assert_ne!(
+                d.verdict,
+                Verdict::Stiction,
+                "external {integrating} seed {seed}: {}",
+                d.reason
+            );
+        }
+    }
+    let flat = vec![2.0; 300];
+    let d = detection::detect(&Registration::new(&flat, &flat, 1.0).unwrap());
+    assert_eq!(d.verdict, Verdict::Inconclusive);
+    assert!(d.reason.contains("flat"), "{}", d.reason);
+    assert!((0.0..=1.0).contains(&d.score));
+}
