@@ -71,6 +71,9 @@ enum Command {
     /// Follow one valve over repeated registrations: S trend, outliers explained, maintenance verdict.
     #[command(after_help = commands::trend::AFTER_HELP)]
     Trend(commands::trend::Args),
+    /// Is it the valve? The published stiction detection tests and one calibrated verdict.
+    #[command(after_help = commands::detect::AFTER_HELP)]
+    Detect(commands::detect::Args),
     /// Quantify many loops in parallel: one row per loop (JSON lines and CSV), resumable.
     #[command(after_help = commands::batch::AFTER_HELP)]
     Batch(commands::batch::Args),
@@ -177,6 +180,7 @@ where
         Command::Diagnose(a) => commands::diagnose::run(a, streams),
         Command::Trend(a) => commands::trend::run(a, streams),
         Command::Batch(a) => commands::batch::run(a, streams),
+        Command::Detect(a) => commands::detect::run(a, streams),
     };
     match result {
         Ok(()) => {

@@ -10,12 +10,13 @@
 use std::path::{Path, PathBuf};
 
 /// The library crates the rules apply to.
-pub const LIBRARIES: [&str; 7] = [
+pub const LIBRARIES: [&str; 8] = [
     "stiction-models",
     "linear-id",
     "grid-search",
     "datasets",
     "monitoring",
+    "detection",
     "discrepancy",
     "report",
 ];

@@ -1,6 +1,7 @@
 //! One module per subcommand, plus the argument helpers they share.
 
 pub mod batch;
+pub mod detect;
 pub mod diagnose;
 pub mod identify;
 pub mod load;

@@ -1,0 +1,150 @@
+//! `stiction detect`: is it the valve? The detection crate's tests and one verdict.
+
+use std::path::PathBuf;
+
+use anyhow::anyhow;
+use detection::{detect, Registration};
+use serde_json::{json, Value};
+
+use super::load::{load, DataFlags};
+use super::registrations::IntegratingFlag;
+use crate::{data, usage, CmdResult, Streams};
+
+pub(crate) const AFTER_HELP: &str = "\
+Runs every registered detection test (oscillation, Horch's cross-correlation or integrating
+test, He's curve fit, Choudhury's bicoherence with the PV-OP ellipse, stick-slip, the area
+ratio) on the time series and combines their statistics into a score in [0, 1] (a calibrated
+logistic model) and a verdict: stiction, no-stiction or inconclusive. A loop that neither
+oscillates regularly nor shows stick-slip is never called sticky. The tests and the
+calibration: docs/DETECTION.md.
+
+Examples:
+  stiction detect loop.csv
+  stiction detect 2111LIC31102B_20240823-2155.csv --integrating auto
+  stiction detect loop.csv --json";
+
+/// Arguments of `stiction detect`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// CSV or MAT file with PV and OP columns (optional SP, time); `-` for standard input.
+    file: PathBuf,
+    /// Whether the loop is integrating (a level): `auto` takes level loops by the tag's first
+    /// letter `L` (ISA-5.1) in the file name, as `trend` and `batch` do.
+    #[arg(long, value_enum, default_value = "auto")]
+    integrating: IntegratingFlag,
+    #[command(flatten)]
+    data: DataFlags,
+    /// Not available for `detect` yet (refused).
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Print one JSON document.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `stiction detect`.
+pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
+    if args.report.is_some() {
+        return Err(usage(anyhow!(
+            "detect: --report is not available yet; use --json, or `stiction quantify --report DIR` for the pictures"
+        )));
+    }
+    let d = load(&args.file, &args.data, true, 30, s)?;
+    let pv = d.require_pv().map_err(data)?;
+    // Seconds per sample from the time column (its median step), else 1 s.
+    let ts =
+        d.t.as_ref()
+            .map(|t| {
+                let dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+                monitoring::median(&dts)
+            })
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .unwrap_or(1.0);
+    let name = args
+        .file
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let valve = name.split('_').next().unwrap_or("");
+    let integrating = args.integrating.applies(valve);
+    let mut reg = Registration::new(pv, &d.op, ts)
+        .map_err(|e| data(anyhow!("{}: {e}", d.source)))?
+        .integrating(integrating);
+    if let Some(sp) = d.sp.as_deref() {
+        reg = reg
+            .with_sp(sp)
+            .map_err(|e| data(anyhow!("{}: {e}", d.source)))?;
+    }
+    let det = detect(&reg);
+    if args.json {
+        let tests: Vec<Value> = det
+            .tests
+            .iter()
+            .map(|t| {
+                json!({
+                    "name": t.name,
+                    "statistic": t.statistic.filter(|v| v.is_finite()),
+                    "verdict": t.verdict.as_str(),
+                    "evidence": t.evidence,
+                })
+            })
+            .collect();
+        let doc = json!({
+            "source": d.source,
+            "score": det.score,
+            "verdict": det.verdict.as_str(),
+            "reason": det.reason,
+            "oscillating": det.oscillating,
+            "period_s": det.period_s,
+            "integrating": det.integrating,
+            "sample_time_s": ts,
+            "tests": tests,
+        });
+        writeln!(s.stdout, "{doc:#}").map_err(data)?;
+        return Ok(());
+    }
+    let out = &mut *s.stdout;
+    writeln!(
+        out,
+        "{}: {} (score {:.2}): {}",
+        d.source, det.verdict, det.score, det.reason
+    )
+    .map_err(data)?;
+    writeln!(
+        out,
+        "  {}; {} loop; {} samples every {ts} s",
+        match det.period_s {
+            Some(p) => format!("oscillating, period {p:.0} s"),
+            None => "no regular oscillation".to_string(),
+        },
+        if det.integrating {
+            "integrating"
+        } else {
+            "self-regulating"
+        },
+        reg.len()
+    )
+    .map_err(data)?;
+    writeln!(
+        out,
+        "  {:18} {:>9}  {:12}  evidence",
+        "test", "statistic", "verdict"
+    )
+    .map_err(data)?;
+    for t in &det.tests {
+        let stat = t
+            .statistic
+            .filter(|v| v.is_finite())
+            .map_or("-".to_string(), |v| format!("{v:.3}"));
+        writeln!(
+            out,
+            "  {:18} {:>9}  {:12}  {}",
+            t.name,
+            stat,
+            t.verdict.as_str(),
+            t.evidence
+        )
+        .map_err(data)?;
+    }
+    Ok(())
+}

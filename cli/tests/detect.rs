@@ -1,0 +1,128 @@
+//! `stiction detect` end to end, in memory: bad input, a flat record, a sticky loop.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+use common::run;
+use serde_json::Value;
+
+fn json(args: &[&str], stdin: &[u8]) -> Value {
+    let o = run(args, stdin);
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    serde_json::from_str(&o.stdout).expect("one JSON document")
+}
+
+#[test]
+fn bad_input_gets_the_same_one_line_error_as_quantify() {
+    let bad = b"OP,PV\n1,2\nabc,3\n";
+    let d = run(&["detect", "-"], bad);
+    let q = run(&["quantify", "-"], bad);
+    assert_eq!(d.code, 1);
+    assert_eq!(d.code, q.code);
+    assert_eq!(d.stderr, q.stderr);
+    assert_eq!(d.stderr.lines().count(), 1, "{}", d.stderr);
+    assert!(
+        d.stderr.starts_with("error: -: row 3, column OP"),
+        "{}",
+        d.stderr
+    );
+    let missing = run(&["detect", "no-such-file.csv"], b"");
+    assert_eq!(missing.code, 1);
+    assert_eq!(missing.stderr.lines().count(), 1, "{}", missing.stderr);
+}
+
+#[test]
+fn report_is_refused_as_bad_usage() {
+    let o = run(&["detect", "-", "--report", "out"], b"OP,PV\n1,2\n");
+    assert_eq!(o.code, 2, "{}", o.stderr);
+    assert!(
+        o.stderr.contains("--report is not available"),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
+fn a_flat_record_is_not_called_sticky_and_says_why() {
+    let mut csv = String::from("t,SP,PV,OP\n");
+    for k in 0..400 {
+        csv.push_str(&format!("{k},50,50,30\n"));
+    }
+    // The reader refuses a record whose PV is flat over half of it: that is its one-line error.
+    let o = run(&["detect", "-"], csv.as_bytes());
+    if o.code == 0 {
+        assert!(!o.stdout.contains(": stiction "), "{}", o.stdout);
+    } else {
+        assert_eq!(o.code, 1);
+        assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
+    }
+    // OP flat but PV moving: read, judged inconclusive with the reason.
+    let mut csv = String::from("t,SP,PV,OP\n");
+    for k in 0..400 {
+        csv.push_str(&format!(
+            "{k},50,{},30\n",
+            50.0 + ((k * 37) % 11) as f64 * 0.1
+        ));
+    }
+    let o = run(&["detect", "-", "--op-range", "0,100"], csv.as_bytes());
+    if o.code == 0 {
+        assert!(o.stdout.contains("inconclusive"), "{}", o.stdout);
+        assert!(o.stdout.contains("OP is flat"), "{}", o.stdout);
+    } else {
+        assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
+    }
+}
+
+#[test]
+fn a_generated_sticky_loop_is_stiction_with_the_contract_keys() {
+    // A slow self-regulating plant, PI 0.3/0.1, Kano S = 4, J = 1, constant set point: a limit
+    // cycle (the same loop as the detection crate's tests).
+    let dir = std::env::temp_dir().join(format!("stiction-detect-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let config = dir.join("sticky.json");
+    std::fs::write(
+        &config,
+        r#"{"plant": "slow", "controller": {"kc": 0.3, "ki": 0.1},
+            "setpoint": {"step": 0, "switch_probability": 0},
+            "valve": {"kind": "kano", "S": 4, "J": 1},
+            "noise_sigma": 0.02, "samples": 1000, "warmup": 500, "seed": 1}"#,
+    )
+    .unwrap();
+    let sim = run(&["simulate", "--config", config.to_str().unwrap()], b"");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(sim.code, 0, "{}", sim.stderr);
+    let v = json(
+        &["detect", "-", "--json", "--integrating", "no"],
+        sim.stdout.as_bytes(),
+    );
+    for key in [
+        "score",
+        "verdict",
+        "oscillating",
+        "period_s",
+        "integrating",
+        "tests",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key} in {v}");
+    }
+    let score = v["score"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&score));
+    assert_eq!(v["verdict"], "stiction", "{v:#}");
+    assert_eq!(v["oscillating"], true);
+    assert!(v["period_s"].as_f64().unwrap() > 10.0);
+    assert_eq!(v["integrating"], false);
+    let tests = v["tests"].as_array().unwrap();
+    assert!(tests.len() >= 7);
+    for t in tests {
+        for key in ["name", "statistic", "verdict", "evidence"] {
+            assert!(t.get(key).is_some(), "{t}");
+        }
+    }
+    // The same loop as text: the verdict line first, then the test table.
+    let o = run(
+        &["detect", "-", "--integrating", "no"],
+        sim.stdout.as_bytes(),
+    );
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    assert!(o.stdout.starts_with("-: stiction (score"), "{}", o.stdout);
+    assert!(o.stdout.contains("horch-xcorr"), "{}", o.stdout);
+}

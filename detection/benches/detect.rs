@@ -1,0 +1,39 @@
+//! `detect` on one registration of 751 samples (the plant data's length): every registered test
+//! and the score (`cargo xtask bench detect`; target < 50 ms).
+
+use datasets::simulate::{Controller, Plant, PlantSpec, Scenario, Setpoint};
+use detection::{detect, Registration};
+use stiction_models::Kano;
+
+fn main() {
+    divan::main();
+}
+
+/// A slow self-regulating plant under PI with a Kano valve S = 4, J = 1: a limit cycle.
+fn registration() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let sim = Scenario {
+        plant: PlantSpec::Explicit(Plant::slow()),
+        controller: Controller { kc: 0.3, ki: 0.1 },
+        setpoint: Setpoint::constant(),
+        valve: Box::new(Kano::params().s(4.0).j(1.0).check().expect("valid")),
+        noise_sigma: 0.02,
+        samples: 751,
+        sample_time: 10.0,
+        ..Scenario::default()
+    }
+    .simulate()
+    .expect("simulates");
+    (sim.sp, sim.pv, sim.op)
+}
+
+#[divan::bench]
+fn detect_751_samples(bencher: divan::Bencher) {
+    let (sp, pv, op) = registration();
+    bencher.bench(|| {
+        let reg = Registration::new(&pv, &op, 10.0)
+            .expect("same lengths")
+            .with_sp(&sp)
+            .expect("same lengths");
+        detect(divan::black_box(&reg))
+    });
+}

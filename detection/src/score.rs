@@ -1,0 +1,217 @@
+//! One verdict: the tests' statistics combined into a probability of stiction.
+//!
+//! The rule is a logistic model, `score = σ(b + Σ wᵢ xᵢ)`, on the few [`FEATURES`] below: each
+//! is one test's statistic, centred so that 0 means "no information" (a test that could not
+//! judge the registration, or does not apply to its loop kind, contributes 0). The
+//! coefficients [`INTERCEPT`] and [`WEIGHTS`] were fitted by `cargo xtask detect-calibrate`
+//! (ridge-penalised logistic regression, [`crate::logistic`]) on simulated loops of both kinds
+//! and the shared plant registrations; that command also validates the rule leaving one valve
+//! out (`docs/DETECTION.md` has the numbers).
+//!
+//! The verdict: `stiction` when the score is at least [`STICTION_AT`] *and* the loop shows
+//! the valve's dynamics — a regular oscillation (a limit cycle) or stick-slip (the stick-slip
+//! test's own verdict): the shape tests alone never call a loop that does not oscillate and
+//! does not stick sticky; `no-stiction` when the score is at most [`NO_STICTION_AT`];
+//! `inconclusive` between, and whenever the data cannot be judged (too short, flat, NaN),
+//! with the reason.
+
+use crate::logistic::sigmoid;
+use crate::{run_all, DetectionError, Registration, TestOutcome, Verdict};
+
+/// One input of the score: a test's statistic, centred and clipped.
+#[derive(Debug, Clone, Copy)]
+pub struct Feature {
+    /// Short name (`stick_slip`).
+    pub name: &'static str,
+    /// The test it comes from.
+    pub test: &'static str,
+    /// What the number is.
+    pub meaning: &'static str,
+    /// From the test's outcome (`None`: the neutral 0).
+    pub extract: fn(&TestOutcome) -> Option<f64>,
+}
+
+fn stat(o: &TestOutcome) -> Option<f64> {
+    o.statistic.filter(|v| v.is_finite())
+}
+
+/// The score's inputs, in the order of [`WEIGHTS`]. The oscillation's regularity is not one of
+/// them: a regular oscillation is a condition of the `stiction` verdict (or stick-slip), not
+/// evidence for it — healthy loops oscillate too (external disturbances, tuning), and on the
+/// plant data the sticky valve's records are the irregular ones.
+pub const FEATURES: [Feature; 6] = [
+    Feature {
+        name: "odd_share",
+        test: "horch-xcorr",
+        meaning: "odd share of the OP-PV cross-correlation − 0.5",
+        extract: |o| stat(o).map(|s| s - 0.5),
+    },
+    Feature {
+        name: "d2_kurtosis",
+        test: "horch-integrating",
+        meaning: "(kurtosis of PV's second difference − 2.75) / 1.5, clipped to [−1, 1]",
+        extract: |o| stat(o).map(|k| ((k - 2.75) / 1.5).clamp(-1.0, 1.0)),
+    },
+    Feature {
+        name: "triangularity",
+        test: "curve-fit",
+        meaning: "He's stiction index SI − 0.5",
+        extract: |o| stat(o).map(|s| s - 0.5),
+    },
+    Feature {
+        name: "ngi",
+        test: "bicoherence",
+        meaning: "100 · NGI, clipped to [−1, 1]",
+        extract: |o| o.value("ngi").map(|g| (100.0 * g).clamp(-1.0, 1.0)),
+    },
+    Feature {
+        name: "stuck_share",
+        test: "stick-slip",
+        meaning: "share of OP's motion with the valve's proxy steady − 0.15",
+        extract: |o| stat(o).map(|r| r - 0.15),
+    },
+    Feature {
+        name: "log_area_ratio",
+        test: "area-ratio",
+        meaning: "ln R, clipped to [−1, 1]",
+        extract: |o| stat(o).map(|r| r.ln().clamp(-1.0, 1.0)),
+    },
+];
+
+/// The calibrated intercept: printed by `cargo xtask detect-calibrate` (240 simulated
+/// training loops, seeds 1..240, and the 47 readable registrations of `shared/data/plant`;
+/// ridge 0.1).
+pub const INTERCEPT: f64 = 0.0299;
+/// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]).
+pub const WEIGHTS: [f64; 6] = [1.6061, -0.3323, 2.7451, -0.2501, 1.1581, 1.5034];
+
+/// Score at or above which the verdict may be `stiction`.
+pub const STICTION_AT: f64 = 0.65;
+/// Score at or below which the verdict is `no-stiction`.
+pub const NO_STICTION_AT: f64 = 0.35;
+
+/// A logistic model on [`FEATURES`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model {
+    /// Intercept.
+    pub intercept: f64,
+    /// One weight per feature.
+    pub weights: Vec<f64>,
+}
+
+impl Model {
+    /// The calibrated model ([`INTERCEPT`], [`WEIGHTS`]).
+    pub fn calibrated() -> Model {
+        Model {
+            intercept: INTERCEPT,
+            weights: WEIGHTS.to_vec(),
+        }
+    }
+
+    /// The probability of stiction for feature values `x`.
+    pub fn score(&self, x: &[f64]) -> f64 {
+        let z: f64 = self.intercept + self.weights.iter().zip(x).map(|(w, v)| w * v).sum::<f64>();
+        sigmoid(z)
+    }
+}
+
+/// The feature values of a registration's outcomes (0 where a test is missing or gave no
+/// statistic).
+pub fn features(outcomes: &[TestOutcome]) -> Vec<f64> {
+    FEATURES
+        .iter()
+        .map(|f| {
+            outcomes
+                .iter()
+                .find(|o| o.name == f.test)
+                .and_then(f.extract)
+                .filter(|v| v.is_finite())
+                .unwrap_or(0.0)
+        })
+        .collect()
+}
+
+/// The combined answer for one registration.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Detection {
+    /// Probability of stiction in `[0, 1]` from the logistic model (with no usable evidence,
+    /// the model's base rate `σ(b)`).
+    pub score: f64,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Why, in one sentence.
+    pub reason: String,
+    /// Whether the control error oscillates regularly.
+    pub oscillating: bool,
+    /// The oscillation's period in seconds, when it oscillates regularly.
+    pub period_s: Option<f64>,
+    /// Whether the loop was treated as integrating.
+    pub integrating: bool,
+    /// Every test's outcome, in registry order.
+    pub tests: Vec<TestOutcome>,
+}
+
+/// Run every registered test on `reg` and combine them with the calibrated model.
+pub fn detect(reg: &Registration<'_>) -> Detection {
+    detect_with(reg, &Model::calibrated())
+}
+
+/// Run every registered test on `reg` and combine them with `model`.
+pub fn detect_with(reg: &Registration<'_>, model: &Model) -> Detection {
+    combine(reg, run_all(reg), model)
+}
+
+/// Combine already computed outcomes (e.g. with extra evidence appended by the caller).
+pub fn combine(reg: &Registration<'_>, tests: Vec<TestOutcome>, model: &Model) -> Detection {
+    let score = model.score(&features(&tests));
+    let osc = reg.oscillation().ok().copied();
+    let oscillating = osc.is_some_and(|o| o.is_regular());
+    let period_s = osc
+        .filter(|o| o.is_regular())
+        .and_then(|o| o.period)
+        .map(|p| p * reg.sample_time());
+    let stick_slip = tests
+        .iter()
+        .any(|t| t.name == "stick-slip" && t.verdict == Verdict::Stiction);
+    let (verdict, reason) = match reg.check() {
+        Err(e) => (Verdict::Inconclusive, degenerate_reason(&e)),
+        Ok(()) if score >= STICTION_AT && (oscillating || stick_slip) => (
+            Verdict::Stiction,
+            format!(
+                "score {score:.2} >= {STICTION_AT} with {}",
+                match (oscillating, stick_slip) {
+                    (true, true) => "a regular oscillation and stick-slip",
+                    (true, false) => "a regular oscillation",
+                    _ => "stick-slip",
+                }
+            ),
+        ),
+        Ok(()) if score >= STICTION_AT => (
+            Verdict::Inconclusive,
+            format!(
+                "score {score:.2} >= {STICTION_AT}, but no regular oscillation and no stick-slip: the shape tests alone do not make a sticky valve"
+            ),
+        ),
+        Ok(()) if score <= NO_STICTION_AT => (
+            Verdict::NoStiction,
+            format!("score {score:.2} <= {NO_STICTION_AT}"),
+        ),
+        Ok(()) => (
+            Verdict::Inconclusive,
+            format!("score {score:.2} between {NO_STICTION_AT} and {STICTION_AT}"),
+        ),
+    };
+    Detection {
+        score,
+        verdict,
+        reason,
+        oscillating,
+        period_s,
+        integrating: reg.is_integrating(),
+        tests,
+    }
+}
+
+fn degenerate_reason(e: &DetectionError) -> String {
+    format!("the data cannot be judged: {e}")
+}

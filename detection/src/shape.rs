@@ -1,0 +1,287 @@
+//! Stick-slip in the OP-PV plane, and Singhal & Salsbury's area ratio.
+//!
+//! * **Stick-slip** — after Kano, Maruta, Kugemoto & Shimizu, "Practical model and detection
+//!   algorithm for valve stiction", IFAC DYCOPS (2004), and Yamashita, "An automatic method
+//!   for detection of valve stiction in process control loops", Control Engineering Practice
+//!   14 (2006) 503-510. A sticky valve stays put while OP moves (stuck), then jumps. Where the
+//!   valve position is not logged, a fast self-regulating loop's PV (a flow) stands for it,
+//!   and an integrating loop's PV *increment* ΔPV (the level's rate, proportional to the
+//!   flow) does. Both papers look for stretches where OP changes and the valve's proxy does
+//!   not; Yamashita's index is the share of OP's motion during which the proxy is steady.
+//!   Our version, noise-aware where the papers threshold raw differences: OP and the proxy
+//!   `y` are smoothed over 5 samples and cut into windows of an eighth of the oscillation's
+//!   period (5 to 60 samples; 10 without a regular oscillation); the free valve's gain `K` is
+//!   the median of `Δy/ΔOP` over the windows where `y` clearly moved (more than three noise
+//!   deviations; at least three such windows), since a least-squares gain over all windows
+//!   is pulled towards 0 by the stuck ones; a window is *informative* when `K·ΔOP` is
+//!   larger than four noise deviations of `Δy` (OP moved enough that a free valve would
+//!   have moved `y` visibly), and *stuck* when besides `|Δy|` is below a quarter of `|K·ΔOP|`.
+//!   Statistic: the stuck share of OP's motion over the informative windows,
+//!   `ρ = Σ_stuck |ΔOP| / Σ_informative |ΔOP|`. Verdict: stiction above 0.1, no stiction
+//!   below 0.05, inconclusive between or with fewer than ten informative windows (our
+//!   thresholds).
+//! * **Area ratio** — Singhal & Salsbury, "A simple method for detecting valve stiction in
+//!   oscillating control loops", Journal of Process Control 15 (2005) 371-382. In a
+//!   self-regulating PI loop oscillating through stiction the control error builds up while
+//!   the valve is stuck and collapses at the slip, so in each half cycle the area of the error
+//!   before its peak `A₁` exceeds the area after it `A₂`; a sinusoid gives `R = A₁/A₂ = 1`.
+//!   Statistic: the median `R` over the half cycles of the error smoothed over a fortieth of
+//!   the period. Verdict: stiction when `R >= 1.5`, no stiction when `R <= 1.2`,
+//!   inconclusive between. It applies to self-regulating loops only.
+
+use crate::signal::{median, noise_scale, smooth, std_dev, zero_crossings};
+use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
+
+/// Smoothing half-width (samples) of the stick-slip test.
+const SMOOTH: usize = 2;
+/// Window length (samples) of the stick-slip test without a regular oscillation.
+const WINDOW: usize = 10;
+
+/// The stick-slip test's window: an eighth of the period (5 to 60 samples) when the loop
+/// oscillates regularly, else [`WINDOW`].
+pub(crate) fn window(period: Option<f64>) -> usize {
+    period.map_or(WINDOW, |p| ((p / 8.0).round() as usize).clamp(5, 60))
+}
+
+/// The stick-slip index of OP and the valve's proxy `y` over windows of `window` samples;
+/// `(ρ, informative windows)`.
+pub(crate) fn stick_slip(op: &[f64], y: &[f64], window: usize) -> Option<(f64, usize)> {
+    let n = op.len().min(y.len());
+    let window = window.max(2);
+    if n < 3 * window {
+        return None;
+    }
+    let xs = smooth(&op[..n], SMOOTH);
+    let ys = smooth(&y[..n], SMOOTH);
+    let windows: Vec<(f64, f64)> = (0..n / window)
+        .map(|w| {
+            let (a, b) = (w * window, (w + 1) * window - 1);
+            (xs[b] - xs[a], ys[b] - ys[a])
+        })
+        .collect();
+    // Noise of a difference of two 5-sample means of white noise of deviation σ: σ·√(2/5).
+    let sigma_dy = noise_scale(&y[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt();
+    // The free valve's gain from the windows where the proxy clearly moved (a stuck valve's
+    // windows would pull a least-squares gain towards 0).
+    let moved: Vec<f64> = windows
+        .iter()
+        .filter(|(dx, dy)| dy.abs() > 3.0 * sigma_dy && *dx != 0.0)
+        .map(|(dx, dy)| dy / dx)
+        .collect();
+    if moved.len() < 3 {
+        return None;
+    }
+    let gain = median(&moved);
+    let (mut informative, mut stuck, mut count) = (0.0, 0.0, 0usize);
+    for (dx, dy) in windows {
+        let expected = (gain * dx).abs();
+        if expected > 4.0 * sigma_dy && expected > 0.0 {
+            informative += dx.abs();
+            count += 1;
+            if dy.abs() < 0.25 * expected {
+                stuck += dx.abs();
+            }
+        }
+    }
+    (informative > 0.0).then(|| (stuck / informative, count))
+}
+
+/// The stick-slip test (Kano et al. 2004; Yamashita 2006).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StickSlip;
+
+impl DetectionTest for StickSlip {
+    fn name(&self) -> &'static str {
+        "stick-slip"
+    }
+    fn run(&self, reg: &Registration<'_>) -> Result<TestOutcome, DetectionError> {
+        let o = reg.prepared()?.oscillation;
+        let w = window(o.period.filter(|_| o.is_regular()));
+        let (proxy, y): (&str, Vec<f64>) = if reg.is_integrating() {
+            ("ΔPV", reg.pv().windows(2).map(|w| w[1] - w[0]).collect())
+        } else {
+            ("PV", reg.pv().to_vec())
+        };
+        let op = if reg.is_integrating() {
+            &reg.op()[1..]
+        } else {
+            reg.op()
+        };
+        let Some((rho, windows)) = stick_slip(op, &y, w) else {
+            return Ok(TestOutcome::new(
+                "stick-slip",
+                None,
+                Verdict::Inconclusive,
+                format!("OP never moved enough to move {proxy} visibly above its noise"),
+            ));
+        };
+        let verdict = if windows < 10 {
+            Verdict::Inconclusive
+        } else if rho > 0.1 {
+            Verdict::Stiction
+        } else if rho < 0.05 {
+            Verdict::NoStiction
+        } else {
+            Verdict::Inconclusive
+        };
+        let mut out = TestOutcome::new(
+            "stick-slip",
+            Some(rho),
+            verdict,
+            format!(
+                "{proxy} stayed put during {:.0} % of OP's motion ({windows} informative windows of {w} samples)",
+                100.0 * rho
+            ),
+        );
+        out.values = vec![("windows", windows as f64)];
+        Ok(out)
+    }
+}
+
+/// Median area ratio `A₁/A₂` over the half cycles of `e`, and the number of half cycles.
+pub(crate) fn area_ratio(e: &[f64], period: f64) -> Option<(f64, usize)> {
+    let h = ((period / 80.0).round() as usize).max(1);
+    let s = smooth(e, h);
+    let z = zero_crossings(&s, 0.2 * std_dev(&s));
+    let mut ratios = Vec::new();
+    for w in z.windows(2) {
+        let (a, b) = (
+            w[0].ceil() as usize,
+            (w[1].floor() as usize).min(s.len() - 1),
+        );
+        if b <= a + 3 || (w[1] - w[0]) > 1.5 * period {
+            continue;
+        }
+        let seg = &s[a..=b];
+        let peak = (0..seg.len())
+            .max_by(|&i, &j| seg[i].abs().total_cmp(&seg[j].abs()))
+            .unwrap_or(0);
+        let a1: f64 = seg[..=peak].iter().map(|v| v.abs()).sum::<f64>() - 0.5 * seg[peak].abs();
+        let a2: f64 = seg[peak..].iter().map(|v| v.abs()).sum::<f64>() - 0.5 * seg[peak].abs();
+        if a1 > 0.0 && a2 > 0.0 {
+            ratios.push(a1 / a2);
+        }
+    }
+    (ratios.len() >= 2).then(|| (median(&ratios), ratios.len()))
+}
+
+/// Singhal & Salsbury's area-ratio test.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AreaRatio;
+
+impl DetectionTest for AreaRatio {
+    fn name(&self) -> &'static str {
+        "area-ratio"
+    }
+    fn run(&self, reg: &Registration<'_>) -> Result<TestOutcome, DetectionError> {
+        let p = reg.prepared()?;
+        if reg.is_integrating() {
+            return Err(DetectionError::NotApplicable(
+                "the area ratio is for self-regulating loops",
+            ));
+        }
+        let o = p.oscillation;
+        let period = o
+            .period
+            .filter(|_| o.is_regular())
+            .ok_or(DetectionError::NoOscillation {
+                regularity: o.regularity,
+            })?;
+        let (r, halves) = area_ratio(&p.error, period).ok_or(DetectionError::NoOscillation {
+            regularity: o.regularity,
+        })?;
+        let verdict = if r >= 1.5 {
+            Verdict::Stiction
+        } else if r <= 1.2 {
+            Verdict::NoStiction
+        } else {
+            Verdict::Inconclusive
+        };
+        Ok(TestOutcome::new(
+            "area-ratio",
+            Some(r),
+            verdict,
+            format!(
+                "control error's area before / after its peak: median R = {r:.2} over {halves} half cycles (1 for a sinusoid)"
+            ),
+        ))
+    }
+}
+
+inventory::submit! {
+    TestEntry {
+        name: "stick-slip",
+        description: "share of OP's motion during which PV (ΔPV for integrating loops) stays put",
+        reference: "Kano et al. (2004), IFAC DYCOPS; Yamashita (2006), Control Eng. Practice 14:503-510",
+        order: 40,
+        test: &StickSlip,
+    }
+}
+
+inventory::submit! {
+    TestEntry {
+        name: "area-ratio",
+        description: "self-regulating loops: control error's area before vs after its peak per half cycle",
+        reference: "Singhal & Salsbury (2005), J. Process Control 15:371-382",
+        order: 41,
+        test: &AreaRatio,
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::testing::{noise, sine};
+
+    #[test]
+    fn a_valve_that_moves_in_jumps_is_stuck_and_a_free_one_is_not() {
+        // OP ramps up and down; the sticky PV follows in jumps of 1 after OP moved 1.
+        let n = 1200;
+        let op: Vec<f64> = (0..n)
+            .map(|k| {
+                let t = (k % 400) as f64;
+                if t < 200.0 {
+                    t / 20.0
+                } else {
+                    (400.0 - t) / 20.0
+                }
+            })
+            .collect();
+        let mut mv = vec![op[0]; n];
+        for k in 1..n {
+            mv[k] = if (op[k] - mv[k - 1]).abs() > 1.0 {
+                op[k]
+            } else {
+                mv[k - 1]
+            };
+        }
+        let nz = noise(n, 0.02, 21);
+        let sticky: Vec<f64> = mv.iter().zip(&nz).map(|(a, b)| a + b).collect();
+        let free: Vec<f64> = op.iter().zip(&nz).map(|(a, b)| a + b).collect();
+        let (rs, _) = stick_slip(&op, &sticky, WINDOW).unwrap();
+        let (rf, _) = stick_slip(&op, &free, WINDOW).unwrap();
+        assert!(rs > 0.1, "sticky {rs}");
+        assert!(rf < 0.05, "free {rf}");
+    }
+
+    #[test]
+    fn sawtooth_error_has_a_large_area_ratio_and_a_sine_one() {
+        // Error builds up linearly and collapses: peak at the end of each half cycle.
+        let n = 800;
+        let saw: Vec<f64> = (0..n)
+            .map(|k| {
+                let t = (k % 80) as f64;
+                if t < 40.0 {
+                    0.2 + t / 40.0
+                } else {
+                    -(0.2 + (t - 40.0) / 40.0)
+                }
+            })
+            .collect();
+        let (rs, _) = area_ratio(&saw, 80.0).unwrap();
+        let (r1, _) = area_ratio(&sine(n, 80.0), 80.0).unwrap();
+        assert!(rs >= 1.5, "sawtooth {rs}");
+        assert!((r1 - 1.0).abs() < 0.1, "sine {r1}");
+    }
+}

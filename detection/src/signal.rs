@@ -1,0 +1,321 @@
+//! Small signal-processing helpers the tests share: means, detrending, zero-phase smoothing,
+//! correlation functions, zero crossings and a radix-2 FFT. Plain `f64` slices in and out.
+
+/// Arithmetic mean (`0` for an empty slice).
+pub(crate) fn mean(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        0.0
+    } else {
+        x.iter().sum::<f64>() / x.len() as f64
+    }
+}
+
+/// Population variance.
+pub(crate) fn variance(x: &[f64]) -> f64 {
+    let m = mean(x);
+    if x.is_empty() {
+        0.0
+    } else {
+        x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / x.len() as f64
+    }
+}
+
+/// Standard deviation (population).
+pub(crate) fn std_dev(x: &[f64]) -> f64 {
+    variance(x).sqrt()
+}
+
+/// `x` minus its least-squares straight line.
+pub(crate) fn detrend(x: &[f64]) -> Vec<f64> {
+    let n = x.len();
+    if n < 2 {
+        return vec![0.0; n];
+    }
+    let tm = (n as f64 - 1.0) / 2.0;
+    let xm = mean(x);
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (k, v) in x.iter().enumerate() {
+        let dt = k as f64 - tm;
+        sxy += dt * (v - xm);
+        sxx += dt * dt;
+    }
+    let slope = sxy / sxx;
+    x.iter()
+        .enumerate()
+        .map(|(k, v)| v - xm - slope * (k as f64 - tm))
+        .collect()
+}
+
+/// Centred moving average over `2h + 1` samples (shorter windows at the ends): zero phase.
+pub(crate) fn smooth(x: &[f64], h: usize) -> Vec<f64> {
+    let n = x.len();
+    if h == 0 || n == 0 {
+        return x.to_vec();
+    }
+    let mut prefix = Vec::with_capacity(n + 1);
+    prefix.push(0.0);
+    let mut acc = 0.0;
+    for v in x {
+        acc += v;
+        prefix.push(acc);
+    }
+    (0..n)
+        .map(|k| {
+            let lo = k.saturating_sub(h);
+            let hi = (k + h + 1).min(n);
+            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
+        })
+        .collect()
+}
+
+/// Normalised autocorrelation `r(τ)`, `τ = 0..=max_lag`, of the mean-removed `x` (biased
+/// estimator, `r(0) = 1`); all zeros when `x` has no variance.
+pub(crate) fn acf(x: &[f64], max_lag: usize) -> Vec<f64> {
+    let n = x.len();
+    let m = mean(x);
+    let d: Vec<f64> = x.iter().map(|v| v - m).collect();
+    let c0: f64 = d.iter().map(|v| v * v).sum();
+    let max_lag = max_lag.min(n.saturating_sub(1));
+    if c0 <= 0.0 {
+        return vec![0.0; max_lag + 1];
+    }
+    (0..=max_lag)
+        .map(|lag| {
+            d[..n - lag]
+                .iter()
+                .zip(&d[lag..])
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                / c0
+        })
+        .collect()
+}
+
+/// Normalised cross-correlation `r_xy(τ) = Σ x(k) y(k + τ) / (N σ_x σ_y)` for
+/// `τ = -max_lag..=max_lag` (index `τ + max_lag`), of the mean-removed series.
+pub(crate) fn ccf(x: &[f64], y: &[f64], max_lag: usize) -> Vec<f64> {
+    let n = x.len().min(y.len());
+    let (mx, my) = (mean(&x[..n]), mean(&y[..n]));
+    let dx: Vec<f64> = x[..n].iter().map(|v| v - mx).collect();
+    let dy: Vec<f64> = y[..n].iter().map(|v| v - my).collect();
+    let sx = dx.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let sy = dy.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let max_lag = max_lag.min(n.saturating_sub(1));
+    let norm = sx * sy;
+    (0..=2 * max_lag)
+        .map(|i| {
+            if norm <= 0.0 {
+                return 0.0;
+            }
+            let tau = i as isize - max_lag as isize;
+            let s: f64 = if tau >= 0 {
+                let t = tau as usize;
+                dx[..n - t].iter().zip(&dy[t..]).map(|(a, b)| a * b).sum()
+            } else {
+                let t = (-tau) as usize;
+                dx[t..].iter().zip(&dy[..n - t]).map(|(a, b)| a * b).sum()
+            };
+            s / norm
+        })
+        .collect()
+}
+
+/// Zero crossings of `x` with hysteresis: a crossing counts only once the signal has been
+/// beyond `±band` on each side. Returns the interpolated positions (fractional samples) where
+/// the sign changed.
+pub(crate) fn zero_crossings(x: &[f64], band: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut state = 0i8; // sign of the last excursion beyond the band
+    let mut last_on_side = 0usize; // last sample on the current side (sign of state)
+    for (k, &v) in x.iter().enumerate() {
+        let s = if v > band {
+            1
+        } else if v < -band {
+            -1
+        } else {
+            0
+        };
+        if s != 0 && state != 0 && s != state {
+            // The sign changed between `last_on_side` and `k`: find the crossing of zero.
+            let mut pos = k as f64;
+            for j in last_on_side..k {
+                let (a, b) = (x[j], x[j + 1]);
+                if (a >= 0.0) != (b >= 0.0) {
+                    pos = j as f64 + a / (a - b);
+                    break;
+                }
+            }
+            out.push(pos);
+        }
+        if s != 0 {
+            state = s;
+        }
+        if state != 0 && (v >= 0.0) == (state > 0) {
+            last_on_side = k;
+        }
+    }
+    out
+}
+
+/// A complex number as `(re, im)`.
+pub(crate) type Complex = (f64, f64);
+
+/// In-place radix-2 FFT (`x.len()` a power of two).
+pub(crate) fn fft(x: &mut [Complex]) {
+    let n = x.len();
+    if n < 2 {
+        return;
+    }
+    debug_assert!(n.is_power_of_two());
+    let mut j = 0;
+    for i in 1..n {
+        let mut bit = n >> 1;
+        while j & bit != 0 {
+            j ^= bit;
+            bit >>= 1;
+        }
+        j |= bit;
+        if i < j {
+            x.swap(i, j);
+        }
+    }
+    let mut len = 2;
+    while len <= n {
+        let ang = -2.0 * std::f64::consts::PI / len as f64;
+        for start in (0..n).step_by(len) {
+            for k in 0..len / 2 {
+                let (s, c) = (ang * k as f64).sin_cos();
+                let (ar, ai) = x[start + k];
+                let (br, bi) = x[start + k + len / 2];
+                let (tr, ti) = (br * c - bi * s, br * s + bi * c);
+                x[start + k] = (ar + tr, ai + ti);
+                x[start + k + len / 2] = (ar - tr, ai - ti);
+            }
+        }
+        len <<= 1;
+    }
+}
+
+/// Least-squares fit of `x(k) ≈ a cos(ωk) + b sin(ωk) + c`; returns `(a, b, c)` and the
+/// fraction of `x`'s variance it explains.
+pub(crate) fn harmonic_fit(x: &[f64], omega: f64) -> ((f64, f64, f64), f64) {
+    // 3x3 normal equations (small, well-conditioned for ω away from 0 and π over many cycles).
+    let mut m = [[0.0; 3]; 3];
+    let mut r = [0.0; 3];
+    for (k, &v) in x.iter().enumerate() {
+        let (s, c) = (omega * k as f64).sin_cos();
+        let phi = [c, s, 1.0];
+        for i in 0..3 {
+            r[i] += phi[i] * v;
+            for j in 0..3 {
+                m[i][j] += phi[i] * phi[j];
+            }
+        }
+    }
+    let sol = solve3(m, r).unwrap_or([0.0; 3]);
+    let var = variance(x) * x.len() as f64;
+    let mut res = 0.0;
+    for (k, &v) in x.iter().enumerate() {
+        let (s, c) = (omega * k as f64).sin_cos();
+        let e = v - sol[0] * c - sol[1] * s - sol[2];
+        res += e * e;
+    }
+    let explained = if var > 0.0 { 1.0 - res / var } else { 0.0 };
+    ((sol[0], sol[1], sol[2]), explained)
+}
+
+/// Solve a 3x3 system by Gaussian elimination with partial pivoting.
+fn solve3(mut m: [[f64; 3]; 3], mut r: [f64; 3]) -> Option<[f64; 3]> {
+    for col in 0..3 {
+        let p = (col..3).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))?;
+        if m[p][col].abs() < 1e-12 {
+            return None;
+        }
+        m.swap(col, p);
+        r.swap(col, p);
+        let pivot_row = m[col];
+        for row in col + 1..3 {
+            let f = m[row][col] / pivot_row[col];
+            for (mj, pj) in m[row][col..].iter_mut().zip(&pivot_row[col..]) {
+                *mj -= f * pj;
+            }
+            r[row] -= f * r[col];
+        }
+    }
+    let mut x = [0.0; 3];
+    for i in (0..3).rev() {
+        let s: f64 = (i + 1..3).map(|j| m[i][j] * x[j]).sum();
+        x[i] = (r[i] - s) / m[i][i];
+    }
+    Some(x)
+}
+
+/// Median (NaN for an empty slice).
+pub(crate) fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => s[n / 2],
+        _ => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+    }
+}
+
+/// Robust scale of white-ish noise in `x`: the median absolute first difference / (√2 · 0.6745).
+pub(crate) fn noise_scale(x: &[f64]) -> f64 {
+    let d: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    median(&d) / (std::f64::consts::SQRT_2 * 0.6745)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fft_matches_direct_dft() {
+        let x: Vec<Complex> = (0..16).map(|k| ((k as f64 * 0.7).sin(), 0.0)).collect();
+        let mut y = x.clone();
+        fft(&mut y);
+        for (f, yf) in y.iter().enumerate() {
+            let (mut re, mut im) = (0.0, 0.0);
+            for (k, xk) in x.iter().enumerate() {
+                let a = -2.0 * std::f64::consts::PI * (f * k) as f64 / 16.0;
+                re += xk.0 * a.cos();
+                im += xk.0 * a.sin();
+            }
+            assert!((re - yf.0).abs() < 1e-9 && (im - yf.1).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn zero_crossings_of_a_sine_with_hysteresis() {
+        let x: Vec<f64> = (0..200).map(|k| (k as f64 * 0.1).sin()).collect();
+        let z = zero_crossings(&x, 0.2);
+        // sin(0.1 k) crosses zero at k = 10π·m: 31.4, 62.8, 94.2, 125.7, 157.1, 188.5
+        assert_eq!(z.len(), 6, "{z:?}");
+        assert!((z[0] - 31.416).abs() < 0.05);
+    }
+
+    #[test]
+    fn detrend_removes_a_line_and_ccf_of_a_lagged_copy_peaks_at_the_lag() {
+        let x: Vec<f64> = (0..100).map(|k| 3.0 + 0.5 * k as f64).collect();
+        assert!(detrend(&x).iter().all(|v| v.abs() < 1e-9));
+        let s: Vec<f64> = (0..300).map(|k| (k as f64 * 0.13).sin()).collect();
+        let y: Vec<f64> = (0..300).map(|k| ((k as f64 - 5.0) * 0.13).sin()).collect();
+        let c = ccf(&s, &y, 20);
+        let best = (0..c.len()).max_by(|&a, &b| c[a].total_cmp(&c[b])).unwrap();
+        assert_eq!(best as isize - 20, 5);
+    }
+
+    #[test]
+    fn harmonic_fit_recovers_amplitude() {
+        let x: Vec<f64> = (0..500)
+            .map(|k| 2.0 * (0.1 * k as f64).cos() - (0.1 * k as f64).sin() + 4.0)
+            .collect();
+        let ((a, b, c), ex) = harmonic_fit(&x, 0.1);
+        assert!((a - 2.0).abs() < 1e-9 && (b + 1.0).abs() < 1e-9 && (c - 4.0).abs() < 1e-9);
+        assert!(ex > 0.999_999);
+    }
+}

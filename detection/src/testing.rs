@@ -1,0 +1,39 @@
+//! Synthetic signals for the unit tests (no RNG crate: a seeded xorshift and Box-Muller).
+
+/// `sin(2πk/period)`.
+pub(crate) fn sine(n: usize, period: f64) -> Vec<f64> {
+    (0..n)
+        .map(|k| (2.0 * std::f64::consts::PI * k as f64 / period).sin())
+        .collect()
+}
+
+/// A triangle wave of amplitude 1 and the same phase as [`sine`].
+pub(crate) fn triangle(n: usize, period: f64) -> Vec<f64> {
+    (0..n)
+        .map(|k| {
+            let u = (k as f64 / period + 0.25).rem_euclid(1.0);
+            if u < 0.5 {
+                4.0 * u - 1.0
+            } else {
+                3.0 - 4.0 * u
+            }
+        })
+        .collect()
+}
+
+/// Gaussian white noise of deviation `sigma`, reproducible from `seed`.
+pub(crate) fn noise(n: usize, sigma: f64, seed: u64) -> Vec<f64> {
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut uniform = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    (0..n)
+        .map(|_| {
+            let (u1, u2) = (uniform(), uniform());
+            sigma * (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+        })
+        .collect()
+}

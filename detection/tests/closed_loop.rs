@@ -1,0 +1,295 @@
+//! Every built-in test on closed loops from the simulator whose answer is known: a sticky
+//! valve's limit cycle against an external sinusoid through a healthy valve, for a
+//! self-regulating and an integrating plant; and degenerate records, which must give reasons,
+//! never panics.
+#![allow(clippy::unwrap_used)]
+
+use datasets::simulate::{Controller, Disturbance, Plant, PlantSpec, Scenario, Setpoint};
+use detection::{find_test, registry, run_all, Registration, TestOutcome, Verdict};
+use stiction_models::Kano;
+
+/// A self-regulating plant slower than the paper's (the specification's `slow` preset), whose
+/// error builds up after a slip as Singhal & Salsbury's analysis assumes.
+fn slow() -> Plant {
+    Plant::slow()
+}
+
+/// An integrating plant (a level): `y(k) = y(k-1) + 0.1 u(k-1) + noise`.
+fn level() -> Plant {
+    Plant {
+        a: vec![1.0, -1.0],
+        b: vec![0.0, 0.1],
+        c: vec![1.0],
+        delay: 0,
+    }
+}
+
+struct Loop {
+    sp: Vec<f64>,
+    pv: Vec<f64>,
+    op: Vec<f64>,
+    integrating: bool,
+}
+
+/// A loop of `samples` samples: kind, Kano valve (S, J), PI gains, an external sine
+/// (amplitude, period in samples), seed.
+fn simulate(
+    integrating: bool,
+    (s, j): (f64, f64),
+    (kc, ki): (f64, f64),
+    sine: Option<(f64, f64)>,
+    (samples, seed): (usize, u64),
+) -> Loop {
+    let (plant, controller) = if integrating {
+        (level(), Controller { kc, ki })
+    } else {
+        (slow(), Controller { kc, ki })
+    };
+    let sim = Scenario {
+        plant: PlantSpec::Explicit(plant),
+        controller,
+        setpoint: Setpoint::constant(),
+        valve: Box::new(Kano::params().s(s).j(j).check().unwrap()),
+        disturbances: sine
+            .map(|(amplitude, period)| Disturbance::Sine {
+                amplitude,
+                frequency: 2.0 * std::f64::consts::PI / period,
+                phase: 0.0,
+            })
+            .into_iter()
+            .collect(),
+        noise_sigma: 0.02,
+        samples,
+        warmup: 500,
+        seed,
+        ..Scenario::default()
+    }
+    .simulate()
+    .unwrap();
+    Loop {
+        sp: sim.sp,
+        pv: sim.pv,
+        op: sim.op,
+        integrating,
+    }
+}
+
+fn outcome(l: &Loop, test: &str) -> TestOutcome {
+    let reg = Registration::new(&l.pv, &l.op, 1.0)
+        .unwrap()
+        .with_sp(&l.sp)
+        .unwrap()
+        .integrating(l.integrating);
+    find_test(test).unwrap().test.run(&reg).unwrap()
+}
+
+/// A sticky valve (Kano S = 4, J = 1) under PI control: a limit cycle.
+fn sticky(integrating: bool, seed: u64) -> Loop {
+    let pi = if integrating { (1.0, 0.05) } else { (0.3, 0.1) };
+    simulate(integrating, (4.0, 1.0), pi, None, (1000, seed))
+}
+
+/// A healthy valve and an external sine of period 40 samples. The self-regulating loop's
+/// integral time is 25 samples, so at that period the PI acts mostly proportionally: the case
+/// Horch's cross-correlation test is built for (OP and PV in counter-phase).
+fn external(integrating: bool, seed: u64) -> Loop {
+    let pi = if integrating {
+        (1.0, 0.05)
+    } else {
+        (0.5, 0.02)
+    };
+    simulate(integrating, (0.0, 0.0), pi, Some((0.5, 40.0)), (1000, seed))
+}
+
+#[test]
+fn the_built_ins_are_registered_in_order() {
+    let names: Vec<&str> = registry().iter().map(|e| e.name).collect();
+    assert_eq!(
+        names,
+        [
+            "oscillation",
+            "horch-xcorr",
+            "horch-integrating",
+            "curve-fit",
+            "bicoherence",
+            "stick-slip",
+            "area-ratio"
+        ]
+    );
+    for e in registry() {
+        assert_eq!(e.name, e.test.name());
+    }
+    assert!(find_test("nope")
+        .unwrap_err()
+        .to_string()
+        .contains("oscillation"));
+}
+
+#[test]
+fn both_kinds_of_oscillation_are_found_with_their_period() {
+    for integrating in [false, true] {
+        for (what, l) in [
+            ("sticky", sticky(integrating, 1)),
+            ("external", external(integrating, 1)),
+        ] {
+            let o = outcome(&l, "oscillation");
+            assert_eq!(
+                o.verdict,
+                Verdict::Inconclusive,
+                "{what} {integrating}: {o:?}"
+            );
+        }
+        let o = outcome(&external(integrating, 2), "oscillation");
+        let p = o.value("period_samples").unwrap();
+        assert!((p - 40.0).abs() < 4.0, "period {p}");
+    }
+}
+
+/// The shape tests say `stiction` on the sticky loop and `no-stiction` on the external
+/// oscillation, for the loop kinds they apply to.
+#[test]
+fn shape_tests_tell_stiction_from_an_external_oscillation() {
+    let cases: [(&str, bool); 6] = [
+        ("horch-xcorr", false),
+        ("horch-integrating", true),
+        ("curve-fit", false),
+        ("curve-fit", true),
+        ("area-ratio", false),
+        ("stick-slip", false),
+    ];
+    for (test, integrating) in cases {
+        for seed in 1..=3 {
+            let s = outcome(&sticky(integrating, seed), test);
+            let e = outcome(&external(integrating, seed), test);
+            assert_eq!(
+                s.verdict,
+                Verdict::Stiction,
+                "{test} sticky seed {seed}: {s:?}"
+            );
+            assert_eq!(
+                e.verdict,
+                Verdict::NoStiction,
+                "{test} external seed {seed}: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn bicoherence_finds_the_sticky_loop_nonlinear_with_a_wide_ellipse() {
+    // The bicoherence needs long records: 3000 samples here.
+    let s = outcome(
+        &simulate(false, (4.0, 1.0), (0.5, 0.1), None, (3000, 1)),
+        "bicoherence",
+    );
+    assert_eq!(s.verdict, Verdict::Stiction, "{s:?}");
+    let width = s.value("apparent_stiction").unwrap();
+    // The valve's deadband + stickband is 4 % of OP: the ellipse's width is of that order.
+    assert!(width > 1.0 && width < 8.0, "{width}");
+    let e = outcome(
+        &simulate(false, (0.0, 0.0), (0.5, 0.02), Some((0.5, 40.0)), (3000, 1)),
+        "bicoherence",
+    );
+    assert_ne!(e.verdict, Verdict::Stiction, "{e:?}");
+}
+
+#[test]
+fn the_stick_slip_test_reads_the_level_rate_for_integrating_loops() {
+    // On a level the OP-ΔPV evidence is weak (docs/DETECTION.md): only the healthy loop's
+    // answer is asserted.
+    let e = outcome(&external(true, 1), "stick-slip");
+    assert_ne!(e.verdict, Verdict::Stiction, "{e:?}");
+}
+
+#[test]
+fn tests_for_the_other_loop_kind_say_so() {
+    let l = sticky(true, 1);
+    let reg = Registration::new(&l.pv, &l.op, 1.0)
+        .unwrap()
+        .integrating(true);
+    let err = find_test("horch-xcorr")
+        .unwrap()
+        .test
+        .run(&reg)
+        .unwrap_err();
+    assert!(err.to_string().contains("self-regulating"), "{err}");
+}
+
+#[test]
+fn degenerate_records_are_never_called_sticky_and_never_panic() {
+    let flat = vec![1.0; 500];
+    let ramp: Vec<f64> = (0..500).map(|k| k as f64).collect();
+    let mut nan = ramp.clone();
+    nan[17] = f64::NAN;
+    let short = vec![1.0, 2.0, 3.0];
+    let noise: Vec<f64> = (0..500)
+        .map(|k| ((k * 7919) % 101) as f64 / 101.0)
+        .collect();
+    let cases: [(&str, &[f64], &[f64], &str); 5] = [
+        ("flat", &flat, &flat, "flat"),
+        ("flat OP", &ramp, &flat, "OP is flat"),
+        ("NaN", &nan, &ramp, "PV sample 17 is not a finite number"),
+        ("short", &short, &short, "at least 100"),
+        ("noise", &noise, &ramp, ""),
+    ];
+    for (what, pv, op, reason) in cases {
+        for integrating in [false, true] {
+            let reg = Registration::new(pv, op, 1.0)
+                .unwrap()
+                .integrating(integrating);
+            let out = run_all(&reg);
+            assert_eq!(out.len(), registry().len());
+            for t in &out {
+                assert_ne!(t.verdict, Verdict::Stiction, "{what}: {t:?}");
+                if !reason.is_empty() {
+                    assert!(t.evidence.contains(reason), "{what}: {t:?}");
+                }
+            }
+        }
+    }
+    assert!(Registration::new(&flat, &short, 1.0).is_err());
+    assert!(Registration::new(&flat, &flat, 0.0).is_err());
+}
+
+/// The combined verdict on the same loops: the calibrated score calls the sticky
+/// self-regulating loop sticky, never the healthy one with an external oscillation, and gives
+/// degenerate records `inconclusive` with the reason.
+#[test]
+fn the_combined_verdict_on_known_loops() {
+    for seed in 1..=3 {
+        let l = sticky(false, seed);
+        let reg = Registration::new(&l.pv, &l.op, 1.0)
+            .unwrap()
+            .with_sp(&l.sp)
+            .unwrap();
+        let d = detection::detect(&reg);
+        assert_eq!(
+            d.verdict,
+            Verdict::Stiction,
+            "seed {seed}: {} {}",
+            d.score,
+            d.reason
+        );
+        assert!(d.oscillating && d.period_s.is_some());
+        for integrating in [false, true] {
+            let l = external(integrating, seed);
+            let reg = Registration::new(&l.pv, &l.op, 1.0)
+                .unwrap()
+                .with_sp(&l.sp)
+                .unwrap()
+                .integrating(integrating);
+            let d = detection::detect(&reg);
+            assert_ne!(
+                d.verdict,
+                Verdict::Stiction,
+                "external {integrating} seed {seed}: {}",
+                d.reason
+            );
+        }
+    }
+    let flat = vec![2.0; 300];
+    let d = detection::detect(&Registration::new(&flat, &flat, 1.0).unwrap());
+    assert_eq!(d.verdict, Verdict::Inconclusive);
+    assert!(d.reason.contains("flat"), "{}", d.reason);
+    assert!((0.0..=1.0).contains(&d.score));
+}

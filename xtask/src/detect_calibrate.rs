@@ -1,0 +1,545 @@
+//! `cargo xtask detect-calibrate`: fit the detection score's logistic coefficients and
+//! validate them, leaving one valve out.
+//!
+//! Data:
+//! * simulated loops from `datasets::simulate` (half self-regulating, half integrating; half
+//!   with a sticky Kano valve, S in [1, 8] %, J in [0, S]; half with a free valve), each with
+//!   one of four situations: set-point moves only, an external sinusoid, aggressive tuning
+//!   (closed-loop poles near the unit circle), or a slow drift with random load steps; plant
+//!   dynamics, tuning, noise and disturbance sizes drawn per loop from a seeded generator. A
+//!   training set (seeds from 1) and an independent validation set (seeds from 1 000 001);
+//! * the shared plant registrations (`../shared/data/plant`, labels from its `labels.csv`,
+//!   used only as the answer: the detector reads the time series alone). Integrating loops are
+//!   the level loops by the ISA tag letter `L`, the rule of the CLI's `--integrating auto`.
+//!
+//! Validation: for every plant valve (the tag before `_`), the model is fitted on the
+//! simulated training loops and the plant registrations of the *other* valves, then scores
+//! that valve's registrations (leave one valve out, LOVO). The simulated validation loops are
+//! scored by the model fitted on the training loops and all plant registrations. The final
+//! coefficients (printed for `detection/src/score.rs`) are fitted on the training loops and
+//! all plant registrations.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use datasets::simulate::{Controller, Disturbance, Plant, PlantSpec, Scenario, Setpoint};
+use detection::score::{features, Model, FEATURES};
+use detection::{combine, logistic, registry, run_all, Registration, TestOutcome, Verdict};
+use rayon::prelude::*;
+use stiction_models::Kano;
+
+const USAGE: &str = "\
+usage: cargo xtask detect-calibrate [--sims N] [--plant DIR] [--ridge L]
+
+  --sims N     simulated loops in the training set and again in the validation set (default 240)
+  --plant DIR  the labelled plant registrations (default ../shared/data/plant beside the repo)
+  --ridge L    ridge penalty of the logistic fit (default 0.1)";
+
+/// SplitMix64: a small seeded generator (the draw order is the code order below).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+}
+
+/// One labelled registration.
+struct Case {
+    /// The valve (plant) or `sim` (simulated).
+    group: String,
+    /// What it is, for the tables.
+    what: String,
+    sticky: bool,
+    sp: Option<Vec<f64>>,
+    pv: Vec<f64>,
+    op: Vec<f64>,
+    ts: f64,
+    integrating: bool,
+    outcomes: Vec<TestOutcome>,
+    x: Vec<f64>,
+}
+
+impl Case {
+    fn registration(&self) -> Result<Registration<'_>> {
+        let reg = Registration::new(&self.pv, &self.op, self.ts)?.integrating(self.integrating);
+        Ok(match &self.sp {
+            Some(sp) => reg.with_sp(sp)?,
+            None => reg,
+        })
+    }
+    fn evaluate(mut self) -> Result<Case> {
+        let outcomes = run_all(&self.registration()?);
+        self.x = features(&outcomes);
+        self.outcomes = outcomes;
+        Ok(self)
+    }
+}
+
+const SITUATIONS: [&str; 4] = [
+    "set-point moves",
+    "external sine",
+    "aggressive tuning",
+    "drift + load steps",
+];
+
+/// Simulated loop `index` of the set starting at `seed0`.
+fn simulated(seed0: u64, index: usize) -> Result<Case> {
+    let seed = seed0 + index as u64;
+    let mut rng = Rng(seed.wrapping_mul(0xD1B5_4A32_D192_ED03));
+    let integrating = index % 2 == 1;
+    let sticky = (index / 2) % 2 == 0;
+    let situation = (index / 4) % SITUATIONS.len();
+    // Plant.
+    let delay = (rng.next() * 3.0) as usize;
+    let pole = rng.range(0.5, 0.95);
+    let gain = rng.range(0.5, 2.0);
+    let plant = if integrating {
+        let g = rng.range(0.02, 0.2);
+        if rng.next() < 0.5 {
+            Plant {
+                a: vec![1.0, -1.0],
+                b: vec![0.0, g],
+                c: vec![1.0],
+                delay,
+            }
+        } else {
+            let p = rng.range(0.3, 0.8);
+            Plant {
+                a: vec![1.0, -(1.0 + p), p],
+                b: vec![0.0, g * (1.0 - p)],
+                c: vec![1.0],
+                delay,
+            }
+        }
+    } else {
+        Plant {
+            a: vec![1.0, -pole],
+            b: vec![0.0, gain * (1.0 - pole)],
+            c: vec![1.0],
+            delay,
+        }
+    };
+    // Tuning: a draw, scaled down until stable; for the aggressive situation scaled up until
+    // the closed loop's slowest pole is near the unit circle.
+    let (mut kc, mut ki) = if integrating {
+        let g = plant.b.iter().sum::<f64>();
+        (
+            rng.range(0.3, 1.5) / (g * 10.0),
+            rng.range(0.01, 0.05) / (g * 10.0),
+        )
+    } else {
+        (rng.range(0.1, 0.8) / gain, rng.range(0.05, 0.3) / gain)
+    };
+    for _ in 0..60 {
+        if plant.check_stability(kc, ki).is_ok() {
+            break;
+        }
+        kc *= 0.8;
+        ki *= 0.8;
+    }
+    if situation == 2 {
+        for _ in 0..200 {
+            let (nk, ni) = (kc * 1.05, ki * 1.05);
+            match plant.check_stability(nk, ni) {
+                Ok(m) if m < 0.97 => (kc, ki) = (nk, ni),
+                _ => break,
+            }
+        }
+    }
+    let s = rng.range(1.0, 8.0);
+    let j = rng.range(0.0, 1.0) * s;
+    let valve = if sticky {
+        Kano::params().s(s).j(j).check()?
+    } else {
+        Kano::params().check()?
+    };
+    let noise = rng.range(0.01, 0.2);
+    let amplitude = rng.range(0.3, 2.0);
+    let period = rng.range(20.0, 200.0);
+    let slope = rng.range(-0.004, 0.004);
+    let disturbances = match situation {
+        1 => vec![Disturbance::Sine {
+            amplitude,
+            frequency: 2.0 * std::f64::consts::PI / period,
+            phase: 0.0,
+        }],
+        3 => vec![
+            Disturbance::Drift { slope },
+            Disturbance::RandomSteps {
+                probability: 0.005,
+                sigma: amplitude,
+            },
+        ],
+        _ => Vec::new(),
+    };
+    let setpoint = if situation == 0 {
+        Setpoint::default()
+    } else {
+        Setpoint::constant()
+    };
+    let sim = Scenario {
+        plant: PlantSpec::Explicit(plant),
+        controller: Controller { kc, ki },
+        setpoint,
+        valve: Box::new(valve),
+        disturbances,
+        noise_sigma: noise,
+        samples: 751,
+        warmup: 500,
+        seed,
+        sample_time: 10.0,
+        ..Scenario::default()
+    }
+    .simulate()
+    .with_context(|| format!("simulated loop {index} (seed {seed})"))?;
+    Case {
+        group: "sim".into(),
+        what: format!(
+            "{} {} {}",
+            if integrating {
+                "integrating"
+            } else {
+                "self-regulating"
+            },
+            if sticky {
+                format!("kano S={s:.1} J={j:.1}")
+            } else {
+                "free valve".into()
+            },
+            SITUATIONS[situation]
+        ),
+        sticky,
+        sp: Some(sim.sp),
+        pv: sim.pv,
+        op: sim.op,
+        ts: 10.0,
+        integrating,
+        outcomes: Vec::new(),
+        x: Vec::new(),
+    }
+    .evaluate()
+}
+
+/// The labelled plant registrations the reader accepts, and the files it refuses.
+fn plant_cases(dir: &Path) -> Result<(Vec<Case>, Vec<String>)> {
+    let labels = std::fs::read_to_string(dir.join("labels.csv"))
+        .with_context(|| format!("reading {}", dir.join("labels.csv").display()))?;
+    let mut cases = Vec::new();
+    let mut refused = Vec::new();
+    for line in labels.lines().skip(1) {
+        let cols: Vec<&str> = line.split(',').collect();
+        let (Some(file), Some(label)) = (cols.first(), cols.get(6)) else {
+            continue;
+        };
+        let valve = file.split('_').next().unwrap_or(file).to_string();
+        let sticky = match *label {
+            "stiction" => true,
+            "no-stiction" => false,
+            other => bail!("{file}: unknown label {other:?}"),
+        };
+        let d = match datasets::read_path(dir.join(file), &datasets::ReadOptions::default()) {
+            Ok(d) => d,
+            Err(e) => {
+                refused.push(format!("{file}: {e}"));
+                continue;
+            }
+        };
+        let ts =
+            d.t.as_ref()
+                .and_then(|t| {
+                    let dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+                    (!dts.is_empty()).then(|| monitoring::median(&dts))
+                })
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .unwrap_or(1.0);
+        let integrating = valve
+            .chars()
+            .find(|c| c.is_ascii_alphabetic())
+            .is_some_and(|c| c.eq_ignore_ascii_case(&'l'));
+        cases.push(Case {
+            group: valve,
+            what: file.to_string(),
+            sticky,
+            sp: d.sp.clone(),
+            pv: d.require_pv()?.to_vec(),
+            op: d.op.clone(),
+            ts,
+            integrating,
+            outcomes: Vec::new(),
+            x: Vec::new(),
+        });
+    }
+    let cases = cases
+        .into_iter()
+        .map(Case::evaluate)
+        .collect::<Result<Vec<_>>>()?;
+    Ok((cases, refused))
+}
+
+fn fit(cases: &[&Case], ridge: f64) -> Result<Model> {
+    let x: Vec<Vec<f64>> = cases.iter().map(|c| c.x.clone()).collect();
+    let y: Vec<bool> = cases.iter().map(|c| c.sticky).collect();
+    let w = vec![1.0; x.len()];
+    let f = logistic::fit(&x, &y, &w, ridge).context("the logistic fit failed (singular)")?;
+    Ok(Model {
+        intercept: f.intercept,
+        weights: f.weights,
+    })
+}
+
+/// Score and verdict of `case` under `model`.
+fn judge(case: &Case, model: &Model) -> Result<(f64, Verdict)> {
+    let d = combine(&case.registration()?, case.outcomes.clone(), model);
+    Ok((d.score, d.verdict))
+}
+
+/// AUC (ties one half) of `(score, label)`, `None` without both classes.
+fn auc(v: &[(f64, bool)]) -> Option<f64> {
+    monitoring::roc(v).map(|r| r.auc)
+}
+
+/// `% right of conclusive`, `% inconclusive`, `% right of all`.
+fn rates(v: &[(Verdict, bool)]) -> (f64, f64, f64) {
+    let n = v.len().max(1) as f64;
+    let conclusive: Vec<&(Verdict, bool)> = v
+        .iter()
+        .filter(|(d, _)| *d != Verdict::Inconclusive)
+        .collect();
+    let right = conclusive
+        .iter()
+        .filter(|(d, l)| (*d == Verdict::Stiction) == *l)
+        .count() as f64;
+    (
+        100.0 * right / conclusive.len().max(1) as f64,
+        100.0 * (v.len() - conclusive.len()) as f64 / n,
+        100.0 * right / n,
+    )
+}
+
+fn fmt_auc(a: Option<f64>) -> String {
+    a.map_or("  -  ".into(), |a| format!("{a:.3}"))
+}
+
+/// Per-test AUC of its statistic (higher = stiction) over the cases where it has one.
+fn test_aucs(cases: &[&Case]) -> Vec<(String, Option<f64>, usize)> {
+    registry()
+        .iter()
+        .map(|e| {
+            let v: Vec<(f64, bool)> = cases
+                .iter()
+                .filter_map(|c| {
+                    c.outcomes
+                        .iter()
+                        .find(|o| o.name == e.name)
+                        .and_then(|o| o.statistic)
+                        .filter(|s| s.is_finite())
+                        .map(|s| (s, c.sticky))
+                })
+                .collect();
+            (e.name.to_string(), auc(&v), v.len())
+        })
+        .collect()
+}
+
+/// `cargo xtask detect-calibrate`.
+pub fn detect_calibrate(rest: &[String]) -> Result<()> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut sims = 240usize;
+    let mut plant_dir: PathBuf = root.join("../shared/data/plant");
+    let mut ridge = 0.1;
+    let mut it = rest.iter();
+    while let Some(a) = it.next() {
+        let mut value = |name: &str| {
+            it.next()
+                .with_context(|| format!("{name} needs a value\n{USAGE}"))
+        };
+        match a.as_str() {
+            "--sims" => sims = value("--sims")?.parse().context("--sims: a whole number")?,
+            "--plant" => plant_dir = PathBuf::from(value("--plant")?),
+            "--ridge" => ridge = value("--ridge")?.parse().context("--ridge: a number")?,
+            "--help" | "-h" => {
+                println!("{USAGE}");
+                return Ok(());
+            }
+            other => bail!("unknown option {other:?}\n{USAGE}"),
+        }
+    }
+    let started = std::time::Instant::now();
+    let train: Vec<Case> = (0..sims)
+        .into_par_iter()
+        .map(|i| simulated(1, i))
+        .collect::<Result<_>>()?;
+    let valid: Vec<Case> = (0..sims)
+        .into_par_iter()
+        .map(|i| simulated(1_000_001, i))
+        .collect::<Result<_>>()?;
+    let (plant, refused) = if plant_dir.join("labels.csv").exists() {
+        plant_cases(&plant_dir)?
+    } else {
+        println!(
+            "note: {} not found: calibrating on simulated loops only",
+            plant_dir.display()
+        );
+        (Vec::new(), Vec::new())
+    };
+    println!(
+        "data: {} simulated training loops, {} simulated validation loops, {} plant registrations ({} refused by the reader) [{:.1} s]",
+        train.len(),
+        valid.len(),
+        plant.len(),
+        refused.len(),
+        started.elapsed().as_secs_f64()
+    );
+    for r in &refused {
+        println!("  refused: {r}");
+    }
+
+    // Leave one valve out.
+    let valves: Vec<String> = {
+        let mut v: Vec<String> = plant.iter().map(|c| c.group.clone()).collect();
+        v.dedup();
+        v.sort();
+        v.dedup();
+        v
+    };
+    let mut lovo: Vec<(f64, Verdict, bool)> = Vec::new();
+    let mut per_valve: BTreeMap<String, (bool, usize, f64, [usize; 3])> = BTreeMap::new();
+    for v in &valves {
+        let fit_on: Vec<&Case> = train
+            .iter()
+            .chain(plant.iter().filter(|c| &c.group != v))
+            .collect();
+        let model = fit(&fit_on, ridge)?;
+        for c in plant.iter().filter(|c| &c.group == v) {
+            let (s, d) = judge(c, &model)?;
+            lovo.push((s, d, c.sticky));
+            let e = per_valve
+                .entry(v.clone())
+                .or_insert((c.sticky, 0, 0.0, [0; 3]));
+            e.1 += 1;
+            e.2 += s;
+            e.3[match d {
+                Verdict::Stiction => 0,
+                Verdict::NoStiction => 1,
+                _ => 2,
+            }] += 1;
+        }
+    }
+    // Final model and the simulated validation set.
+    let all: Vec<&Case> = train.iter().chain(plant.iter()).collect();
+    let model = fit(&all, ridge)?;
+    let sim_judged: Vec<(f64, Verdict, bool, &Case)> = valid
+        .iter()
+        .map(|c| judge(c, &model).map(|(s, d)| (s, d, c.sticky, c)))
+        .collect::<Result<_>>()?;
+
+    println!("\nfinal model (simulated training loops + all plant registrations, ridge {ridge}):");
+    println!("pub const INTERCEPT: f64 = {:.4};", model.intercept);
+    println!(
+        "pub const WEIGHTS: [f64; {}] = [{}];",
+        model.weights.len(),
+        model
+            .weights
+            .iter()
+            .map(|w| format!("{w:.4}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    for (f, w) in FEATURES.iter().zip(&model.weights) {
+        println!("  {:16} {:>8.3}   ({}: {})", f.name, w, f.test, f.meaning);
+    }
+
+    if !plant.is_empty() {
+        println!("\nplant registrations, leave one valve out:");
+        println!(
+            "valve            label        n  mean score  stiction  no-stiction  inconclusive"
+        );
+        for (v, (sticky, n, sum, c)) in &per_valve {
+            println!(
+                "{v:16} {:12} {n:>2}  {:>10.2}  {:>8}  {:>11}  {:>12}",
+                if *sticky { "stiction" } else { "no-stiction" },
+                sum / *n as f64,
+                c[0],
+                c[1],
+                c[2]
+            );
+        }
+        let sv: Vec<(f64, bool)> = lovo.iter().map(|(s, _, l)| (*s, *l)).collect();
+        let dv: Vec<(Verdict, bool)> = lovo.iter().map(|(_, d, l)| (*d, *l)).collect();
+        let (right, inconclusive, _) = rates(&dv);
+        println!(
+            "score: LOVO ROC AUC {}, verdict right on {right:.1} % of the conclusive, {inconclusive:.1} % inconclusive ({} registrations)",
+            fmt_auc(auc(&sv)),
+            lovo.len()
+        );
+        println!("\neach test's own statistic on the plant registrations (AUC where it has one; not fitted):");
+        let refs: Vec<&Case> = plant.iter().collect();
+        for (name, a, n) in test_aucs(&refs) {
+            let verdicts: Vec<(Verdict, bool)> = plant
+                .iter()
+                .filter_map(|c| {
+                    c.outcomes
+                        .iter()
+                        .find(|o| o.name == name)
+                        .map(|o| (o.verdict, c.sticky))
+                })
+                .collect();
+            let (right, inc, _) = rates(&verdicts);
+            println!(
+                "  {name:18} AUC {} over {n:>2}; own verdict right on {right:5.1} % of its conclusive, {inc:5.1} % inconclusive",
+                fmt_auc(a)
+            );
+        }
+    }
+
+    println!("\nsimulated validation loops (fresh seeds), final model:");
+    let sv: Vec<(f64, bool)> = sim_judged.iter().map(|(s, _, l, _)| (*s, *l)).collect();
+    let dv: Vec<(Verdict, bool)> = sim_judged.iter().map(|(_, d, l, _)| (*d, *l)).collect();
+    let (right, inconclusive, right_all) = rates(&dv);
+    println!(
+        "score ROC AUC {}; verdict right on {right_all:.1} % of all loops ({right:.1} % of the conclusive, {inconclusive:.1} % inconclusive)",
+        fmt_auc(auc(&sv))
+    );
+    for integrating in [false, true] {
+        for (k, situation) in SITUATIONS.iter().enumerate() {
+            let sub: Vec<(Verdict, bool)> = sim_judged
+                .iter()
+                .enumerate()
+                .filter(|(i, (_, _, _, c))| {
+                    c.integrating == integrating && (i / 4) % SITUATIONS.len() == k
+                })
+                .map(|(_, (_, d, l, _))| (*d, *l))
+                .collect();
+            let (r, inc, all) = rates(&sub);
+            println!(
+                "  {:16} {situation:20} n {:>3}: right {all:5.1} % of all ({r:5.1} % of conclusive, {inc:5.1} % inconclusive)",
+                if integrating { "integrating" } else { "self-regulating" },
+                sub.len()
+            );
+        }
+    }
+    let wrong: Vec<&(f64, Verdict, bool, &Case)> = sim_judged
+        .iter()
+        .filter(|(_, d, l, _)| *d != Verdict::Inconclusive && (*d == Verdict::Stiction) != *l)
+        .collect();
+    for (s, d, _, c) in wrong.iter().take(12) {
+        println!("  wrong: {} -> {d} (score {s:.2})", c.what);
+    }
+    println!("\neach test's own statistic on the simulated validation loops:");
+    let refs: Vec<&Case> = valid.iter().collect();
+    for (name, a, n) in test_aucs(&refs) {
+        println!("  {name:18} AUC {} over {n:>3}", fmt_auc(a));
+    }
+    println!("\n[{:.1} s]", started.elapsed().as_secs_f64());
+    Ok(())
+}
