@@ -249,22 +249,6 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// `x` rounded to the resolution of a grid with step `step` (three decimals finer than the
-/// step), so JSON says `0.3`, not `0.30000000000000004`, for a node at three steps of 0.1.
-pub(crate) fn on_grid(x: f64, step: f64) -> f64 {
-    if !(x.is_finite() && step.is_finite() && step > 0.0) {
-        return x;
-    }
-    let decimals = (-step.log10()).ceil().clamp(0.0, 12.0) as i32 + 3;
-    let f = 10f64.powi(decimals);
-    let r = (x * f).round() / f;
-    if r.is_finite() {
-        r
-    } else {
-        x
-    }
-}
-
 /// Read all of `r` (for `FILE` = `-`).
 pub(crate) fn read_all(r: &mut dyn Read) -> std::io::Result<Vec<u8>> {
     let mut buf = Vec::new();

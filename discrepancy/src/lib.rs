@@ -16,6 +16,7 @@
 
 mod causes;
 mod eval;
+pub mod registration;
 mod residuals;
 
 use std::fmt;

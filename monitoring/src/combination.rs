@@ -9,7 +9,7 @@ use grid_search::{
     estimate_delay, quantify, DelayScan, GridPlan, Problem, Quantification, SearchOptions,
 };
 use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use stiction_models::{find_model, ModelEntry};
 
 use crate::MonitoringError;
@@ -18,7 +18,8 @@ use crate::MonitoringError;
 pub const MAX_AUTO_DELAY: usize = 10;
 
 /// The process dead time of a combination.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Delay {
     /// A fixed number of samples.
     Fixed(usize),
@@ -103,23 +104,13 @@ impl Combination {
     /// The identifier with this combination's orders and dead time `delay`.
     pub fn identifier(&self, delay: usize) -> Result<Box<dyn LinearIdentifier>, IdError> {
         let linear = self.linear;
-        let mut pairs: Vec<(String, f64)> = self
+        let known: Vec<(String, f64)> = self
             .orders
             .iter()
-            .filter(|(k, _)| k != "delay" && linear.orders.iter().any(|o| o.name == k))
+            .filter(|(k, _)| linear.orders.iter().any(|o| o.name == k))
             .cloned()
             .collect();
-        if linear.orders.iter().any(|o| o.name == "delay") {
-            pairs.push(("delay".into(), delay as f64));
-        } else if delay != 0 {
-            return Err(IdError::InvalidOrder {
-                identifier: linear.name,
-                name: "delay".into(),
-                value: delay as f64,
-                expected: "0 (this identifier has no dead-time option)".into(),
-            });
-        }
-        (linear.build)(&pairs)
+        build_identifier(linear, &known, delay)
     }
 
     /// The search options for a record whose OP spans `span`.
@@ -239,6 +230,32 @@ pub struct FitSummary {
     pub fit_pv_val: f64,
     /// Free-run simulation F_PV, validation window.
     pub fit_sim_val: f64,
+}
+
+/// The identifier `linear` with the orders `orders` (`NAME=value`; a `delay` among them is
+/// replaced) and dead time `delay`: an error when an order is unknown or invalid, or when the
+/// identifier has no dead-time option and `delay` is not 0.
+pub fn build_identifier(
+    linear: &IdentifierEntry,
+    orders: &[(String, f64)],
+    delay: usize,
+) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut pairs: Vec<(String, f64)> = orders
+        .iter()
+        .filter(|(k, _)| k != "delay")
+        .cloned()
+        .collect();
+    if linear.orders.iter().any(|o| o.name == "delay") {
+        pairs.push(("delay".into(), delay as f64));
+    } else if delay != 0 {
+        return Err(IdError::InvalidOrder {
+            identifier: linear.name,
+            name: "delay".into(),
+            value: delay as f64,
+            expected: "0 (this identifier has no dead-time option)".into(),
+        });
+    }
+    (linear.build)(&pairs)
 }
 
 /// `max - min` of the finite values of `x` (0 when there are none).

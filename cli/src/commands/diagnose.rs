@@ -127,7 +127,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     if args.report.report.is_some() {
         diagnose_report(&d, &dg, &args.report, s)?;
     }
-    let init = args.search.init.label();
+    let init = &args.search.init;
     let findings: Vec<Value> = dg
         .findings
         .iter_mut()

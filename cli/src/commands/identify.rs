@@ -7,7 +7,7 @@ use linear_id::{fit_pv, Structure};
 use serde_json::{json, Value};
 
 use super::load::{load, DataFlags};
-use super::search_flags::build_identifier;
+use super::search_flags::check_identifier;
 use crate::{data, usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
@@ -84,7 +84,12 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             args.split
         )));
     }
-    let (identifier, entry) = build_identifier(&args.linear, args.orders.as_deref(), args.delay)?;
+    let (identifier, _) = check_identifier(
+        &args.linear,
+        args.orders.as_deref().unwrap_or(""),
+        args.delay,
+    )?;
+    let entry = linear_id::find_identifier(&args.linear).map_err(usage)?;
     let mut flags = args.data.clone();
     if let Some(col) = &args.input {
         flags.set_op(col.clone());

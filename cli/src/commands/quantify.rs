@@ -12,7 +12,7 @@ use serde_json::{json, Value};
 use stiction_models::{find_model, Kano};
 
 use super::load::{load, DataFlags};
-use super::search_flags::{build_identifier, SearchFlags};
+use super::search_flags::{check_identifier, SearchFlags};
 use crate::progress::Progress;
 use crate::reporting::{self, ReportFlags};
 use crate::{data, usage, CmdResult, Failure, Streams};
@@ -172,73 +172,9 @@ pub(crate) fn run_one(
     run.map_err(|e| data(anyhow::Error::new(e).context(d.source.clone())))
 }
 
-fn round(x: f64, digits: i32) -> Value {
-    if x.is_finite() {
-        let f = 10f64.powi(digits);
-        json!((x * f).round() / f)
-    } else {
-        Value::Null
-    }
-}
-
-/// The contract's quantify object.
-pub(crate) fn quantify_json(r: &Run, init: &str) -> Value {
-    let q = &r.result;
-    let step = q.grid.step();
-    let g = |x: f64| crate::on_grid(x, step);
-    let mut params = serde_json::Map::new();
-    for (spec, v) in r.stiction.params.iter().zip(q.stiction.param_values()) {
-        params.insert(spec.name.to_string(), json!(g(v)));
-    }
-    for (name, v) in q.stiction.derived_values() {
-        params.insert(name.to_string(), json!(g(v)));
-    }
-    let orders: serde_json::Map<String, Value> = r
-        .identifier
-        .orders()
-        .into_iter()
-        .map(|(k, v)| (k.to_string(), json!(v)))
-        .collect();
-    let (fit_id, fit_val) = q.fits.rank(q.criterion);
-    let (other_id, other_val) = q.fits.rank(q.criterion.other());
-    json!({
-        "stiction_model": r.stiction.name,
-        "linear_model": r.linear,
-        "S": g(q.s),
-        "J": g(q.j),
-        "params": params,
-        "fit_pv_id": fit_id,
-        "fit_pv_val": fit_val,
-        "fit_kind": q.criterion.label(),
-        "fit_pv_other": {
-            "kind": q.criterion.other().label(),
-            "id": round(other_id, 6),
-            "val": round(other_val, 6),
-        },
-        "fit_mv": q.fits.mv,
-        "fit_no_stiction": q.fit_no_stiction,
-        "delay": r.delay,
-        "delay_scan": r.delay_scan.as_ref().map(|d| d.scores.iter().map(|(k, f)| json!({"delay": k, "fit_pv_val": round(*f, 6)})).collect::<Vec<_>>()),
-        "orders": orders,
-        "interval": {
-            "S": q.interval.s.map(g), "J": q.interval.j.map(g), "nodes": q.interval.nodes,
-            "fit_threshold": round(q.interval.fit_threshold, 6), "confidence": q.interval.confidence,
-        },
-        "grid": {
-            "nodes": q.nodes_evaluated,
-            "skipped": q.nodes_skipped,
-            "step": q.grid.step(),
-            "plan": q.grid,
-            "span": q.span,
-        },
-        "init": init,
-        "valid_from": q.fits.valid_from,
-        "split_index": q.split_index,
-        "stable": q.linear.is_stable(),
-        "static_gain": round(q.linear.static_gain(), 9),
-        "elapsed_ms": round(r.elapsed_ms, 3),
-        "warnings": q.warnings,
-    })
+/// The contract's quantify object as JSON.
+pub(crate) fn quantify_json(r: &Run, init: &stiction_models::Initialization) -> Value {
+    serde_json::to_value(r.record(init)).unwrap_or_default()
 }
 
 fn fmt_fit(f: Option<f64>) -> String {
@@ -297,7 +233,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         reporting::write(&rep, &args.report, started, s)?;
     }
     if args.json {
-        let mut v = quantify_json(&r, args.search.init.label());
+        let mut v = quantify_json(&r, &args.search.init);
         v["source"] = json!(d.source);
         serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
         writeln!(s.stdout).map_err(data)?;
@@ -432,7 +368,7 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         find_model(name).map_err(usage)?;
     }
     for name in &args.linear {
-        build_identifier(name, None, 0)?;
+        check_identifier(name, "", 0)?;
     }
     let d = match loop_data(args.file.as_deref(), args.example, &args.data, s) {
         Ok(d) => d,
@@ -464,7 +400,7 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         let mut errors = Vec::new();
         for (st, li, r) in &rows {
             match r {
-                Ok(r) => results.push(quantify_json(r, args.search.init.label())),
+                Ok(r) => results.push(quantify_json(r, &args.search.init)),
                 Err(f) => errors.push(json!({"stiction_model": st, "linear_model": li, "error": crate::one_line(f.error())})),
             }
         }

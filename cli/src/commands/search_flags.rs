@@ -3,7 +3,8 @@
 
 use anyhow::anyhow;
 use grid_search::{Criterion, GridPlan, SearchOptions};
-use linear_id::{find_identifier, IdentifierEntry, LinearIdentifier};
+use linear_id::{find_identifier, LinearIdentifier};
+use monitoring::{Combination, Delay, Orders, Settings};
 use stiction_models::Initialization;
 
 use super::valve::parse_init;
@@ -94,7 +95,6 @@ pub(crate) enum CriterionFlag {
 }
 
 impl SearchFlags {
-    /// Search options for a record with OP span `span`.
     /// The ranking criterion in words.
     pub(crate) fn criterion_label(&self) -> &'static str {
         match self.criterion {
@@ -103,120 +103,126 @@ impl SearchFlags {
         }
     }
 
+    /// Search options for a record with OP span `span`.
     pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
+        Ok(self.settings(&[])?.options(span))
+    }
+
+    /// The settings these flags describe, checked against the identifiers `linear` (their
+    /// names, the orders and the dead time are bad usage here, with the flags' names): orders,
+    /// dead time (`auto` scans 0..=`monitoring::MAX_AUTO_DELAY`), grid (`--step` =
+    /// exhaustive, else the default for each record's span), initialization, split, criterion
+    /// and node budget.
+    pub(crate) fn settings(&self, linear: &[String]) -> Result<Settings, Failure> {
+        let delay = match self.delay {
+            DelayFlag::Fixed(d) => d,
+            DelayFlag::Auto => 0,
+        };
+        let text = self.orders.as_deref().unwrap_or("");
+        let mut orders = Orders::default();
+        for name in linear {
+            orders = check_identifier(name, text, delay)?.1;
+        }
+        if linear.is_empty() {
+            orders = Orders(
+                items(text)
+                    .map(|(k, v)| (k.map(str::to_string), v.parse().unwrap_or(f64::NAN)))
+                    .collect(),
+            );
+        }
         let grid = match self.step {
-            Some(step) if step.is_finite() && step > 0.0 => GridPlan::Exhaustive { step },
+            Some(step) if step.is_finite() && step > 0.0 => Some(GridPlan::Exhaustive { step }),
             Some(step) => {
                 return Err(usage(anyhow!(
                     "--step {step}: expected a positive step in OP units"
                 )))
             }
-            None => GridPlan::for_span(span),
+            None => None,
         };
-        Ok(SearchOptions {
-            init: self.init,
-            grid,
-            split: self.split,
-            criterion: match self.criterion {
-                CriterionFlag::Prediction => Criterion::Prediction,
-                CriterionFlag::Simulation => Criterion::Simulation,
-            },
-            max_nodes: self.max_nodes,
-            ..SearchOptions::default()
-        })
-    }
-}
-
-impl SearchFlags {
-    /// The combination `stiction` × `linear` these flags describe: orders, dead time (`auto`
-    /// scans 0..=`monitoring::MAX_AUTO_DELAY`), grid (`--step` = exhaustive, else the default
-    /// for the record's span), initialization, split and criterion. Names, orders and the step
-    /// are checked here (bad usage).
-    pub(crate) fn combination(
-        &self,
-        stiction: &str,
-        linear: &str,
-    ) -> Result<monitoring::Combination, Failure> {
-        let stiction = stiction_models::find_model(stiction).map_err(usage)?;
-        let delay = match self.delay {
-            DelayFlag::Fixed(d) => d,
-            DelayFlag::Auto => 0,
-        };
-        // Builds the identifier once: unknown names, bad orders and a dead time the identifier
-        // has no option for are usage errors.
-        let (_, entry) = build_identifier(linear, self.orders.as_deref(), delay)?;
-        let mut orders = parse_orders(entry, self.orders.as_deref().unwrap_or(""))?;
-        orders.retain(|(k, _)| k != "delay");
-        let options = self.options(1.0)?;
-        Ok(monitoring::Combination {
-            stiction,
-            linear: entry,
+        Ok(Settings {
             orders,
             delay: match self.delay {
-                DelayFlag::Fixed(d) => monitoring::Delay::Fixed(d),
-                DelayFlag::Auto => monitoring::Delay::Auto {
+                DelayFlag::Fixed(d) => Delay::Fixed(d),
+                DelayFlag::Auto => Delay::Auto {
                     max: monitoring::MAX_AUTO_DELAY,
                 },
             },
-            grid: self.step.map(|_| options.grid),
-            search: options,
+            grid,
+            search: SearchOptions {
+                init: self.init,
+                split: self.split,
+                criterion: match self.criterion {
+                    CriterionFlag::Prediction => Criterion::Prediction,
+                    CriterionFlag::Simulation => Criterion::Simulation,
+                },
+                max_nodes: self.max_nodes,
+                ..SearchOptions::default()
+            },
         })
     }
-}
 
-/// Build a registered identifier from `--orders` and a delay.
-pub(crate) fn build_identifier(
-    name: &str,
-    orders: Option<&str>,
-    delay: usize,
-) -> Result<(Box<dyn LinearIdentifier>, &'static IdentifierEntry), Failure> {
-    let entry = find_identifier(name).map_err(usage)?;
-    let mut pairs = parse_orders(entry, orders.unwrap_or(""))?;
-    pairs.retain(|(k, _)| k != "delay");
-    if entry.orders.iter().any(|o| o.name == "delay") {
-        pairs.push(("delay".into(), delay as f64));
-    } else if delay != 0 {
-        return Err(usage(anyhow!(
-            "{}: this identifier has no dead-time option",
-            entry.name
-        )));
+    /// The combination `stiction` × `linear` these flags describe (bad usage when a name, an
+    /// order or the step is wrong).
+    pub(crate) fn combination(&self, stiction: &str, linear: &str) -> Result<Combination, Failure> {
+        stiction_models::find_model(stiction).map_err(usage)?;
+        self.settings(&[linear.to_string()])?
+            .combination(stiction, linear)
+            .map_err(usage)
     }
-    let id = (entry.build)(&pairs).map_err(usage)?;
-    Ok((id, entry))
 }
 
-fn parse_orders(entry: &IdentifierEntry, s: &str) -> Result<Vec<(String, f64)>, Failure> {
+/// `--orders` split into `(name, value)` items (a name for `NAME=VALUE`).
+fn items(s: &str) -> impl Iterator<Item = (Option<&str>, &str)> {
+    s.split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .map(|item| match item.split_once('=') {
+            Some((k, v)) => (Some(k.trim()), v.trim()),
+            None => (None, item),
+        })
+}
+
+/// Build the registered identifier `name` from `--orders` and a dead time: bad usage, in the
+/// flags' words, for an unknown name, a bad order or a dead time it cannot take. Also returns
+/// the orders as the library takes them.
+pub(crate) fn check_identifier(
+    name: &str,
+    orders: &str,
+    delay: usize,
+) -> Result<(Box<dyn LinearIdentifier>, Orders), Failure> {
+    let entry = find_identifier(name).map_err(usage)?;
     let positional: Vec<&str> = entry
         .orders
         .iter()
         .map(|o| o.name)
         .filter(|n| *n != "delay")
         .collect();
-    let mut out = Vec::new();
-    for (i, item) in s
-        .split(',')
-        .map(str::trim)
-        .filter(|t| !t.is_empty())
-        .enumerate()
-    {
-        let (name, value) = match item.split_once('=') {
-            Some((k, v)) => (k.trim().to_string(), v.trim()),
-            None => {
-                let name = positional.get(i).ok_or_else(|| {
-                    usage(anyhow!(
-                        "--orders {s:?}: {} takes at most {} positional orders ({})",
-                        entry.name,
-                        positional.len(),
-                        positional.join(", ")
-                    ))
-                })?;
-                (name.to_string(), item)
-            }
+    let mut parsed = Vec::new();
+    for (i, (key, value)) in items(orders).enumerate() {
+        let shown = match key {
+            Some(k) => k,
+            None => positional.get(i).ok_or_else(|| {
+                usage(anyhow!(
+                    "--orders {orders:?}: {} takes at most {} positional orders ({})",
+                    entry.name,
+                    positional.len(),
+                    positional.join(", ")
+                ))
+            })?,
         };
         let value: f64 = value
             .parse()
-            .map_err(|_| usage(anyhow!("--orders: {name} = {value:?} is not a number")))?;
-        out.push((name, value));
+            .map_err(|_| usage(anyhow!("--orders: {shown} = {value:?} is not a number")))?;
+        parsed.push((key.map(str::to_string), value));
     }
-    Ok(out)
+    let orders = Orders(parsed);
+    if delay != 0 && !entry.orders.iter().any(|o| o.name == "delay") {
+        return Err(usage(anyhow!(
+            "{}: this identifier has no dead-time option",
+            entry.name
+        )));
+    }
+    let named = orders.resolve(entry).map_err(usage)?;
+    let id = monitoring::build_identifier(entry, &named, delay).map_err(usage)?;
+    Ok((id, orders))
 }
