@@ -613,3 +613,25 @@ fn summarise(
         }
     }
 }
+
+/// The one line to act on: the cause and the model to use, with its S and J.
+pub fn action_line(dg: &Diagnosis) -> String {
+    let chosen = dg.chosen.and_then(|i| dg.findings.get(i));
+    match chosen {
+        Some(f) if f.cause == "no-stiction" => format!(
+            "no-stiction: the oscillation is not the valve's (a valve with negligible stiction, fitted S = {:.2} %, explains PV as well); look elsewhere",
+            f.extended.as_ref().map_or(f64::NAN, |e| e.s)
+        ),
+        Some(f) => match &f.extended {
+            Some(e) => format!(
+                "{}: use {} + {} (dead time {}): S = {:.2} %, J = {:.2} % (validation F_PV {:+.2} points over the baseline)",
+                f.cause, e.stiction_model, e.linear_model, e.delay, e.s, e.j, f.gain_fit_pv_val
+            ),
+            None => f.cause.to_string(),
+        },
+        None => format!(
+            "none: the baseline stands, S = {:.2} %, J = {:.2} %",
+            dg.baseline.s, dg.baseline.j
+        ),
+    }
+}

@@ -5,20 +5,16 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use datasets::format_epoch;
 use stiction_models::find_model;
 
 use super::batch::IntegratingFlag;
 use super::load::DataFlags;
 use super::search_flags::SearchFlags;
-use crate::reporting::ReportFlags;
+use crate::reporting::{self, ReportFlags};
 use crate::{data, usage, CmdResult, Streams};
 use monitoring::batch::DEFAULT_MIN_FIT;
-use monitoring::registration::{expand, Registration};
-use monitoring::trend::{self, TrendOptions, ValveTrend, DEFAULT_HORIZON, DEFAULT_THRESHOLD};
-use monitoring::{median, Flag};
-use report::figures::TrendLine;
-use report::{figures, Block, Report, Section, TrendPoint, TrendStatus};
+use monitoring::registration::expand;
+use monitoring::trend::{self, TrendOptions, DEFAULT_HORIZON, DEFAULT_THRESHOLD};
 
 pub(crate) const AFTER_HELP: &str = "\
 Every registration (file) of one valve is quantified with every stiction x linear
@@ -148,9 +144,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     bar.finish();
     let vt = vt.map_err(usage)?;
 
-    if args.report.report.is_some() {
-        trend_report(&args, &vt, s)?;
-    }
+    reporting::write(&args.report, s, || report::pages::trend_page(&vt))?;
     if args.json {
         let doc = serde_json::to_value(vt.record()).map_err(data)?;
         serde_json::to_writer_pretty(&mut *s.stdout, &doc).map_err(data)?;
@@ -158,250 +152,6 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         return Ok(());
     }
 
-    let out = &mut *s.stdout;
-    let regs = &vt.registrations;
-    let first = regs.iter().find_map(|r| r.start).map(format_epoch);
-    let last = regs.iter().rev().find_map(|r| r.start).map(format_epoch);
-    writeln!(
-        out,
-        "valve {valve}: {} registration(s), {} .. {}{}",
-        regs.len(),
-        first.unwrap_or_else(|| "?".into()),
-        last.unwrap_or_else(|| "?".into()),
-        if regs.iter().any(|r| r.integrating) {
-            "; integrating loop: identified from MV to ΔPV"
-        } else {
-            ""
-        }
-    )
-    .map_err(data)?;
-    for (c, ct) in vt.combinations.iter().enumerate() {
-        let t = &ct.trend;
-        writeln!(out, "\n{} + {}", ct.stiction, ct.linear).map_err(data)?;
-        writeln!(
-            out,
-            "{:>3}  {:<16}  {:>6} {:>13}  {:>5} {:>11}  {:>8}  {:<7}  why",
-            "#", "time", "S", "S range", "J", "J range", "F_PV val", "flag"
-        )
-        .map_err(data)?;
-        for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
-            let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
-            match (r.fit(c), r.error(c)) {
-                (Some(f), _) => {
-                    let why = if *flag == Flag::Used {
-                        String::new()
-                    } else if f.evidence.is_empty() {
-                        "no evidence of a disturbance in this registration: the valve itself \
-                         may have changed (maintenance, operating range)"
-                            .to_string()
-                    } else {
-                        join(&f.evidence)
-                    };
-                    writeln!(
-                        out,
-                        "{:>3}  {time:<16}  {:>6.2} {:>13}  {:>5.2} {:>11}  {:>8.1}  {:<7}  {why}",
-                        k + 1,
-                        f.s,
-                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
-                        f.j,
-                        format!("{:.2}-{:.2}", f.j_range[0], f.j_range[1]),
-                        f.fit_val,
-                        flag.label()
-                    )
-                    .map_err(data)?;
-                }
-                (None, e) => {
-                    let e = e.map(ToString::to_string).unwrap_or_default();
-                    writeln!(out, "{:>3}  {time:<16}  error: {}: {e}", k + 1, r.file)
-                        .map_err(data)?;
-                }
-            }
-        }
-        let count = |x: Flag| t.flags.iter().filter(|f| **f == x).count();
-        writeln!(
-            out,
-            "  usable {}, weak {}, outliers {}, errors {}{}",
-            count(Flag::Used),
-            count(Flag::Weak),
-            count(Flag::Outlier),
-            count(Flag::Error),
-            t.band
-                .map(|b| format!("; outlier band S in [{:.2}, {:.2}]", b[0], b[1]))
-                .unwrap_or_default()
-        )
-        .map_err(data)?;
-        writeln!(out, "  {}", level_line(t)).map_err(data)?;
-    }
-    writeln!(out, "\nverdict: {}: {}", vt.verdict, vt.reason).map_err(data)?;
-    writeln!(out, "rule: {}", vt.rule()).map_err(data)?;
-    Ok(())
-}
-
-/// Evidence joined with `; `.
-fn join(evidence: &[monitoring::Evidence]) -> String {
-    let v: Vec<String> = evidence.iter().map(ToString::to_string).collect();
-    v.join("; ")
-}
-
-/// `level (median S) ...; trend ...; latest usable S ...`.
-fn level_line(t: &monitoring::Trend) -> String {
-    format!(
-        "level (median S) {}; trend {}; latest usable S {}",
-        t.level.map_or("-".into(), |v| format!("{v:.2} %")),
-        t.slope_30d
-            .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
-        t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
-    )
-}
-
-/// The report of `trend`: the verdict, then per combination S over the registrations and
-/// the table behind it.
-fn trend_report(args: &Args, vt: &ValveTrend, s: &mut Streams<'_>) -> Result<(), crate::Failure> {
-    let started = std::time::Instant::now();
-    let (valve, regs) = (vt.valve.as_str(), vt.registrations.as_slice());
-    let (verdict, reason, rule) = (vt.verdict.label(), vt.reason.as_str(), vt.rule());
-    let dated = regs.iter().all(|r| r.start.is_some());
-    let day = |k: usize, r: &Registration| match (dated, r.start) {
-        (true, Some(t)) => t / 86400.0,
-        _ => (k + 1) as f64,
-    };
-    let mut sections = Vec::new();
-    for (c, ct) in vt.combinations.iter().enumerate() {
-        let t = &ct.trend;
-        let model = format!("{} × {}", ct.stiction, ct.linear);
-        let mut sec = Section::new(model.clone());
-        let mut points = Vec::new();
-        let mut rows = Vec::new();
-        for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
-            let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
-            match (r.fit(c), r.error(c)) {
-                (None, e) => rows.push(vec![
-                    (k + 1).to_string(),
-                    time,
-                    "-".into(),
-                    "-".into(),
-                    "-".into(),
-                    "-".into(),
-                    "error".into(),
-                    format!(
-                        "{}: {}",
-                        r.file,
-                        e.map(ToString::to_string).unwrap_or_default()
-                    ),
-                ]),
-                (Some(f), _) => {
-                    let status = match flag {
-                        Flag::Used => TrendStatus::Used,
-                        Flag::Weak | Flag::Error => TrendStatus::Weak,
-                        Flag::Outlier => TrendStatus::Outlier,
-                    };
-                    points.push(TrendPoint {
-                        day: day(k, r),
-                        s: f.s,
-                        interval: Some(f.s_range),
-                        status,
-                    });
-                    rows.push(vec![
-                        (k + 1).to_string(),
-                        time,
-                        format!("{:.2}", f.s),
-                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
-                        format!("{:.2}", f.j),
-                        format!("{:.1}", f.fit_val),
-                        flag.label().into(),
-                        if *flag == Flag::Used {
-                            String::new()
-                        } else {
-                            join(&f.evidence)
-                        },
-                    ]);
-                }
-            }
-        }
-        // The Theil-Sen line through the used points: slope, and the median intercept.
-        let line = t.slope_30d.filter(|_| dated).and_then(|m30| {
-            let slope = m30 / 30.0;
-            let used: Vec<&TrendPoint> = points
-                .iter()
-                .filter(|p| p.status == TrendStatus::Used)
-                .collect();
-            let day0 = used.first()?.day;
-            let icpt: Vec<f64> = used.iter().map(|p| p.s - slope * (p.day - day0)).collect();
-            Some(TrendLine {
-                day0,
-                s0: median(&icpt),
-                slope,
-            })
-        });
-        sec.push(Block::Paragraph(format!(
-            "Level (median S of the usable registrations) {}; trend {}; latest usable S {}.",
-            t.level.map_or("-".into(), |v| format!("{v:.2} %")),
-            t.slope_30d
-                .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
-            t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
-        )));
-        if !points.is_empty() {
-            let fig = figures::s_trend(
-                valve,
-                &model,
-                &points,
-                args.threshold,
-                line,
-                dated,
-                &format!("{}-{}-s-trend", ct.stiction, ct.linear),
-            )
-            .map_err(|e| data(anyhow!("report: {e}")))?;
-            sec.push(Block::Figure(fig));
-        }
-        sec.push(Block::Table {
-            header: ["#", "time", "S", "S range", "J", "F_PV val", "flag", "why"]
-                .map(String::from)
-                .to_vec(),
-            rows,
-        });
-        sections.push(sec);
-    }
-    // Registrations the reader refused: the reason and the raw columns (the first few).
-    let refused: Vec<(&Registration, &monitoring::RegistrationError)> = regs
-        .iter()
-        .filter_map(|r| r.outcome.as_ref().err().map(|e| (r, e)))
-        .collect();
-    if !refused.is_empty() {
-        let mut sec = Section::new(format!("Refused registrations ({})", refused.len()));
-        for (k, (r, e)) in refused.iter().enumerate() {
-            sec.push(Block::Note(format!("{}: {e}", r.file)));
-            if k >= 4 {
-                continue;
-            }
-            let stem = r
-                .path
-                .file_stem()
-                .map_or_else(|| r.file.clone(), |s| s.to_string_lossy().into_owned());
-            if let Some(cols) = crate::reporting::raw_columns(&r.path) {
-                let fig = figures::raw_signals(&stem, &cols, &format!("raw-{}", k + 1))
-                    .map_err(|e| data(anyhow!("report: {e}")))?;
-                sec.push(Block::Figure(fig));
-            }
-        }
-        sections.push(sec);
-    }
-    let mut rules = Section::new("How the verdict is reached");
-    rules.push(Block::Paragraph(rule));
-    sections.push(rules);
-    // The verdict first, in its own box, then why.
-    let mut first = Section::new("Verdict");
-    first.push(Block::Verdict(format!("Verdict: {verdict}.")));
-    first.push(Block::Paragraph(reason.to_string()));
-    sections.insert(0, first);
-    let rep = Report {
-        title: format!("trend: valve {valve}"),
-        subtitle: format!(
-            "{} registration(s) · stiction trend · threshold {} % of valve span",
-            regs.len(),
-            args.threshold
-        ),
-        summary: Vec::new(),
-        sections,
-    };
-    crate::reporting::write(&rep, &args.report, started, s)
+    let text = report::text::trend(&vt).map_err(data)?;
+    write!(s.stdout, "{text}").map_err(data)
 }
