@@ -635,3 +635,50 @@ pub fn action_line(dg: &Diagnosis) -> String {
         ),
     }
 }
+
+impl Diagnosis {
+    /// The document of `diagnose --json` for the loop of `source`, searched with `init`.
+    pub fn record(
+        &self,
+        source: &str,
+        init: &stiction_models::Initialization,
+    ) -> serde_json::Value {
+        use serde_json::{json, Value};
+        let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+        let findings: Vec<Value> = self
+            .findings
+            .iter()
+            .map(|f| {
+                json!({
+                    "cause": f.cause,
+                    "evidence": f.evidence,
+                    "statistic": num(f.statistic),
+                    "extended": f.fitted.as_ref().map(|x| x.record(init)),
+                    "gain_fit_pv_val": num(f.gain_fit_pv_val),
+                    "delta_S": num(f.delta_s),
+                    "delta_J": num(f.delta_j),
+                    "lr": num(f.lr),
+                    "threshold": num(f.threshold),
+                    "reference": f.reference,
+                    "significant": f.significant,
+                    "error": f.error,
+                })
+            })
+            .collect();
+        let extended = self
+            .chosen
+            .and_then(|i| findings.get(i))
+            .map_or(Value::Null, |f| f["extended"].clone());
+        json!({
+            "source": source,
+            "baseline": self.baseline_fit.record(init),
+            "cause": self.cause,
+            "findings": findings,
+            "extended": extended,
+            "gain_fit_pv_val": self.gain_fit_pv_val,
+            "summary": self.summary,
+            "residuals": serde_json::to_value(&self.residuals).unwrap_or_default(),
+            "elapsed_ms": self.elapsed_ms,
+        })
+    }
+}

@@ -207,6 +207,68 @@ impl Fitted {
     }
 }
 
+impl Fitted {
+    /// Write the fit over the whole grid as CSV (`quantify --surface`): the model's
+    /// parameters, S, J, the four fits, F_MV, the first valid sample, and the reason of a
+    /// skipped node.
+    pub fn write_surface(&self, path: &std::path::Path) -> Result<(), MonitoringError> {
+        let file = std::fs::File::create(path).map_err(|source| MonitoringError::Create {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let csv_err = |source| MonitoringError::Csv {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
+        let mut header: Vec<String> = self
+            .stiction
+            .params
+            .iter()
+            .map(|p| p.name.to_string())
+            .collect();
+        header.extend(
+            [
+                "S",
+                "J",
+                "fit_pred_id",
+                "fit_pred_val",
+                "fit_sim_id",
+                "fit_sim_val",
+                "fit_mv",
+                "valid_from",
+                "skipped",
+            ]
+            .map(String::from),
+        );
+        w.write_record(&header).map_err(csv_err)?;
+        for n in &self.result.surface {
+            let mut row: Vec<String> = n.params.iter().map(|v| v.to_string()).collect();
+            row.push(n.s.to_string());
+            row.push(n.j.to_string());
+            match &n.outcome {
+                Ok(f) => {
+                    for v in [f.pred_id, f.pred_val, f.sim_id, f.sim_val] {
+                        row.push(v.to_string());
+                    }
+                    row.push(f.mv.map(|v| v.to_string()).unwrap_or_default());
+                    row.push(f.valid_from.to_string());
+                    row.push(String::new());
+                }
+                Err(reason) => {
+                    row.extend(std::iter::repeat_n(String::new(), 6));
+                    row.push(reason.to_string());
+                }
+            }
+            w.write_record(&row).map_err(csv_err)?;
+        }
+        w.flush().map_err(|source| MonitoringError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+}
+
 /// The numbers of a [`Fitted`] model that a diagnosis reports (serialisable).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FitSummary {

@@ -11,6 +11,7 @@
 
 pub mod batch;
 mod combination;
+pub mod identify;
 mod record;
 pub mod registration;
 mod settings;
@@ -61,6 +62,22 @@ pub enum MonitoringError {
     #[error("{}: {source}", .path.display())]
     Io {
         /// The path.
+        path: PathBuf,
+        /// What failed.
+        source: std::io::Error,
+    },
+    /// A file could not be created.
+    #[error("cannot create {}", .path.display())]
+    Create {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        source: std::io::Error,
+    },
+    /// A file could not be written to the end.
+    #[error("cannot write {}", .path.display())]
+    Write {
+        /// The file.
         path: PathBuf,
         /// What failed.
         source: std::io::Error,

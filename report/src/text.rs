@@ -6,6 +6,9 @@ use std::fmt::{self, Write};
 use datasets::{format_epoch, LoopData};
 use discrepancy::Diagnosis;
 use grid_search::Criterion;
+use linear_id::Structure;
+use monitoring::batch::{OkRow, Row};
+use monitoring::identify::Identification;
 use monitoring::trend::ValveTrend;
 use monitoring::{Evidence, Fitted, Flag, Trend};
 
@@ -325,4 +328,116 @@ fn level_line(t: &Trend) -> String {
             .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
         t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
     )
+}
+
+/// The text of `identify`: the model, its poles and fits.
+pub fn identify(source: &str, id: &Identification) -> Result<String, fmt::Error> {
+    let mut text = String::new();
+    let out = &mut text;
+    let (fit, stable) = (&id.fit, id.fit.is_stable());
+    let (fit_id, fit_val, sim_val) = (id.fit_id, id.fit_val, id.sim_val);
+    let (ni, n) = (id.samples[0], id.samples[0] + id.samples[1]);
+    let o: Vec<String> = id.orders.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    writeln!(
+        out,
+        "{source}: {} from {} to PV ({}), {ni} identification / {} validation samples",
+        id.linear,
+        id.input,
+        o.join(", "),
+        n - ni
+    )?;
+    match fit.structure() {
+        Structure::Polynomial { a, b, c, delay } => {
+            let fmt = |v: &[f64]| {
+                v.iter()
+                    .map(|x| format!("{x:.6}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            writeln!(out, "  A(q) = [{}]", fmt(a))?;
+            writeln!(
+                out,
+                "  B(q) = [{}]  (q^-1 .. q^-{}, dead time {delay})",
+                fmt(b),
+                b.len()
+            )?;
+            if c.len() > 1 {
+                writeln!(out, "  C(q) = [{}]", fmt(c))?;
+            }
+        }
+        Structure::StateSpace { a, .. } => {
+            writeln!(
+                out,
+                "  state space, order {} (A, B, C, D, K, x0 with --json)",
+                a.len()
+            )?;
+        }
+    }
+    let poles: Vec<String> = fit
+        .poles()
+        .iter()
+        .map(|(re, im)| {
+            if im.abs() < 1e-12 {
+                format!("{re:.4}")
+            } else {
+                format!("{re:.4}{im:+.4}i")
+            }
+        })
+        .collect();
+    writeln!(
+        out,
+        "  static gain {:.4}, poles {} ({})",
+        fit.static_gain(),
+        poles.join(", "),
+        if stable { "stable" } else { "UNSTABLE" }
+    )?;
+    writeln!(
+        out,
+        "  F_PV one-step prediction: id {fit_id:.2} %, val {fit_val:.2} %; free-run simulation val {}",
+        sim_val.filter(|v| v.is_finite()).map_or("-".into(), |v| format!("{v:.2} %"))
+    )
+    ?;
+    if let Some(eta) = fit.disturbance() {
+        let (lo, hi) = eta
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        writeln!(
+            out,
+            "  estimated disturbance η̂: {} samples, range [{lo:.4}, {hi:.4}] (series with --json)",
+            eta.len()
+        )?;
+    }
+    Ok(text)
+}
+
+/// The rows of `batch` as a table (without `-o`).
+pub fn batch_table(rows: &[Row]) -> String {
+    let mut out = format!(
+        "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  error\n",
+        "file", "valve", "time", "status", "S", "S range", "J", "F_PV val"
+    );
+    for r in rows {
+        let num = |f: &dyn Fn(&OkRow) -> f64| {
+            r.ok()
+                .map(f)
+                .filter(|v| v.is_finite())
+                .map_or("-".into(), |v| format!("{v:.2}"))
+        };
+        let _ = writeln!(
+            out,
+            "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  {}",
+            r.file,
+            r.valve,
+            r.time.as_deref().unwrap_or("?"),
+            if r.is_ok() { "ok" } else { "error" },
+            num(&|o| o.s),
+            format!("{}-{}", num(&|o| o.s_lo), num(&|o| o.s_hi)),
+            num(&|o| o.j),
+            num(&|o| o.fit_pv_val),
+            r.error().unwrap_or("")
+        );
+    }
+    out
 }

@@ -150,34 +150,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let rows = &run.rows;
     let ok = rows.iter().filter(|r| r.is_ok()).count();
     if args.out.is_none() {
-        writeln!(
-            out,
-            "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  error",
-            "file", "valve", "time", "status", "S", "S range", "J", "F_PV val"
-        )
-        .map_err(data)?;
-        for r in rows {
-            let num = |f: &dyn Fn(&batch::OkRow) -> f64| {
-                r.ok()
-                    .map(f)
-                    .filter(|v| v.is_finite())
-                    .map_or("-".into(), |v| format!("{v:.2}"))
-            };
-            writeln!(
-                out,
-                "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  {}",
-                r.file,
-                r.valve,
-                r.time.as_deref().unwrap_or("?"),
-                if r.is_ok() { "ok" } else { "error" },
-                num(&|o| o.s),
-                format!("{}-{}", num(&|o| o.s_lo), num(&|o| o.s_hi)),
-                num(&|o| o.j),
-                num(&|o| o.fit_pv_val),
-                r.error().unwrap_or("")
-            )
-            .map_err(data)?;
-        }
+        write!(out, "{}", report::text::batch_table(rows)).map_err(data)?;
     }
     writeln!(
         out,

@@ -6,10 +6,9 @@ use std::path::PathBuf;
 use anyhow::anyhow;
 use discrepancy::{diagnose_with_progress, DiagnoseOptions};
 use grid_search::Problem;
-use serde_json::{json, Value};
 
 use super::load::DataFlags;
-use super::quantify::{loop_data, quantify_json, Example};
+use super::quantify::{loop_data, Example};
 use super::search_flags::{DelayFlag, SearchFlags};
 use crate::reporting::{self, ReportFlags};
 use crate::{data, usage, CmdResult, Streams};
@@ -60,14 +59,6 @@ pub struct Args {
     json: bool,
 }
 
-fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
-}
-
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let delay = match args.search.delay {
         DelayFlag::Fixed(d) => d,
@@ -112,7 +103,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let tick = |done: usize, total: usize, _what: &str| bar.update(done, total);
     let outcome = diagnose_with_progress(problem, &baseline, &options, Some(&tick));
     bar.finish();
-    let mut dg = match outcome {
+    let dg = match outcome {
         Ok(dg) => dg,
         Err(e @ discrepancy::DiagnoseError::UnknownCause { .. }) => return Err(usage(e)),
         Err(discrepancy::DiagnoseError::Search(
@@ -122,45 +113,8 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         Err(other) => return Err(refused(data(anyhow!("{}: {other}", d.source)), s)),
     };
     reporting::write(&args.report, s, || report::pages::diagnose_page(&d, &dg))?;
-    let init = &args.search.init;
-    let findings: Vec<Value> = dg
-        .findings
-        .iter_mut()
-        .map(|f| {
-            let ext = f.fitted.take().map(|x| quantify_json(&x, init));
-            json!({
-                "cause": f.cause,
-                "evidence": f.evidence,
-                "statistic": num(f.statistic),
-                "extended": ext,
-                "gain_fit_pv_val": num(f.gain_fit_pv_val),
-                "delta_S": num(f.delta_s),
-                "delta_J": num(f.delta_j),
-                "lr": num(f.lr),
-                "threshold": num(f.threshold),
-                "reference": f.reference,
-                "significant": f.significant,
-                "error": f.error,
-            })
-        })
-        .collect();
-    let extended = dg
-        .chosen
-        .and_then(|i| findings.get(i))
-        .map_or(Value::Null, |f| f["extended"].clone());
     if args.json {
-        let baseline_json = quantify_json(&dg.baseline_fit, init);
-        let v = json!({
-            "source": d.source,
-            "baseline": baseline_json,
-            "cause": dg.cause,
-            "findings": findings,
-            "extended": extended,
-            "gain_fit_pv_val": dg.gain_fit_pv_val,
-            "summary": dg.summary,
-            "residuals": serde_json::to_value(&dg.residuals).map_err(data)?,
-            "elapsed_ms": dg.elapsed_ms,
-        });
+        let v = dg.record(&d.source, &args.search.init);
         serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
         writeln!(s.stdout).map_err(data)?;
         return Ok(());

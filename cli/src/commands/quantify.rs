@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{anyhow, Context};
+use anyhow::anyhow;
 use datasets::simulate::Scenario;
 use datasets::LoopData;
 use grid_search::Problem;
@@ -195,7 +195,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         Err(f) => return Err(refused(f, s)),
     };
     if let Some(path) = &args.surface {
-        write_surface(path, &r).map_err(data)?;
+        r.write_surface(path).map_err(data)?;
     }
     reporting::write(&args.report, s, || report::pages::quantify_page(&d, &r))?;
     if args.json {
@@ -207,56 +207,6 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     }
     let text = report::text::quantify(&d.source, &r, args.search.init.label()).map_err(data)?;
     write!(s.stdout, "{text}").map_err(data)
-}
-
-fn write_surface(path: &Path, r: &Run) -> anyhow::Result<()> {
-    let file =
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
-    let mut header: Vec<String> = r
-        .stiction
-        .params
-        .iter()
-        .map(|p| p.name.to_string())
-        .collect();
-    header.extend(
-        [
-            "S",
-            "J",
-            "fit_pred_id",
-            "fit_pred_val",
-            "fit_sim_id",
-            "fit_sim_val",
-            "fit_mv",
-            "valid_from",
-            "skipped",
-        ]
-        .map(String::from),
-    );
-    w.write_record(&header)?;
-    for n in &r.result.surface {
-        let mut row: Vec<String> = n.params.iter().map(|v| v.to_string()).collect();
-        row.push(n.s.to_string());
-        row.push(n.j.to_string());
-        match &n.outcome {
-            Ok(f) => {
-                for v in [f.pred_id, f.pred_val, f.sim_id, f.sim_val] {
-                    row.push(v.to_string());
-                }
-                row.push(f.mv.map(|v| v.to_string()).unwrap_or_default());
-                row.push(f.valid_from.to_string());
-                row.push(String::new());
-            }
-            Err(reason) => {
-                row.extend(std::iter::repeat_n(String::new(), 6));
-                row.push(reason.to_string());
-            }
-        }
-        w.write_record(&row)?;
-    }
-    w.flush()
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
 }
 
 pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
