@@ -6,16 +6,16 @@ use std::fmt;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use datasets::{format_epoch, ReadOptions};
+use datasets::format_epoch;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::batch::BatchOptions;
 use crate::registration::{
-    evaluate, file_name, Diagnoser, Evidence, FitEvidence, Integrating, Plan, Registration,
-    TimeSource,
+    evaluate, file_name, Diagnoser, Evidence, FitEvidence, Plan, Registration, TimeSource,
 };
 use crate::stats::{median, theil_sen};
-use crate::{Combination, MonitoringError, QuantifyRecord, Settings};
+use crate::{MonitoringError, QuantifyRecord};
 
 /// How one registration counts in a trend.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -218,22 +218,13 @@ pub const DEFAULT_THRESHOLD: f64 = grid_search::MAINTENANCE_S;
 /// Default horizon of the projection, days.
 pub const DEFAULT_HORIZON: f64 = 90.0;
 
-/// What a valve's trend computes.
+/// What a valve's trend computes: each registration as a batch computes it, then the trend.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TrendOptions {
-    /// Stiction models (registered names).
-    pub stiction: Vec<String>,
-    /// Linear identifiers; every stiction × linear combination is followed, stiction-major.
-    pub linear: Vec<String>,
-    /// Orders, dead time, grid and search options of every combination.
-    pub settings: Settings,
-    /// The reader's options.
-    pub read: ReadOptions,
-    /// Which loops are integrating.
-    pub integrating: Integrating,
-    /// Minimum validation F_PV (%) for a registration to count.
-    pub min_fit: f64,
+    /// What each registration computes (combinations, settings, reader, integrating loops,
+    /// the minimum validation F_PV for a registration to count).
+    pub run: BatchOptions,
     /// Maintenance threshold on S, % of valve span.
     pub threshold: f64,
     /// How far ahead (days) the trend is projected for the `watch` verdict.
@@ -242,14 +233,8 @@ pub struct TrendOptions {
 
 impl Default for TrendOptions {
     fn default() -> Self {
-        let batch = crate::batch::BatchOptions::default();
         TrendOptions {
-            stiction: batch.stiction,
-            linear: batch.linear,
-            settings: batch.settings,
-            read: batch.read,
-            integrating: batch.integrating,
-            min_fit: batch.min_fit,
+            run: BatchOptions::default(),
             threshold: DEFAULT_THRESHOLD,
             horizon: DEFAULT_HORIZON,
         }
@@ -312,19 +297,15 @@ pub fn follow(
     diagnoser: Option<&(dyn Diagnoser + Sync)>,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<ValveTrend, MonitoringError> {
-    let mut combinations: Vec<Combination> = Vec::new();
-    for st in &options.stiction {
-        for li in &options.linear {
-            combinations.push(options.settings.combination(st, li)?);
-        }
-    }
+    let run = &options.run;
+    let combinations = run.combinations()?;
     let explainer = FitEvidence {
-        min_fit: options.min_fit,
+        min_fit: run.min_fit,
     };
     let plan = Plan {
         combinations: &combinations,
-        read: &options.read,
-        integrating: options.integrating,
+        read: &run.read,
+        integrating: run.integrating,
         explainer: &explainer,
     };
     let done = AtomicUsize::new(0);
@@ -359,7 +340,7 @@ pub fn follow(
             CombinationTrend {
                 stiction: comb.stiction.name,
                 linear: comb.linear.name,
-                trend: trend(&points, options.min_fit),
+                trend: trend(&points, run.min_fit),
             }
         })
         .collect();
@@ -381,7 +362,7 @@ pub fn follow(
             .par_iter()
             .map(|&(k, c)| {
                 let why = diagnoser
-                    .diagnose(&regs[k], &combinations[c], &options.read)
+                    .diagnose(&regs[k], &combinations[c], &run.read)
                     .unwrap_or_else(|e| format!("diagnosis failed: {e}"));
                 ((k, c), why)
             })
@@ -563,7 +544,7 @@ impl ValveTrend {
             valve: self.valve.clone(),
             registrations: self.registrations.len(),
             threshold: self.options.threshold,
-            min_fit: self.options.min_fit,
+            min_fit: self.options.run.min_fit,
             horizon_days: self.options.horizon,
             level: self.level,
             latest: self.latest,

@@ -122,12 +122,14 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         }
     };
     let options = TrendOptions {
-        stiction: args.stiction.clone(),
-        linear: args.linear.clone(),
-        settings,
-        read: args.data.read_options(true, monitoring::batch::MIN_ROWS),
-        integrating: args.integrating.into(),
-        min_fit: args.min_fit,
+        run: monitoring::batch::BatchOptions {
+            stiction: args.stiction.clone(),
+            linear: args.linear.clone(),
+            settings,
+            read: args.data.read_options(true, monitoring::batch::MIN_ROWS),
+            integrating: args.integrating.into(),
+            min_fit: args.min_fit,
+        },
         threshold: args.threshold,
         horizon: args.horizon,
     };
