@@ -253,8 +253,6 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-pub(crate) use monitoring::doc::on_grid;
-
 /// Read all of `r` (for `FILE` = `-`).
 pub(crate) fn read_all(r: &mut dyn Read) -> std::io::Result<Vec<u8>> {
     let mut buf = Vec::new();

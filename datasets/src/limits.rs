@@ -14,7 +14,8 @@ use std::io::Read;
 use crate::DataError;
 
 /// Limits of [`crate::read_csv`] and [`crate::read_mat`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct Limits {
     /// Most bytes read from one file or stream.
     pub max_bytes: u64,

@@ -12,7 +12,8 @@ use std::path::Path;
 use crate::{DataError, LoopData, Note, NoteKind};
 
 /// What to do with empty or `NaN` cells in the used columns.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum GapPolicy {
     /// Refuse the file, reporting how many gaps there are and where the first one is
     /// ([`DataError::Gaps`]). The default: a gap is never handled silently.
@@ -62,7 +63,8 @@ pub enum GapPolicy {
 ///
 /// A column named explicitly (`Some`) must exist, even an optional one; an optional column
 /// found by its default name whose cells are all empty or NaN is ignored with a note.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct ReadOptions {
     /// Header name of the PV column.
     pub pv: Option<String>,

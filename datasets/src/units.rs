@@ -27,7 +27,8 @@
 pub const FULL_SCALES: [f64; 7] = [255.0, 1023.0, 4095.0, 16383.0, 27648.0, 32767.0, 65535.0];
 
 /// How the reader finds OP's valve span.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum OpRange {
     /// Assume it from the range seen (see the module documentation).
     #[default]

@@ -16,6 +16,7 @@
 
 mod causes;
 mod eval;
+pub mod registration;
 mod residuals;
 
 use std::fmt;
@@ -610,5 +611,74 @@ fn summarise(
                 tested.join(", ")
             )
         }
+    }
+}
+
+/// The one line to act on: the cause and the model to use, with its S and J.
+pub fn action_line(dg: &Diagnosis) -> String {
+    let chosen = dg.chosen.and_then(|i| dg.findings.get(i));
+    match chosen {
+        Some(f) if f.cause == "no-stiction" => format!(
+            "no-stiction: the oscillation is not the valve's (a valve with negligible stiction, fitted S = {:.2} %, explains PV as well); look elsewhere",
+            f.extended.as_ref().map_or(f64::NAN, |e| e.s)
+        ),
+        Some(f) => match &f.extended {
+            Some(e) => format!(
+                "{}: use {} + {} (dead time {}): S = {:.2} %, J = {:.2} % (validation F_PV {:+.2} points over the baseline)",
+                f.cause, e.stiction_model, e.linear_model, e.delay, e.s, e.j, f.gain_fit_pv_val
+            ),
+            None => f.cause.to_string(),
+        },
+        None => format!(
+            "none: the baseline stands, S = {:.2} %, J = {:.2} %",
+            dg.baseline.s, dg.baseline.j
+        ),
+    }
+}
+
+impl Diagnosis {
+    /// The document of `diagnose --json` for the loop of `source`, searched with `init`.
+    pub fn record(
+        &self,
+        source: &str,
+        init: &stiction_models::Initialization,
+    ) -> serde_json::Value {
+        use serde_json::{json, Value};
+        let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+        let findings: Vec<Value> = self
+            .findings
+            .iter()
+            .map(|f| {
+                json!({
+                    "cause": f.cause,
+                    "evidence": f.evidence,
+                    "statistic": num(f.statistic),
+                    "extended": f.fitted.as_ref().map(|x| x.record(init)),
+                    "gain_fit_pv_val": num(f.gain_fit_pv_val),
+                    "delta_S": num(f.delta_s),
+                    "delta_J": num(f.delta_j),
+                    "lr": num(f.lr),
+                    "threshold": num(f.threshold),
+                    "reference": f.reference,
+                    "significant": f.significant,
+                    "error": f.error,
+                })
+            })
+            .collect();
+        let extended = self
+            .chosen
+            .and_then(|i| findings.get(i))
+            .map_or(Value::Null, |f| f["extended"].clone());
+        json!({
+            "source": source,
+            "baseline": self.baseline_fit.record(init),
+            "cause": self.cause,
+            "findings": findings,
+            "extended": extended,
+            "gain_fit_pv_val": self.gain_fit_pv_val,
+            "summary": self.summary,
+            "residuals": serde_json::to_value(&self.residuals).unwrap_or_default(),
+            "elapsed_ms": self.elapsed_ms,
+        })
     }
 }

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use linear_id::{fit_pv, LinearFit, LinearIdentifier};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use stiction_models::{
     run_valve_indexed, run_valve_with, Initialization, ModelEntry, OpIndex, StictionModel,
     ValveScratch,
@@ -21,7 +21,7 @@ use crate::{grid, SearchError};
 /// Decided by measurement (`docs/CRITERION.md`): in closed loop a free-run simulation fit can
 /// prefer S = J = 0, because OP carries feedback information about the noise in PV, while the
 /// one-step prediction peaks at the truth. Both fits are always computed and reported.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Criterion {
     /// One-step-ahead prediction with measured PV lags (default).
@@ -50,7 +50,7 @@ impl Criterion {
 }
 
 /// How the grid is laid out.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum GridPlan {
     /// Every node at `step` (OP units) over the model's whole admissible region.
@@ -117,7 +117,8 @@ impl GridPlan {
 /// | `split` | 2/3 | fraction of the record used for identification |
 /// | `criterion` | prediction | [`Criterion`] ranking the nodes |
 /// | `confidence` | 0.95 | level of the likelihood-ratio region behind [`Interval`] |
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct SearchOptions {
     /// Initialization strategy.
     pub init: Initialization,

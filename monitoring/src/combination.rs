@@ -9,7 +9,7 @@ use grid_search::{
     estimate_delay, quantify, DelayScan, GridPlan, Problem, Quantification, SearchOptions,
 };
 use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use stiction_models::{find_model, ModelEntry};
 
 use crate::MonitoringError;
@@ -18,7 +18,8 @@ use crate::MonitoringError;
 pub const MAX_AUTO_DELAY: usize = 10;
 
 /// The process dead time of a combination.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Delay {
     /// A fixed number of samples.
     Fixed(usize),
@@ -103,23 +104,13 @@ impl Combination {
     /// The identifier with this combination's orders and dead time `delay`.
     pub fn identifier(&self, delay: usize) -> Result<Box<dyn LinearIdentifier>, IdError> {
         let linear = self.linear;
-        let mut pairs: Vec<(String, f64)> = self
+        let known: Vec<(String, f64)> = self
             .orders
             .iter()
-            .filter(|(k, _)| k != "delay" && linear.orders.iter().any(|o| o.name == k))
+            .filter(|(k, _)| linear.orders.iter().any(|o| o.name == k))
             .cloned()
             .collect();
-        if linear.orders.iter().any(|o| o.name == "delay") {
-            pairs.push(("delay".into(), delay as f64));
-        } else if delay != 0 {
-            return Err(IdError::InvalidOrder {
-                identifier: linear.name,
-                name: "delay".into(),
-                value: delay as f64,
-                expected: "0 (this identifier has no dead-time option)".into(),
-            });
-        }
-        (linear.build)(&pairs)
+        build_identifier(linear, &known, delay)
     }
 
     /// The search options for a record whose OP spans `span`.
@@ -216,6 +207,68 @@ impl Fitted {
     }
 }
 
+impl Fitted {
+    /// Write the fit over the whole grid as CSV (`quantify --surface`): the model's
+    /// parameters, S, J, the four fits, F_MV, the first valid sample, and the reason of a
+    /// skipped node.
+    pub fn write_surface(&self, path: &std::path::Path) -> Result<(), MonitoringError> {
+        let file = std::fs::File::create(path).map_err(|source| MonitoringError::Create {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let csv_err = |source| MonitoringError::Csv {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
+        let mut header: Vec<String> = self
+            .stiction
+            .params
+            .iter()
+            .map(|p| p.name.to_string())
+            .collect();
+        header.extend(
+            [
+                "S",
+                "J",
+                "fit_pred_id",
+                "fit_pred_val",
+                "fit_sim_id",
+                "fit_sim_val",
+                "fit_mv",
+                "valid_from",
+                "skipped",
+            ]
+            .map(String::from),
+        );
+        w.write_record(&header).map_err(csv_err)?;
+        for n in &self.result.surface {
+            let mut row: Vec<String> = n.params.iter().map(|v| v.to_string()).collect();
+            row.push(n.s.to_string());
+            row.push(n.j.to_string());
+            match &n.outcome {
+                Ok(f) => {
+                    for v in [f.pred_id, f.pred_val, f.sim_id, f.sim_val] {
+                        row.push(v.to_string());
+                    }
+                    row.push(f.mv.map(|v| v.to_string()).unwrap_or_default());
+                    row.push(f.valid_from.to_string());
+                    row.push(String::new());
+                }
+                Err(reason) => {
+                    row.extend(std::iter::repeat_n(String::new(), 6));
+                    row.push(reason.to_string());
+                }
+            }
+            w.write_record(&row).map_err(csv_err)?;
+        }
+        w.flush().map_err(|source| MonitoringError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+}
+
 /// The numbers of a [`Fitted`] model that a diagnosis reports (serialisable).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FitSummary {
@@ -239,6 +292,32 @@ pub struct FitSummary {
     pub fit_pv_val: f64,
     /// Free-run simulation F_PV, validation window.
     pub fit_sim_val: f64,
+}
+
+/// The identifier `linear` with the orders `orders` (`NAME=value`; a `delay` among them is
+/// replaced) and dead time `delay`: an error when an order is unknown or invalid, or when the
+/// identifier has no dead-time option and `delay` is not 0.
+pub fn build_identifier(
+    linear: &IdentifierEntry,
+    orders: &[(String, f64)],
+    delay: usize,
+) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut pairs: Vec<(String, f64)> = orders
+        .iter()
+        .filter(|(k, _)| k != "delay")
+        .cloned()
+        .collect();
+    if linear.orders.iter().any(|o| o.name == "delay") {
+        pairs.push(("delay".into(), delay as f64));
+    } else if delay != 0 {
+        return Err(IdError::InvalidOrder {
+            identifier: linear.name,
+            name: "delay".into(),
+            value: delay as f64,
+            expected: "0 (this identifier has no dead-time option)".into(),
+        });
+    }
+    (linear.build)(&pairs)
 }
 
 /// `max - min` of the finite values of `x` (0 when there are none).

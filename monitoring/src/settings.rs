@@ -1,70 +1,196 @@
-//! The search settings of a command as data: what the CLI's flags (`--orders`, `--delay`,
-//! `--step`, `--init`, `--criterion`, `--split`, `--max-nodes`), a Python call's keyword
-//! arguments and a batch job's settings all become, checked in one place and turned into a
-//! [`Combination`]. The messages name the CLI's flags, which the Python keywords mirror.
+//! What a run searches, as one serialisable value: the identifier's orders as the user gave
+//! them, the dead time, the grid and the search options. [`Settings::combination`] turns them
+//! into a [`Combination`] for one stiction model × one identifier, so that one set of settings
+//! serves every combination of a `compare`, a `trend` or a `batch`.
 
-use grid_search::{Criterion, GridPlan, SearchOptions};
+use grid_search::{GridPlan, SearchOptions};
 use linear_id::{find_identifier, IdentifierEntry};
 use serde::{Deserialize, Serialize};
-use stiction_models::{find_model, Initialization};
+use stiction_models::find_model;
 
-use crate::{Combination, Delay, MonitoringError, MAX_AUTO_DELAY};
+use crate::{Combination, Delay, MonitoringError};
 
-/// The dead time as set: a number of samples or `"auto"` (scan `0..=MAX_AUTO_DELAY`).
+/// The orders of a linear identifier as given: each value by its name (`n=3`) or by its
+/// position among the identifier's orders without the dead time (`3,2` is `n=3, m=2` for arx,
+/// `n=3, m=2` for armax too). Resolved per identifier by [`Orders::resolve`], so one list
+/// serves several identifiers. Empty: every order at the identifier's default.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Orders(pub Vec<(Option<String>, f64)>);
+
+impl Orders {
+    /// Named orders.
+    pub fn named<'a>(pairs: impl IntoIterator<Item = (&'a str, f64)>) -> Orders {
+        Orders(
+            pairs
+                .into_iter()
+                .map(|(k, v)| (Some(k.to_string()), v))
+                .collect(),
+        )
+    }
+
+    /// Whether no order is given.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// `NAME=value` pairs for `entry`: positional values take the names of the identifier's
+    /// orders (without `delay`) in turn; a given `delay` is left out (the dead time is the
+    /// combination's [`Delay`]).
+    pub fn resolve(&self, entry: &IdentifierEntry) -> Result<Vec<(String, f64)>, MonitoringError> {
+        let positional: Vec<&'static str> = entry
+            .orders
+            .iter()
+            .map(|o| o.name)
+            .filter(|n| *n != "delay")
+            .collect();
+        let mut out = Vec::new();
+        for (i, (name, value)) in self.0.iter().enumerate() {
+            let name = match name {
+                Some(n) => n.clone(),
+                None => positional
+                    .get(i)
+                    .ok_or_else(|| MonitoringError::TooManyOrders {
+                        identifier: entry.name,
+                        positional: positional.clone(),
+                    })?
+                    .to_string(),
+            };
+            if name != "delay" {
+                out.push((name, *value));
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The settings of a search shared by every combination of a run.
+///
+/// ```
+/// use monitoring::{Delay, Orders, Settings};
+/// let settings = Settings {
+///     orders: Orders::named([("n", 3.0), ("m", 2.0)]),
+///     delay: Delay::Fixed(1),
+///     ..Settings::default()
+/// };
+/// let c = settings.combination("kano", "arx")?;
+/// assert_eq!(c.identifier(1)?.orders(), vec![("n", 3.0), ("m", 2.0), ("delay", 1.0)]);
+/// # Ok::<(), monitoring::MonitoringError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Settings {
+    /// Orders of the linear identifier.
+    pub orders: Orders,
+    /// Dead time.
+    pub delay: Delay,
+    /// Grid plan; `None`: the default grid for each record's OP span
+    /// ([`GridPlan::for_span`]).
+    pub grid: Option<GridPlan>,
+    /// Initialization, split, criterion, confidence and node budget (its `grid` is unused:
+    /// the plan above decides).
+    pub search: SearchOptions,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            orders: Orders::default(),
+            delay: Delay::Fixed(0),
+            grid: None,
+            search: SearchOptions::default(),
+        }
+    }
+}
+
+impl Settings {
+    /// The combination of the registered stiction model `stiction` and identifier `linear`
+    /// with these settings. Checks the names, the orders and that the identifier can take the
+    /// fixed dead time.
+    pub fn combination(
+        &self,
+        stiction: &str,
+        linear: &str,
+    ) -> Result<Combination, MonitoringError> {
+        let stiction = find_model(stiction)?;
+        let linear = find_identifier(linear)?;
+        let combination = Combination {
+            stiction,
+            linear,
+            orders: self.orders.resolve(linear)?,
+            delay: self.delay,
+            grid: self.grid,
+            search: self.search,
+        };
+        combination.identifier(combination.fixed_delay())?;
+        Ok(combination)
+    }
+
+    /// The search options for a record whose OP spans `span`.
+    pub fn options(&self, span: f64) -> SearchOptions {
+        SearchOptions {
+            grid: self.grid.unwrap_or_else(|| GridPlan::for_span(span)),
+            ..self.search
+        }
+    }
+}
+
+/// The dead time as the CLI's `--delay` and Python's `delay=` spell it: a number of samples or
+/// `"auto"` (scan `0..=MAX_AUTO_DELAY`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DelaySetting {
+pub enum DelayArg {
     /// A fixed number of samples.
     Samples(usize),
     /// Estimated.
     Auto,
 }
 
-impl Default for DelaySetting {
+impl Default for DelayArg {
     fn default() -> Self {
-        DelaySetting::Samples(0)
+        DelayArg::Samples(0)
     }
 }
 
-impl DelaySetting {
-    /// `N` or `auto` (the `--delay` flag's syntax).
-    pub fn parse(s: &str) -> Result<DelaySetting, String> {
+impl DelayArg {
+    /// `N` or `auto`.
+    pub fn parse(s: &str) -> Result<DelayArg, String> {
         if s.trim().eq_ignore_ascii_case("auto") {
-            return Ok(DelaySetting::Auto);
+            return Ok(DelayArg::Auto);
         }
         s.trim()
             .parse::<usize>()
-            .map(DelaySetting::Samples)
+            .map(DelayArg::Samples)
             .map_err(|_| format!("expected a number of samples or `auto`, got {s:?}"))
     }
 
     /// The fixed dead time (0 for `Auto`).
     pub fn fixed(self) -> usize {
         match self {
-            DelaySetting::Auto => 0,
-            DelaySetting::Samples(n) => n,
+            DelayArg::Auto => 0,
+            DelayArg::Samples(n) => n,
         }
     }
 
-    fn delay(self) -> Delay {
+    /// The combination's [`Delay`].
+    pub fn delay(self) -> Delay {
         match self {
-            DelaySetting::Auto => Delay::Auto {
-                max: MAX_AUTO_DELAY,
+            DelayArg::Auto => Delay::Auto {
+                max: crate::MAX_AUTO_DELAY,
             },
-            DelaySetting::Samples(n) => Delay::Fixed(n),
+            DelayArg::Samples(n) => Delay::Fixed(n),
         }
     }
 }
 
-impl Serialize for DelaySetting {
+impl Serialize for DelayArg {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         match self {
-            DelaySetting::Auto => s.serialize_str("auto"),
-            other => s.serialize_u64(other.fixed() as u64),
+            DelayArg::Auto => s.serialize_str("auto"),
+            DelayArg::Samples(n) => s.serialize_u64(*n as u64),
         }
     }
 }
 
-impl<'de> Deserialize<'de> for DelaySetting {
+impl<'de> Deserialize<'de> for DelayArg {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         #[derive(Deserialize)]
         #[serde(untagged)]
@@ -73,39 +199,41 @@ impl<'de> Deserialize<'de> for DelaySetting {
             S(String),
         }
         match Raw::deserialize(d)? {
-            Raw::N(n) => Ok(DelaySetting::Samples(n as usize)),
-            Raw::S(s) => DelaySetting::parse(&s).map_err(serde::de::Error::custom),
+            Raw::N(n) => Ok(DelayArg::Samples(n as usize)),
+            Raw::S(s) => DelayArg::parse(&s).map_err(serde::de::Error::custom),
         }
     }
 }
 
-/// The search settings (the CLI's defaults when absent).
+/// The search settings as the CLI's flags (`--orders`, `--delay`, `--step`, `--init`,
+/// `--criterion`, `--split`, `--max-nodes`) and the Python package's keywords spell them: text
+/// and numbers, with the CLI's defaults. [`SearchArgs::settings`] checks them once, with
+/// messages naming the flag, and gives the [`Settings`]; the CLI and the Python binding both go
+/// through it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct SearchSettings {
-    /// Orders of the identifier: positional (`2,2`) or named (`na=2,nb=2`); `None` = its
-    /// defaults.
+pub struct SearchArgs {
+    /// Orders: positional (`2,2`) or named (`n=2,m=2`); `None` = the identifier's defaults.
     pub orders: Option<String>,
     /// Dead time.
-    pub delay: DelaySetting,
-    /// Grid step in OP units (an exhaustive grid); `None` = the coarse-to-fine plan for the OP
-    /// span.
+    pub delay: DelayArg,
+    /// Exhaustive grid step in OP units; `None` = the coarse-to-fine plan for the OP span.
     pub step: Option<f64>,
-    /// Initialization: `In.1`, `In.2` or `In.3`.
+    /// `In.1`, `In.2` or `In.3`.
     pub init: String,
-    /// Ranking fit: `prediction` or `simulation`.
+    /// `prediction` or `simulation`.
     pub criterion: String,
-    /// Identification fraction of the record, strictly between 0 and 1.
+    /// Identification fraction, strictly between 0 and 1.
     pub split: f64,
     /// Node budget of one grid stage.
     pub max_nodes: usize,
 }
 
-impl Default for SearchSettings {
+impl Default for SearchArgs {
     fn default() -> Self {
-        SearchSettings {
+        SearchArgs {
             orders: None,
-            delay: DelaySetting::default(),
+            delay: DelayArg::default(),
             step: None,
             init: "In.3".into(),
             criterion: "prediction".into(),
@@ -115,48 +243,94 @@ impl Default for SearchSettings {
     }
 }
 
-/// A setting that cannot work; `message` is the whole sentence, naming the CLI's flag.
-fn bad(flag: &'static str, message: String) -> MonitoringError {
+fn setting(flag: &'static str, message: String) -> MonitoringError {
     MonitoringError::Setting { flag, message }
 }
 
-impl SearchSettings {
-    /// The initialization.
-    pub fn initialization(&self) -> Result<Initialization, MonitoringError> {
-        Initialization::parse(&self.init).ok_or_else(|| {
-            bad(
-                "--init",
-                format!("--init: expected In.1, In.2 or In.3, got {:?}", self.init),
-            )
+/// The items of `--orders` text: `(name, value text)`, name `None` for a positional value.
+fn order_items(s: &str) -> impl Iterator<Item = (Option<&str>, &str)> {
+    s.split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .map(|item| match item.split_once('=') {
+            Some((k, v)) => (Some(k.trim()), v.trim()),
+            None => (None, item),
         })
-    }
+}
 
-    /// The ranking criterion.
-    pub fn ranking(&self) -> Result<Criterion, MonitoringError> {
-        match self.criterion.to_ascii_lowercase().as_str() {
-            "prediction" => Ok(Criterion::Prediction),
-            "simulation" => Ok(Criterion::Simulation),
-            other => Err(bad(
-                "--criterion",
-                format!("--criterion: expected prediction or simulation, got {other:?}"),
-            )),
+/// `--orders` text for the identifier `entry` (`None`: names not checked against one), with
+/// the CLI's messages.
+pub fn parse_orders(
+    text: &str,
+    entry: Option<&IdentifierEntry>,
+) -> Result<Orders, MonitoringError> {
+    let positional: Vec<&str> = entry
+        .map(|e| {
+            e.orders
+                .iter()
+                .map(|o| o.name)
+                .filter(|n| *n != "delay")
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut parsed = Vec::new();
+    for (i, (key, value)) in order_items(text).enumerate() {
+        let shown = match (key, entry) {
+            (Some(k), _) => k,
+            (None, Some(e)) => positional.get(i).ok_or_else(|| {
+                setting(
+                    "--orders",
+                    format!(
+                        "--orders {text:?}: {} takes at most {} positional orders ({})",
+                        e.name,
+                        positional.len(),
+                        positional.join(", ")
+                    ),
+                )
+            })?,
+            (None, None) => "order",
+        };
+        let value: f64 = value.parse().map_err(|_| {
+            setting(
+                "--orders",
+                format!("--orders: {shown} = {value:?} is not a number"),
+            )
+        })?;
+        parsed.push((key.map(str::to_string), value));
+    }
+    Ok(Orders(parsed))
+}
+
+impl SearchArgs {
+    /// The settings for a run over the identifiers `linear` (each is checked: its name, the
+    /// orders for it, the dead time it can take).
+    pub fn settings(&self, linear: &[&str]) -> Result<Settings, MonitoringError> {
+        let text = self.orders.as_deref().unwrap_or("");
+        let mut orders = parse_orders(text, None)?;
+        for name in linear {
+            let entry = find_identifier(name)?;
+            orders = parse_orders(text, Some(entry))?;
+            if self.delay.fixed() != 0 && !entry.orders.iter().any(|o| o.name == "delay") {
+                return Err(setting(
+                    "--delay",
+                    format!("{}: this identifier has no dead-time option", entry.name),
+                ));
+            }
+            let named = orders.resolve(entry)?;
+            crate::build_identifier(entry, &named, self.delay.fixed())?;
         }
-    }
-
-    /// The search options for a record whose OP spans `span`.
-    pub fn options(&self, span: f64) -> Result<SearchOptions, MonitoringError> {
         let grid = match self.step {
-            Some(step) if step.is_finite() && step > 0.0 => GridPlan::Exhaustive { step },
+            Some(step) if step.is_finite() && step > 0.0 => Some(GridPlan::Exhaustive { step }),
             Some(step) => {
-                return Err(bad(
+                return Err(setting(
                     "--step",
                     format!("--step {step}: expected a positive step in OP units"),
                 ))
             }
-            None => GridPlan::for_span(span),
+            None => None,
         };
         if !(self.split.is_finite() && self.split > 0.0 && self.split < 1.0) {
-            return Err(bad(
+            return Err(setting(
                 "--split",
                 format!(
                     "--split {}: expected a fraction strictly between 0 and 1",
@@ -164,132 +338,125 @@ impl SearchSettings {
                 ),
             ));
         }
-        Ok(SearchOptions {
-            init: self.initialization()?,
-            grid,
-            split: self.split,
-            criterion: self.ranking()?,
-            max_nodes: self.max_nodes,
-            ..SearchOptions::default()
-        })
-    }
-
-    /// `stiction` × `linear` (registered names) with these settings. The identifier is built
-    /// once here, so unknown names, bad orders and a dead time the identifier has no option
-    /// for are errors now, not in the search.
-    pub fn combination(
-        &self,
-        stiction: &str,
-        linear: &str,
-    ) -> Result<Combination, MonitoringError> {
-        let stiction = find_model(stiction)?;
-        let entry = find_identifier(linear)?;
-        let mut orders = parse_orders(entry, self.orders.as_deref().unwrap_or(""))?;
-        orders.retain(|(k, _)| k != "delay");
-        let options = self.options(1.0)?;
-        let combination = Combination {
-            stiction,
-            linear: entry,
-            orders,
-            delay: self.delay.delay(),
-            grid: self.step.map(|_| options.grid),
-            search: options,
-        };
-        if combination.linear.orders.iter().all(|o| o.name != "delay") && self.delay.fixed() != 0 {
-            return Err(bad(
-                "--delay",
-                format!("{}: this identifier has no dead-time option", entry.name),
-            ));
-        }
-        combination.identifier(self.delay.fixed())?;
-        Ok(combination)
-    }
-}
-
-/// `--orders` text (positional `2,2` or named `na=2,nb=2`) as `NAME=value` pairs of `entry`.
-pub fn parse_orders(
-    entry: &IdentifierEntry,
-    s: &str,
-) -> Result<Vec<(String, f64)>, MonitoringError> {
-    let positional: Vec<&str> = entry
-        .orders
-        .iter()
-        .map(|o| o.name)
-        .filter(|n| *n != "delay")
-        .collect();
-    let mut out = Vec::new();
-    for (i, item) in s
-        .split(',')
-        .map(str::trim)
-        .filter(|t| !t.is_empty())
-        .enumerate()
-    {
-        let (name, value) = match item.split_once('=') {
-            Some((k, v)) => (k.trim().to_string(), v.trim()),
-            None => {
-                let name = positional.get(i).ok_or_else(|| {
-                    bad(
-                        "--orders",
-                        format!(
-                            "--orders {s:?}: {} takes at most {} positional orders ({})",
-                            entry.name,
-                            positional.len(),
-                            positional.join(", ")
-                        ),
-                    )
-                })?;
-                (name.to_string(), item)
-            }
-        };
-        let value: f64 = value.parse().map_err(|_| {
-            bad(
-                "--orders",
-                format!("--orders: {name} = {value:?} is not a number"),
+        let init = stiction_models::Initialization::parse(&self.init).ok_or_else(|| {
+            setting(
+                "--init",
+                format!("--init: expected In.1, In.2 or In.3, got {:?}", self.init),
             )
         })?;
-        out.push((name, value));
+        let criterion = match self.criterion.to_ascii_lowercase().as_str() {
+            "prediction" => grid_search::Criterion::Prediction,
+            "simulation" => grid_search::Criterion::Simulation,
+            other => {
+                return Err(setting(
+                    "--criterion",
+                    format!("--criterion: expected prediction or simulation, got {other:?}"),
+                ))
+            }
+        };
+        Ok(Settings {
+            orders,
+            delay: self.delay.delay(),
+            grid,
+            search: SearchOptions {
+                init,
+                split: self.split,
+                criterion,
+                max_nodes: self.max_nodes,
+                ..SearchOptions::default()
+            },
+        })
     }
-    Ok(out)
 }
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used)]
     use super::*;
 
     #[test]
-    fn settings_round_trip_and_refuse_what_cannot_work() {
-        let s: SearchSettings =
-            serde_json::from_str(r#"{"orders": "3,2", "delay": "auto", "step": 0.5}"#).unwrap();
-        assert_eq!(s.delay, DelaySetting::Auto);
-        let back: SearchSettings =
-            serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
-        assert_eq!(back, s);
-        let c = s.combination("kano", "arx").unwrap();
+    fn positional_orders_follow_each_identifier() -> Result<(), MonitoringError> {
+        let orders = Orders(vec![(None, 3.0), (None, 2.0), (Some("delay".into()), 4.0)]);
+        let arx = orders.resolve(find_identifier("arx")?)?;
+        assert_eq!(arx, vec![("n".to_string(), 3.0), ("m".to_string(), 2.0)]);
+        let ss = orders.resolve(find_identifier("ss")?)?;
+        assert_eq!(ss[0].0, "n");
+        let too_many = Orders(vec![(None, 1.0); 3]).resolve(find_identifier("arx")?);
+        assert!(
+            matches!(too_many, Err(MonitoringError::TooManyOrders { .. })),
+            "{too_many:?}"
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn search_args_give_the_settings_or_the_flag_s_message() -> Result<(), MonitoringError> {
+        let args: SearchArgs = serde_json::from_str(
+            r#"{"orders": "3,2", "delay": "auto", "step": 0.5}"#,
+        )
+        .map_err(|e| MonitoringError::Setting {
+            flag: "json",
+            message: e.to_string(),
+        })?;
+        let s = args.settings(&["arx"])?;
+        assert!(matches!(s.delay, Delay::Auto { .. }));
+        assert_eq!(s.grid, Some(GridPlan::Exhaustive { step: 0.5 }));
         assert_eq!(
-            c.orders,
+            s.orders.resolve(find_identifier("arx")?)?,
             vec![("n".to_string(), 3.0), ("m".to_string(), 2.0)]
         );
-        assert!(matches!(c.delay, Delay::Auto { .. }));
-        assert!(serde_json::from_str::<SearchSettings>(r#"{"oders": "2"}"#).is_err());
-        let bad_step = SearchSettings {
-            step: Some(-1.0),
-            ..Default::default()
-        };
-        assert!(bad_step.combination("kano", "arx").is_err());
-        let bad_orders = SearchSettings {
-            orders: Some("2,2,2,2,2".into()),
-            ..Default::default()
-        };
-        let e = bad_orders
-            .combination("kano", "arx")
-            .unwrap_err()
-            .to_string();
-        assert!(e.starts_with("--orders"), "{e}");
-        let delay_ss = SearchSettings {
-            delay: DelaySetting::Samples(2),
-            ..Default::default()
-        };
-        assert!(delay_ss.combination("kano", "arx").is_ok());
+        assert!(serde_json::from_str::<SearchArgs>(r#"{"oders": "2"}"#).is_err());
+        let cases = [
+            (
+                SearchArgs {
+                    step: Some(-1.0),
+                    ..SearchArgs::default()
+                },
+                "--step",
+            ),
+            (
+                SearchArgs {
+                    orders: Some("2,2,2,2,2".into()),
+                    ..SearchArgs::default()
+                },
+                "--orders",
+            ),
+            (
+                SearchArgs {
+                    orders: Some("n=x".into()),
+                    ..SearchArgs::default()
+                },
+                "--orders",
+            ),
+            (
+                SearchArgs {
+                    split: 1.5,
+                    ..SearchArgs::default()
+                },
+                "--split",
+            ),
+            (
+                SearchArgs {
+                    init: "In.4".into(),
+                    ..SearchArgs::default()
+                },
+                "--init",
+            ),
+            (
+                SearchArgs {
+                    criterion: "best".into(),
+                    ..SearchArgs::default()
+                },
+                "--criterion",
+            ),
+        ];
+        for (args, flag) in cases {
+            let e = args
+                .settings(&["arx"])
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+            assert!(e.starts_with(flag), "{flag}: {e}");
+        }
+        Ok(())
     }
 }

@@ -1,14 +1,28 @@
 //! A valve over repeated registrations: which registrations count, the level and trend of S,
 //! and the maintenance verdict (the paper's §5.2 "repeated registrations").
 
+use std::collections::BTreeMap;
 use std::fmt;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
+use datasets::format_epoch;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::batch::BatchOptions;
+use crate::registration::{
+    evaluate, file_name, Diagnoser, Evidence, FitEvidence, Plan, Registration, TimeSource,
+};
 use crate::stats::{median, theil_sen};
+use crate::{MonitoringError, QuantifyRecord};
 
 /// How one registration counts in a trend.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Flag {
     /// Used for the level and the trend.
+    #[serde(rename = "ok")]
     Used,
     /// Validation fit below the minimum: not used.
     Weak,
@@ -111,9 +125,11 @@ pub fn trend(points: &[Point], min_fit: f64) -> Trend {
 }
 
 /// What to do with a valve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Maintenance {
     /// The level is at or above the threshold.
+    #[serde(rename = "schedule maintenance")]
     Schedule,
     /// Below the threshold, but the latest S, the projection or the level says look again.
     Watch,
@@ -193,6 +209,351 @@ pub fn maintenance(
                 "level S = {level:.2} % is below half the threshold {threshold} %, and neither the latest usable S nor the {horizon}-day projection {projected:.2} % reaches the threshold"
             ),
         )
+    }
+}
+
+/// Default maintenance threshold on S, % of valve span (see `docs/PLANT_DATA.md`).
+pub const DEFAULT_THRESHOLD: f64 = grid_search::MAINTENANCE_S;
+
+/// Default horizon of the projection, days.
+pub const DEFAULT_HORIZON: f64 = 90.0;
+
+/// What a valve's trend computes: each registration as a batch computes it, then the trend.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct TrendOptions {
+    /// What each registration computes (combinations, settings, reader, integrating loops,
+    /// the minimum validation F_PV for a registration to count).
+    pub run: BatchOptions,
+    /// Maintenance threshold on S, % of valve span.
+    pub threshold: f64,
+    /// How far ahead (days) the trend is projected for the `watch` verdict.
+    pub horizon: f64,
+}
+
+impl Default for TrendOptions {
+    fn default() -> Self {
+        TrendOptions {
+            run: BatchOptions::default(),
+            threshold: DEFAULT_THRESHOLD,
+            horizon: DEFAULT_HORIZON,
+        }
+    }
+}
+
+/// The trend of one combination, with its names.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CombinationTrend {
+    /// Stiction model.
+    pub stiction: &'static str,
+    /// Linear identifier.
+    pub linear: &'static str,
+    /// Its trend.
+    pub trend: Trend,
+}
+
+/// One valve followed over its registrations: each registration's results, each
+/// combination's trend and the maintenance verdict on their mean.
+#[derive(Debug)]
+pub struct ValveTrend {
+    /// The valve.
+    pub valve: String,
+    /// The options.
+    pub options: TrendOptions,
+    /// The registrations in time (unknown times last, by name).
+    pub registrations: Vec<Registration>,
+    /// One trend per combination.
+    pub combinations: Vec<CombinationTrend>,
+    /// Mean over the combinations of the level (median S of the usable registrations).
+    pub level: Option<f64>,
+    /// Mean of the latest usable S.
+    pub latest: Option<f64>,
+    /// Mean of the Theil–Sen slope, % per 30 days.
+    pub slope_30d: Option<f64>,
+    /// The verdict.
+    pub verdict: Maintenance,
+    /// Why, in one sentence.
+    pub reason: String,
+}
+
+/// The registration files of `files` grouped by valve (file-name prefix before `_`).
+pub fn by_valve(files: Vec<PathBuf>) -> BTreeMap<String, Vec<PathBuf>> {
+    let mut out: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
+    for f in files {
+        let valve = datasets::parse_registration_name(&file_name(&f)).valve;
+        out.entry(valve).or_default().push(f);
+    }
+    out
+}
+
+/// Follow `valve` over its registration `files`: search each one with every combination (in
+/// parallel), order them in time, flag weak and outlying registrations, and give the verdict.
+/// With a `diagnoser`, each weak or outlying registration's evidence starts with its
+/// diagnosis. `progress` receives `(registrations done, registrations)`.
+pub fn follow(
+    valve: &str,
+    files: &[PathBuf],
+    options: &TrendOptions,
+    diagnoser: Option<&(dyn Diagnoser + Sync)>,
+    progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+) -> Result<ValveTrend, MonitoringError> {
+    let run = &options.run;
+    let combinations = run.combinations()?;
+    let explainer = FitEvidence {
+        min_fit: run.min_fit,
+    };
+    let plan = Plan {
+        combinations: &combinations,
+        read: &run.read,
+        integrating: run.integrating,
+        explainer: &explainer,
+    };
+    let done = AtomicUsize::new(0);
+    let mut regs: Vec<Registration> = files
+        .par_iter()
+        .map(|f| {
+            let r = evaluate(f, &plan);
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if let Some(p) = progress {
+                p(k, files.len());
+            }
+            r
+        })
+        .collect();
+    regs.sort_by(|a, b| match (a.start, b.start) {
+        (Some(x), Some(y)) => x.total_cmp(&y).then_with(|| a.file.cmp(&b.file)),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => a.file.cmp(&b.file),
+    });
+    let trends: Vec<CombinationTrend> = combinations
+        .iter()
+        .enumerate()
+        .map(|(c, comb)| {
+            let points: Vec<Point> = regs
+                .iter()
+                .map(|r| Point {
+                    start: r.start,
+                    fit: r.fit(c).map(|f| (f.s, f.fit_val)),
+                })
+                .collect();
+            CombinationTrend {
+                stiction: comb.stiction.name,
+                linear: comb.linear.name,
+                trend: trend(&points, run.min_fit),
+            }
+        })
+        .collect();
+    if let Some(diagnoser) = diagnoser {
+        let jobs: Vec<(usize, usize)> = trends
+            .iter()
+            .enumerate()
+            .flat_map(|(c, t)| {
+                t.trend
+                    .flags
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, f)| **f != Flag::Used)
+                    .map(move |(k, _)| (k, c))
+            })
+            .filter(|&(k, c)| regs[k].fit(c).is_some())
+            .collect();
+        let found: Vec<((usize, usize), String)> = jobs
+            .par_iter()
+            .map(|&(k, c)| {
+                let why = diagnoser
+                    .diagnose(&regs[k], &combinations[c], &run.read)
+                    .unwrap_or_else(|e| format!("diagnosis failed: {e}"));
+                ((k, c), why)
+            })
+            .collect();
+        for ((k, c), why) in found {
+            if let Ok(combos) = &mut regs[k].outcome {
+                if let Some(Ok(f)) = combos.get_mut(c).map(|o| &mut o.result) {
+                    f.evidence.insert(0, Evidence::Diagnosis(why));
+                }
+            }
+        }
+    }
+    let mean_of = |f: &dyn Fn(&Trend) -> Option<f64>| {
+        let v: Vec<f64> = trends.iter().filter_map(|t| f(&t.trend)).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let level = mean_of(&|t| t.level);
+    let latest = mean_of(&|t| t.latest);
+    let slope_30d = mean_of(&|t| t.slope_30d);
+    let (verdict, reason) =
+        maintenance(level, latest, slope_30d, options.threshold, options.horizon);
+    Ok(ValveTrend {
+        valve: valve.to_string(),
+        options: options.clone(),
+        registrations: regs,
+        combinations: trends,
+        level,
+        latest,
+        slope_30d,
+        verdict,
+        reason,
+    })
+}
+
+/// One registration in a combination's trend (`trend --json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RegistrationRecord {
+    /// Base name of the file.
+    pub file: String,
+    /// Registration time, `YYYY-MM-DD HH:MM` UTC.
+    pub time: Option<String>,
+    /// Where the time came from.
+    pub time_source: TimeSource,
+    /// How it counts.
+    pub flag: Flag,
+    /// Identified from MV to ΔPV.
+    pub integrating: bool,
+    /// What the reader did, in words.
+    pub notes: Vec<String>,
+    /// Why there is no estimate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// S, rounded to the grid.
+    #[serde(rename = "S", skip_serializing_if = "Option::is_none")]
+    pub s: Option<f64>,
+    /// Range of S.
+    #[serde(rename = "S_range", skip_serializing_if = "Option::is_none")]
+    pub s_range: Option<[f64; 2]>,
+    /// J.
+    #[serde(rename = "J", skip_serializing_if = "Option::is_none")]
+    pub j: Option<f64>,
+    /// Range of J.
+    #[serde(rename = "J_range", skip_serializing_if = "Option::is_none")]
+    pub j_range: Option<[f64; 2]>,
+    /// Validation F_PV, %.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fit_pv_val: Option<f64>,
+    /// The evidence behind a doubtful estimate, in words.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub why: Option<Vec<String>>,
+    /// The contract's quantify object.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quantify: Option<QuantifyRecord>,
+}
+
+/// One combination's trend (`trend --json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CombinationRecord {
+    /// Stiction model.
+    pub stiction_model: &'static str,
+    /// Linear identifier.
+    pub linear_model: &'static str,
+    /// Median S of the usable registrations.
+    pub level: Option<f64>,
+    /// Theil–Sen slope, % per 30 days.
+    pub slope_per_30_days: Option<f64>,
+    /// Latest usable S.
+    pub latest: Option<f64>,
+    /// The outlier band of S.
+    pub outlier_band: Option<[f64; 2]>,
+    /// Every registration.
+    pub registrations: Vec<RegistrationRecord>,
+}
+
+/// The document of `trend --json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrendRecord {
+    /// The valve.
+    pub valve: String,
+    /// Number of registrations.
+    pub registrations: usize,
+    /// Maintenance threshold, %.
+    pub threshold: f64,
+    /// Minimum validation fit, %.
+    pub min_fit: f64,
+    /// Projection horizon, days.
+    pub horizon_days: f64,
+    /// Mean level.
+    pub level: Option<f64>,
+    /// Mean latest usable S.
+    pub latest: Option<f64>,
+    /// Mean slope, % per 30 days.
+    pub slope_per_30_days: Option<f64>,
+    /// The verdict.
+    pub verdict: Maintenance,
+    /// Why.
+    pub reason: String,
+    /// The rule, in words.
+    pub rule: String,
+    /// Each combination.
+    pub combinations: Vec<CombinationRecord>,
+}
+
+impl ValveTrend {
+    /// The rule of the verdict, in words.
+    pub fn rule(&self) -> String {
+        format!(
+            "schedule maintenance when the level (median S of the usable registrations, mean over \
+             combinations) >= {t} %; watch when it is below but the latest usable S or the \
+             {h}-day projection of the Theil-Sen trend reaches {t} %, or the level >= {half} %; \
+             healthy otherwise",
+            t = self.options.threshold,
+            h = self.options.horizon,
+            half = self.options.threshold / 2.0
+        )
+    }
+
+    /// The document of `trend --json`.
+    pub fn record(&self) -> TrendRecord {
+        let combinations = self
+            .combinations
+            .iter()
+            .enumerate()
+            .map(|(c, t)| CombinationRecord {
+                stiction_model: t.stiction,
+                linear_model: t.linear,
+                level: t.trend.level,
+                slope_per_30_days: t.trend.slope_30d,
+                latest: t.trend.latest,
+                outlier_band: t.trend.band,
+                registrations: self
+                    .registrations
+                    .iter()
+                    .zip(&t.trend.flags)
+                    .map(|(r, flag)| {
+                        let fit = r.fit(c);
+                        let g = |x: f64| fit.map_or(x, |f| crate::on_grid(x, f.step));
+                        RegistrationRecord {
+                            file: r.file.clone(),
+                            time: r.start.map(format_epoch),
+                            time_source: r.time_source,
+                            flag: *flag,
+                            integrating: r.integrating,
+                            notes: r.notes.iter().map(|n| n.text.clone()).collect(),
+                            error: r.error(c).map(ToString::to_string),
+                            s: fit.map(|f| g(f.s)),
+                            s_range: fit.map(|f| f.s_range.map(g)),
+                            j: fit.map(|f| g(f.j)),
+                            j_range: fit.map(|f| f.j_range.map(g)),
+                            fit_pv_val: fit.map(|f| f.fit_val),
+                            why: fit.map(|f| f.evidence.iter().map(ToString::to_string).collect()),
+                            quantify: fit.map(|f| f.record.clone()),
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
+        TrendRecord {
+            valve: self.valve.clone(),
+            registrations: self.registrations.len(),
+            threshold: self.options.threshold,
+            min_fit: self.options.run.min_fit,
+            horizon_days: self.options.horizon,
+            level: self.level,
+            latest: self.latest,
+            slope_per_30_days: self.slope_30d,
+            verdict: self.verdict,
+            reason: self.reason.clone(),
+            rule: self.rule(),
+            combinations,
+        }
     }
 }
 

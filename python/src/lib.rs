@@ -21,7 +21,7 @@ use pyo3::types::PyDict;
 
 use datasets::{GapPolicy, LoopData, OpRange, ReadOptions};
 use grid_search::Problem;
-use monitoring::{MonitoringError, SearchSettings};
+use monitoring::{MonitoringError, SearchArgs, Settings};
 use stiction_models::{find_model, run_valve, Initialization};
 
 create_exception!(
@@ -172,7 +172,7 @@ fn read_csv<'py>(
 struct Request {
     stiction: Vec<String>,
     linear: Vec<String>,
-    settings: SearchSettings,
+    settings: Settings,
 }
 
 fn names(v: Option<serde_json::Value>, key: &str, default: &str) -> PyResult<Vec<String>> {
@@ -192,13 +192,20 @@ fn names(v: Option<serde_json::Value>, key: &str, default: &str) -> PyResult<Vec
     }
 }
 
+/// The request of a settings JSON (`stiction`, `linear` and the [`SearchArgs`]); settings that
+/// cannot work are a [`UsageError`] before any search, as in the CLI.
 fn request(settings_json: &str) -> PyResult<Request> {
     let mut v: serde_json::Map<String, serde_json::Value> =
         serde_json::from_str(settings_json).map_err(usage_err)?;
     let stiction = names(v.remove("stiction"), "stiction", "kano")?;
     let linear = names(v.remove("linear"), "linear", "arx")?;
-    let settings: SearchSettings =
+    let args: SearchArgs =
         serde_json::from_value(serde_json::Value::Object(v)).map_err(usage_err)?;
+    for name in &stiction {
+        find_model(name).map_err(usage_err)?;
+    }
+    let refs: Vec<&str> = linear.iter().map(String::as_str).collect();
+    let settings = args.settings(&refs).map_err(usage_err)?;
     Ok(Request {
         stiction,
         linear,
@@ -216,14 +223,15 @@ fn search_err(source: &str, e: MonitoringError) -> PyErr {
     }
 }
 
-/// One combination on a record: the quantify document (with `source`), or the error.
-fn quantify_doc(
+/// One combination on a record: its quantify object, or the error.
+fn quantify_record(
     d: &LoopData,
     stiction: &str,
     linear: &str,
-    settings: &SearchSettings,
-) -> Result<serde_json::Value, PyErr> {
-    let combination = settings
+    req: &Request,
+) -> Result<monitoring::QuantifyRecord, PyErr> {
+    let combination = req
+        .settings
         .combination(stiction, linear)
         .map_err(|e| search_err(&d.source, e))?;
     let pv = d.require_pv().map_err(data_err)?;
@@ -235,37 +243,37 @@ fn quantify_doc(
     let fitted = combination
         .run(problem, None)
         .map_err(|e| search_err(&d.source, e))?;
-    let mut v = monitoring::doc::quantify(&fitted, &settings.init);
-    v["source"] = serde_json::json!(d.source);
-    Ok(v)
+    Ok(fitted.record(&req.settings.search.init))
 }
 
 /// `command` ("quantify" or "compare") on a record: the CLI's JSON document as text.
 fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
     let doc = match command {
-        "quantify" => quantify_doc(d, &req.stiction[0], &req.linear[0], &req.settings)?,
+        "quantify" => {
+            let r = quantify_record(d, &req.stiction[0], &req.linear[0], req)?;
+            let mut v = serde_json::to_value(r).map_err(data_err)?;
+            v["source"] = serde_json::json!(d.source);
+            v
+        }
         "compare" => {
-            // settings that cannot work are an error of the call, not of a combination
-            req.settings.options(1.0).map_err(usage_err)?;
-            let mut results = Vec::new();
-            let mut errors = Vec::new();
+            let mut doc = monitoring::CompareRecord {
+                source: d.source.clone(),
+                results: Vec::new(),
+                errors: Vec::new(),
+            };
             for st in &req.stiction {
                 for li in &req.linear {
-                    match quantify_doc(d, st, li, &req.settings) {
-                        Ok(mut v) => {
-                            if let Some(o) = v.as_object_mut() {
-                                o.remove("source");
-                            }
-                            results.push(v)
-                        }
-                        Err(e) => {
-                            let msg = Python::attach(|py| e.value(py).to_string());
-                            errors.push(monitoring::doc::compare_error(st, li, &msg))
-                        }
+                    match quantify_record(d, st, li, req) {
+                        Ok(r) => doc.results.push(r),
+                        Err(e) => doc.errors.push(monitoring::CompareError {
+                            stiction_model: st.clone(),
+                            linear_model: li.clone(),
+                            error: Python::attach(|py| e.value(py).to_string()),
+                        }),
                     }
                 }
             }
-            monitoring::doc::compare(&d.source, results, errors)
+            serde_json::to_value(doc).map_err(data_err)?
         }
         other => return Err(usage_err(format!("unknown command {other:?}"))),
     };
@@ -307,6 +315,181 @@ fn run_path(
         let d = datasets::read_path(path, &opts).map_err(data_err)?;
         run_command(command, &d, &req)
     })
+}
+
+// ---- batches and fleets (`stiction.fleet`): the library's batch, one file per task ----
+
+/// The batch options of a settings JSON (`stiction`, `linear`, `integrating`, `min_fit` and
+/// the [`SearchArgs`]) and the reader's options, as the JSON a worker gets
+/// (`monitoring::batch::BatchOptions`); what cannot work is a [`UsageError`] here.
+#[pyfunction]
+#[pyo3(signature = (settings_json, reader = None))]
+fn batch_options(settings_json: &str, reader: Option<&Bound<'_, PyDict>>) -> PyResult<String> {
+    use monitoring::batch::{BatchOptions, DEFAULT_MIN_FIT, MIN_ROWS};
+    let mut v: serde_json::Map<String, serde_json::Value> =
+        serde_json::from_str(settings_json).map_err(usage_err)?;
+    let stiction = names(v.remove("stiction"), "stiction", "kano")?;
+    let linear = names(v.remove("linear"), "linear", "arx")?;
+    let integrating = match v.remove("integrating") {
+        None => monitoring::Integrating::Auto,
+        Some(x) => serde_json::from_value(x).map_err(|e| {
+            usage_err(format!(
+                "integrating: {e} (expected \"auto\", \"yes\" or \"no\")"
+            ))
+        })?,
+    };
+    let min_fit = match v.remove("min_fit") {
+        None => DEFAULT_MIN_FIT,
+        Some(x) => x
+            .as_f64()
+            .filter(|f| f.is_finite())
+            .ok_or_else(|| usage_err(format!("min_fit: expected a number, got {x}")))?,
+    };
+    let args: SearchArgs =
+        serde_json::from_value(serde_json::Value::Object(v)).map_err(usage_err)?;
+    for name in &stiction {
+        find_model(name).map_err(usage_err)?;
+    }
+    let refs: Vec<&str> = linear.iter().map(String::as_str).collect();
+    let settings = args.settings(&refs).map_err(usage_err)?;
+    let opts = BatchOptions {
+        stiction,
+        linear,
+        settings,
+        read: read_args(reader)?.options(true, MIN_ROWS)?,
+        integrating,
+        min_fit,
+    };
+    serde_json::to_string(&opts).map_err(usage_err)
+}
+
+fn batch_opts(opts_json: &str) -> PyResult<monitoring::batch::BatchOptions> {
+    serde_json::from_str(opts_json).map_err(usage_err)
+}
+
+/// The registration files under `paths` as `stiction batch` finds them (a folder's files with
+/// an OP column, sorted; `exclude` left out; only valve `valve` when given): `(files, notes)`,
+/// the notes saying which files were skipped as not being loops.
+#[pyfunction]
+#[pyo3(signature = (paths, exclude, opts_json, valve = None))]
+fn batch_files(
+    paths: Vec<std::path::PathBuf>,
+    exclude: Vec<std::path::PathBuf>,
+    opts_json: &str,
+    valve: Option<&str>,
+) -> PyResult<(Vec<String>, Vec<String>)> {
+    let opts = batch_opts(opts_json)?;
+    let op = opts.read.op.clone().unwrap_or_else(|| "OP".into());
+    let (mut files, skipped) =
+        monitoring::registration::expand(&paths, &exclude, &op).map_err(usage_err)?;
+    if let Some(v) = valve {
+        files.retain(|f| {
+            datasets::parse_registration_name(&monitoring::registration::file_name(f)).valve == v
+        });
+    }
+    Ok((
+        files.iter().map(|f| f.display().to_string()).collect(),
+        skipped
+            .iter()
+            .map(|n| format!("skipped {}: {n}", n.path.display()))
+            .collect(),
+    ))
+}
+
+/// The resume step (`monitoring::batch::resume`): rewrites `jsonl` with the rows it keeps;
+/// `(files to do, rows kept, torn line numbers)`.
+#[pyfunction]
+#[pyo3(signature = (files, opts_json, jsonl = None))]
+fn batch_resume(
+    py: Python<'_>,
+    files: Vec<std::path::PathBuf>,
+    opts_json: &str,
+    jsonl: Option<std::path::PathBuf>,
+) -> PyResult<(Vec<String>, usize, Vec<usize>)> {
+    let opts = batch_opts(opts_json)?;
+    let r = py
+        .detach(|| monitoring::batch::resume(&files, &opts, jsonl.as_deref()))
+        .map_err(data_err)?;
+    Ok((
+        r.todo.iter().map(|f| f.display().to_string()).collect(),
+        r.kept.len(),
+        r.torn,
+    ))
+}
+
+/// One file's rows as JSON lines (`monitoring::batch::run_file`, then the file's label): what
+/// each task of a fleet runs. Never raises for bad data: the error is in the rows.
+#[pyfunction]
+#[pyo3(signature = (path, opts_json, label = None))]
+fn batch_file(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    opts_json: &str,
+    label: Option<&str>,
+) -> PyResult<Vec<String>> {
+    let opts = batch_opts(opts_json)?;
+    let label: Option<monitoring::batch::Label> = match label {
+        None => None,
+        Some(l) => Some(
+            serde_json::from_value(serde_json::json!(l))
+                .map_err(|_| usage_err(format!("label {l:?}: expected stiction or no-stiction")))?,
+        ),
+    };
+    let rows = py.detach(|| monitoring::batch::run_file(&path, &opts));
+    Ok(rows
+        .into_iter()
+        .map(|mut r| {
+            r.label = label;
+            r.to_json_line()
+        })
+        .collect())
+}
+
+/// `file -> "stiction" | "no-stiction"` from a labels CSV (columns `file`, `label`).
+#[pyfunction]
+fn batch_labels(path: std::path::PathBuf) -> PyResult<BTreeMap<String, String>> {
+    let labels = monitoring::batch::Labels::read(&path).map_err(data_err)?;
+    Ok(labels
+        .0
+        .into_iter()
+        .map(|(k, v)| {
+            let l = match v {
+                monitoring::batch::Label::Stiction => "stiction",
+                monitoring::batch::Label::NoStiction => "no-stiction",
+            };
+            (k, l.to_string())
+        })
+        .collect())
+}
+
+/// The end of a batch: reads `jsonl`, writes `csv` (the rows sorted, as the CLI writes
+/// OUT.csv) and returns a summary dict: `rows`, `ok`, `errors`, and with labels `labelled`,
+/// `labelled_stiction`, `auc`, `threshold` (of S, first combination).
+#[pyfunction]
+fn batch_finish<'py>(
+    py: Python<'py>,
+    jsonl: std::path::PathBuf,
+    csv: std::path::PathBuf,
+    opts_json: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let opts = batch_opts(opts_json)?;
+    let (mut rows, _torn) = monitoring::batch::read_jsonl(&jsonl).map_err(data_err)?;
+    rows.retain(|r| r.settings == opts.fingerprint());
+    rows.sort_by(|a, b| (&a.file, a.combination()).cmp(&(&b.file, b.combination())));
+    monitoring::batch::write_csv(&csv, &rows).map_err(data_err)?;
+    let out = PyDict::new(py);
+    let ok = rows.iter().filter(|r| r.is_ok()).count();
+    out.set_item("rows", rows.len())?;
+    out.set_item("ok", ok)?;
+    out.set_item("errors", rows.len() - ok)?;
+    if rows.iter().any(|r| r.label.is_some()) {
+        let sum = monitoring::batch::label_summary(&rows, &opts.stiction[0], &opts.linear[0]);
+        out.set_item("labelled", sum.rows)?;
+        out.set_item("labelled_stiction", sum.stiction)?;
+        out.set_item("auc", sum.roc.map(|r| r.auc))?;
+        out.set_item("threshold", sum.roc.map(|r| r.threshold))?;
+    }
+    Ok(out)
 }
 
 /// Read a registration from a file (CSV or MATLAB) as the CLI does; the same dict as
@@ -409,6 +592,12 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_path, m)?)?;
     m.add_function(wrap_pyfunction!(run_csv, m)?)?;
     m.add_function(wrap_pyfunction!(run_path, m)?)?;
+    m.add_function(wrap_pyfunction!(batch_options, m)?)?;
+    m.add_function(wrap_pyfunction!(batch_files, m)?)?;
+    m.add_function(wrap_pyfunction!(batch_resume, m)?)?;
+    m.add_function(wrap_pyfunction!(batch_file, m)?)?;
+    m.add_function(wrap_pyfunction!(batch_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(batch_finish, m)?)?;
     m.add_function(wrap_pyfunction!(valve, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(default_scenario, m)?)?;

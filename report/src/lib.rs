@@ -11,6 +11,9 @@
 //!   (Figs. 15, 19, 21).
 //! * [`html`]: one `index.html` per run with the numbers, the plots inline (no network, no
 //!   script) and the summary, plus each plot as its own file.
+//! * [`pages`]: the page of each command (`quantify`, `compare`, `diagnose`, `trend`, a
+//!   refused loop) from the typed results of `monitoring` and `discrepancy`.
+//! * [`text`]: the plain-text output of each command.
 //! * [`inspect`]: reads a figure's SVG back (title, panels, axis descriptions, legend, series)
 //!   for structure snapshots and for checking that every plot says what it shows.
 //!
@@ -21,6 +24,8 @@ pub mod chart;
 pub mod figures;
 pub mod html;
 pub mod inspect;
+pub mod pages;
+pub mod text;
 
 pub use figures::{Figure, LoopSignals, TrendPoint, TrendStatus};
 pub use html::{Block, Report, Section, WriteOptions, Written};

@@ -6,8 +6,8 @@ use anyhow::anyhow;
 use detection::{detect, Registration};
 use serde_json::{json, Value};
 
+use super::batch::IntegratingFlag;
 use super::load::{load, DataFlags};
-use super::registrations::IntegratingFlag;
 use crate::{data, usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
@@ -66,7 +66,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         .map(|f| f.to_string_lossy().into_owned())
         .unwrap_or_default();
     let valve = name.split('_').next().unwrap_or("");
-    let integrating = args.integrating.applies(valve);
+    let integrating = monitoring::Integrating::from(args.integrating).applies(valve);
     let mut reg = Registration::new(pv, &d.op, ts)
         .map_err(|e| data(anyhow!("{}: {e}", d.source)))?
         .integrating(integrating);

@@ -3,11 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use linear_id::{fit_pv, Structure};
-use serde_json::{json, Value};
 
 use super::load::{load, DataFlags};
-use super::search_flags::build_identifier;
+use super::search_flags::check_identifier;
 use crate::{data, usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
@@ -52,31 +50,6 @@ pub struct Args {
     json: bool,
 }
 
-/// An identifier's error with its signals `u`, `y` named by the user's columns.
-fn in_user_words(e: &linear_id::IdError, input: &str, output: &str) -> String {
-    let column = |signal: &str| match signal {
-        "u" => format!("column {input}"),
-        "y" => format!("column {output}"),
-        other => other.to_string(),
-    };
-    match e {
-        linear_id::IdError::ConstantInput { signal, value } => format!(
-            "{} is constant over the identification window (value {value})",
-            column(signal)
-        ),
-        linear_id::IdError::NonFinite {
-            signal,
-            index,
-            value,
-        } => format!("{} sample {index} is not finite ({value})", column(signal)),
-        other => other.to_string(),
-    }
-}
-
-fn pairs(v: &[(f64, f64)]) -> Value {
-    json!(v.iter().map(|(re, im)| [re, im]).collect::<Vec<_>>())
-}
-
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     if !(args.split > 0.0 && args.split < 1.0) {
         return Err(usage(anyhow!(
@@ -84,7 +57,12 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             args.split
         )));
     }
-    let (identifier, entry) = build_identifier(&args.linear, args.orders.as_deref(), args.delay)?;
+    let (identifier, _) = check_identifier(
+        &args.linear,
+        args.orders.as_deref().unwrap_or(""),
+        args.delay,
+    )?;
+    let entry = linear_id::find_identifier(&args.linear).map_err(usage)?;
     let mut flags = args.data.clone();
     if let Some(col) = &args.input {
         flags.set_op(col.clone());
@@ -99,29 +77,17 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         (None, None) => (&d.op, "OP".into()),
     };
     let y = d.require_pv().map_err(data)?;
-    let n = y.len();
-    let ni = (n as f64 * args.split).floor() as usize;
-    if ni < identifier.min_samples() || n - ni < 2 {
-        return Err(data(anyhow!(
-            "{}: {n} rows: too few for {} with these orders ({} identification rows needed)",
-            d.source,
-            entry.name,
-            identifier.min_samples()
-        )));
-    }
-    let output_name = args.output.clone().unwrap_or_else(|| "PV".into());
-    let fit = identifier.identify(&u[..ni], &y[..ni]).map_err(|e| {
-        let msg = in_user_words(&e, &input_name, &output_name);
-        data(anyhow!("{}: {msg}", d.source))
-    })?;
-    let pred = fit.predict_one_step(u, y).map_err(data)?;
-    let first = fit.first_sample().min(ni);
-    let fit_id = fit_pv(&y[first..ni], &pred[first..ni]);
-    let fit_val = fit_pv(&y[ni..], &pred[ni..]);
-    let sim = fit.simulate(u, &y[..fit.first_sample().min(n)]).ok();
-    let sim_val = sim.as_ref().map(|p| fit_pv(&y[ni..], &p[ni..]));
-    let stable = fit.is_stable();
-    if !stable {
+    let output = args.output.clone().unwrap_or_else(|| "PV".into());
+    let id = monitoring::identify::identify(
+        identifier.as_ref(),
+        entry.name,
+        &d.source,
+        (u, &input_name),
+        (y, &output),
+        args.split,
+    )
+    .map_err(data)?;
+    if !id.fit.is_stable() {
         writeln!(
             s.stderr,
             "warning: {}: the identified {} model is unstable (pole outside the unit circle); do not use it for simulation",
@@ -129,120 +95,11 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         )
         .map_err(data)?;
     }
-    let model = match fit.structure() {
-        Structure::Polynomial { a, b, c, delay } => json!({"a": a, "b": b, "c": c, "delay": delay}),
-        Structure::StateSpace { a, b, c, d, k, x0 } => {
-            json!({"A": a, "B": b, "C": c, "D": d, "K": k, "x0": x0})
-        }
-    };
-    let orders: serde_json::Map<String, Value> = identifier
-        .orders()
-        .into_iter()
-        .map(|(k, v)| (k.to_string(), json!(v)))
-        .collect();
     if args.json {
-        let finite = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
-        let doc = json!({
-            "linear_model": entry.name,
-            "input": input_name,
-            "orders": orders,
-            "delay": args.delay,
-            "static_gain": finite(fit.static_gain()),
-            "poles": pairs(&fit.poles()),
-            "stable": stable,
-            "model": model,
-            "fit_pv_id": finite(fit_id),
-            "fit_pv_val": finite(fit_val),
-            "fit_kind": "prediction",
-            "fit_pv_sim_val": sim_val.map(finite),
-            "disturbance": fit.disturbance(),
-            "samples": {"identification": ni, "validation": n - ni},
-        });
-        serde_json::to_writer_pretty(&mut *s.stdout, &doc).map_err(data)?;
+        serde_json::to_writer_pretty(&mut *s.stdout, &id.record(args.delay)).map_err(data)?;
         writeln!(s.stdout).map_err(data)?;
         return Ok(());
     }
-    let out = &mut *s.stdout;
-    let o: Vec<String> = identifier
-        .orders()
-        .iter()
-        .map(|(k, v)| format!("{k}={v}"))
-        .collect();
-    writeln!(
-        out,
-        "{}: {} from {input_name} to PV ({}), {ni} identification / {} validation samples",
-        d.source,
-        entry.name,
-        o.join(", "),
-        n - ni
-    )
-    .map_err(data)?;
-    match fit.structure() {
-        Structure::Polynomial { a, b, c, delay } => {
-            let fmt = |v: &[f64]| {
-                v.iter()
-                    .map(|x| format!("{x:.6}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            };
-            writeln!(out, "  A(q) = [{}]", fmt(a)).map_err(data)?;
-            writeln!(
-                out,
-                "  B(q) = [{}]  (q^-1 .. q^-{}, dead time {delay})",
-                fmt(b),
-                b.len()
-            )
-            .map_err(data)?;
-            if c.len() > 1 {
-                writeln!(out, "  C(q) = [{}]", fmt(c)).map_err(data)?;
-            }
-        }
-        Structure::StateSpace { a, .. } => {
-            writeln!(
-                out,
-                "  state space, order {} (A, B, C, D, K, x0 with --json)",
-                a.len()
-            )
-            .map_err(data)?;
-        }
-    }
-    let poles: Vec<String> = fit
-        .poles()
-        .iter()
-        .map(|(re, im)| {
-            if im.abs() < 1e-12 {
-                format!("{re:.4}")
-            } else {
-                format!("{re:.4}{im:+.4}i")
-            }
-        })
-        .collect();
-    writeln!(
-        out,
-        "  static gain {:.4}, poles {} ({})",
-        fit.static_gain(),
-        poles.join(", "),
-        if stable { "stable" } else { "UNSTABLE" }
-    )
-    .map_err(data)?;
-    writeln!(
-        out,
-        "  F_PV one-step prediction: id {fit_id:.2} %, val {fit_val:.2} %; free-run simulation val {}",
-        sim_val.filter(|v| v.is_finite()).map_or("-".into(), |v| format!("{v:.2} %"))
-    )
-    .map_err(data)?;
-    if let Some(eta) = fit.disturbance() {
-        let (lo, hi) = eta
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
-        writeln!(
-            out,
-            "  estimated disturbance η̂: {} samples, range [{lo:.4}, {hi:.4}] (series with --json)",
-            eta.len()
-        )
-        .map_err(data)?;
-    }
-    Ok(())
+    let text = report::text::identify(&d.source, &id).map_err(data)?;
+    write!(s.stdout, "{text}").map_err(data)
 }

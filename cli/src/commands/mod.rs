@@ -7,7 +7,6 @@ pub mod identify;
 pub mod load;
 pub mod models;
 pub mod quantify;
-pub mod registrations;
 pub mod search_flags;
 pub mod simulate;
 pub mod trend;

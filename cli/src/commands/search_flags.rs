@@ -3,17 +3,16 @@
 
 use anyhow::anyhow;
 use grid_search::SearchOptions;
-use linear_id::{find_identifier, IdentifierEntry, LinearIdentifier};
-use monitoring::settings::parse_orders;
-use monitoring::SearchSettings;
+use linear_id::{find_identifier, LinearIdentifier};
+use monitoring::{parse_orders, Combination, Orders, SearchArgs, Settings};
 use stiction_models::Initialization;
 
 use super::valve::parse_init;
 use crate::{usage, Failure};
 
 /// The dead time: fixed or estimated.
-/// `--delay N|auto` (the library's [`DelaySetting`]).
-pub(crate) use monitoring::DelaySetting as DelayFlag;
+/// `--delay N|auto` (the library's [`DelayArg`]).
+pub(crate) use monitoring::DelayArg as DelayFlag;
 
 pub(crate) fn parse_delay(s: &str) -> Result<DelayFlag, String> {
     DelayFlag::parse(s)
@@ -85,7 +84,6 @@ pub(crate) enum CriterionFlag {
 }
 
 impl SearchFlags {
-    /// Search options for a record with OP span `span`.
     /// The ranking criterion in words.
     pub(crate) fn criterion_label(&self) -> &'static str {
         match self.criterion {
@@ -94,9 +92,19 @@ impl SearchFlags {
         }
     }
 
-    /// The library's settings for these flags.
-    pub(crate) fn settings(&self) -> SearchSettings {
-        SearchSettings {
+    /// Search options for a record with OP span `span`.
+    pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
+        Ok(self.settings(&[])?.options(span))
+    }
+
+    /// The settings these flags describe, checked against the identifiers `linear` (their
+    /// names, the orders and the dead time are bad usage here, with the flags' names): orders,
+    /// dead time (`auto` scans 0..=`monitoring::MAX_AUTO_DELAY`), grid (`--step` =
+    /// exhaustive, else the default for each record's span), initialization, split, criterion
+    /// and node budget.
+    /// The flags as the library's [`SearchArgs`].
+    pub(crate) fn args(&self) -> SearchArgs {
+        SearchArgs {
             orders: self.orders.clone(),
             delay: self.delay,
             step: self.step,
@@ -111,40 +119,35 @@ impl SearchFlags {
         }
     }
 
-    pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
-        self.settings().options(span).map_err(usage)
+    /// The settings of a run over the identifiers `linear` (usage errors name the flag).
+    pub(crate) fn settings(&self, linear: &[String]) -> Result<Settings, Failure> {
+        let names: Vec<&str> = linear.iter().map(String::as_str).collect();
+        self.args().settings(&names).map_err(usage)
+    }
+
+    pub(crate) fn combination(&self, stiction: &str, linear: &str) -> Result<Combination, Failure> {
+        stiction_models::find_model(stiction).map_err(usage)?;
+        self.settings(&[linear.to_string()])?
+            .combination(stiction, linear)
+            .map_err(usage)
     }
 }
 
-impl SearchFlags {
-    /// `stiction` × `linear` with these flags (`SearchSettings::combination`).
-    pub(crate) fn combination(
-        &self,
-        stiction: &str,
-        linear: &str,
-    ) -> Result<monitoring::Combination, Failure> {
-        self.settings().combination(stiction, linear).map_err(usage)
-    }
-}
-
-/// The identifier `name` with `--orders` text and a dead time (usage errors for unknown names,
-/// bad orders, a dead time the identifier has no option for).
-pub(crate) fn build_identifier(
+/// `--orders` split into `(name, value)` items (a name for `NAME=VALUE`).
+pub(crate) fn check_identifier(
     name: &str,
-    orders: Option<&str>,
+    orders: &str,
     delay: usize,
-) -> Result<(Box<dyn LinearIdentifier>, &'static IdentifierEntry), Failure> {
+) -> Result<(Box<dyn LinearIdentifier>, Orders), Failure> {
     let entry = find_identifier(name).map_err(usage)?;
-    let mut pairs = parse_orders(entry, orders.unwrap_or("")).map_err(usage)?;
-    pairs.retain(|(k, _)| k != "delay");
-    if entry.orders.iter().any(|o| o.name == "delay") {
-        pairs.push(("delay".into(), delay as f64));
-    } else if delay != 0 {
+    let orders = parse_orders(orders, Some(entry)).map_err(usage)?;
+    if delay != 0 && !entry.orders.iter().any(|o| o.name == "delay") {
         return Err(usage(anyhow!(
             "{}: this identifier has no dead-time option",
             entry.name
         )));
     }
-    let id = (entry.build)(&pairs).map_err(usage)?;
-    Ok((id, entry))
+    let named = orders.resolve(entry).map_err(usage)?;
+    let id = monitoring::build_identifier(entry, &named, delay).map_err(usage)?;
+    Ok((id, orders))
 }

@@ -1,0 +1,77 @@
+//! The diagnosis of one registration of a valve's trend, in one sentence
+//! ([`monitoring::registration::Diagnoser`]): what the model misses in that record and what the
+//! extension changes. `stiction trend` asks it for each weak or outlying registration.
+
+use datasets::ReadOptions;
+use grid_search::Problem;
+use monitoring::registration::{increments, Diagnoser, Registration};
+use monitoring::{span_of, Combination, Delay};
+
+use crate::{diagnose, DiagnoseOptions, Diagnosis};
+
+/// Diagnoses a registration with one combination as baseline: its orders in full (defaults
+/// filled in), dead time 0, its grid and search options (`discrepancy::diagnose`, as
+/// `stiction diagnose`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RegistrationDiagnosis;
+
+impl Diagnoser for RegistrationDiagnosis {
+    fn diagnose(
+        &self,
+        reg: &Registration,
+        combination: &Combination,
+        read: &ReadOptions,
+    ) -> Result<String, String> {
+        let d = datasets::read_path(&reg.path, read).map_err(|e| e.to_string())?;
+        let d = if reg.integrating { increments(&d) } else { d };
+        let pv = d.require_pv().map_err(|e| e.to_string())?;
+        let span = span_of(&d.op);
+        let identifier = combination
+            .identifier(0)
+            .map_err(|e| monitoring::error_line(&e))?;
+        let baseline = Combination {
+            orders: identifier
+                .orders()
+                .into_iter()
+                .filter(|(k, _)| *k != "delay")
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+            delay: Delay::Fixed(0),
+            grid: None,
+            search: grid_search::SearchOptions::default(),
+            ..combination.clone()
+        };
+        let mut options = DiagnoseOptions::for_span(span);
+        options.search = combination.options(span);
+        let problem = Problem {
+            op: &d.op,
+            pv,
+            mv: d.mv.as_deref(),
+        };
+        let dg = diagnose(problem, &baseline, &options).map_err(|e| e.to_string())?;
+        Ok(sentence(&dg))
+    }
+}
+
+/// The diagnosis in one sentence.
+pub fn sentence(dg: &Diagnosis) -> String {
+    match dg.chosen.and_then(|i| dg.findings.get(i)) {
+        Some(f) if f.cause == "no-stiction" => format!(
+            "diagnosis: no-stiction (a valve with negligible stiction, S {} % at most {} %, explains PV as well as S {:.2} %: validation F_PV {:+.1} points)",
+            f.extended.as_ref().map_or("-".into(), |x| format!("{:.2}", x.s)),
+            grid_search::NEGLIGIBLE_S,
+            dg.baseline.s,
+            f.gain_fit_pv_val
+        ),
+        Some(f) => {
+            let s = f.extended.as_ref().map_or(String::new(), |x| {
+                format!(", S {:.2} -> {:.2} %", dg.baseline.s, x.s)
+            });
+            format!(
+                "diagnosis: {} (validation F_PV {:+.1} points{s})",
+                f.cause, f.gain_fit_pv_val
+            )
+        }
+        None => "diagnosis: none (no extension explains this record significantly better)".into(),
+    }
+}

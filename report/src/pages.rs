@@ -1,0 +1,748 @@
+//! The HTML page of each command, from the typed results: `quantify`, `compare`, `diagnose`,
+//! `trend`, and the page of a loop the reader refused. Also the sentences they share with the
+//! text output (the verdict on an estimate) and the numbers of one run ([`facts`]).
+
+use std::path::Path;
+
+use datasets::format_epoch;
+use datasets::LoopData;
+use discrepancy::Diagnosis;
+use grid_search::{Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
+use monitoring::registration::{Registration, RegistrationError};
+use monitoring::trend::ValveTrend;
+use monitoring::{median, Fitted, Flag};
+use stiction_models::ModelEntry;
+
+use crate::figures::{self, Figure, LoopSignals, TrendLine, TrendPoint, TrendStatus};
+use crate::{Block, Report, ReportError, Section};
+
+/// The loop's name for titles: the file stem, or the source as given.
+pub fn loop_name(d: &LoopData) -> String {
+    let src = d.source.as_str();
+    if src.starts_with("example ") {
+        return src
+            .split(" (")
+            .next()
+            .unwrap_or(src)
+            .trim_start_matches("example ")
+            .to_string()
+            + " (example)";
+    }
+    Path::new(src)
+        .file_stem()
+        .map_or_else(|| src.to_string(), |s| s.to_string_lossy().into_owned())
+}
+
+/// The signals of `d` for the figures (`None` without PV).
+pub fn signals<'a>(d: &'a LoopData, name: &'a str) -> Option<LoopSignals<'a>> {
+    Some(LoopSignals {
+        name,
+        t: d.t.as_deref(),
+        sp: d.sp.as_deref(),
+        pv: d.pv.as_deref()?,
+        op: &d.op,
+        mv: d.mv.as_deref(),
+    })
+}
+
+/// `kano × arx`.
+pub fn combo(r: &Fitted) -> String {
+    format!("{} × {}", r.stiction.name, r.linear)
+}
+
+pub(crate) fn f2(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.2}")
+    } else {
+        "-".into()
+    }
+}
+
+pub(crate) fn opt2(x: Option<f64>) -> String {
+    x.map_or_else(|| "-".into(), f2)
+}
+
+/// One sentence on what a quantification says about the valve, with how far to trust it. The
+/// levels are [`grid_search::trust`]'s, the only place they are defined: "the valve sticks"
+/// only for S >= [`HARMFUL_S`] with no doubt; a slight S or a doubtful estimate says so.
+pub fn verdict(q: &Quantification, label: &str) -> String {
+    let (_, val) = q.fits.rank(q.criterion);
+    let fit = format!(
+        "validation F_PV {:.1} % ({})",
+        val,
+        match q.criterion {
+            grid_search::Criterion::Prediction => "one-step prediction",
+            grid_search::Criterion::Simulation => "free-run simulation",
+        }
+    );
+    let v = q.verdict();
+    let region = format!(
+        "S = {:.2} % of valve span (deadband + stickband; {:.0} % region {:.2}-{:.2}), J = {:.2} % (region {:.2}-{:.2})",
+        q.s,
+        100.0 * q.interval.confidence,
+        q.interval.s[0],
+        q.interval.s[1],
+        q.j,
+        q.interval.j[0],
+        q.interval.j[1]
+    );
+    let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
+    match v.severity {
+        Severity::Negligible if doubts.is_empty() => format!(
+            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %); {fit}.",
+            q.s
+        ),
+        Severity::Negligible => format!(
+            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %), but the evidence is weak: {}; {fit}.",
+            q.s,
+            doubts.join("; ")
+        ),
+        _ if !doubts.is_empty() => format!(
+            "{label}: estimated {region}, but the evidence is weak: {}; {fit}. Do not act on this estimate alone: look at the figures, or repeat the registration.",
+            doubts.join("; ")
+        ),
+        Severity::Slight => format!(
+            "{label}: slight stiction, {region}; {fit}. Below the {HARMFUL_S} % at which stiction degrades control."
+        ),
+        Severity::Harmful => {
+            let maintenance = if q.s >= MAINTENANCE_S {
+                format!(
+                    " It is at or above the {MAINTENANCE_S} % maintenance threshold of `stiction trend`."
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                "{label}: the valve sticks, {region}; {fit}. Stiction of {HARMFUL_S} % or more degrades control.{maintenance}"
+            )
+        }
+    }
+}
+
+/// The verdict in a few words, for the text output (`verdict: ...`).
+pub fn verdict_line(q: &Quantification) -> String {
+    let v = q.verdict();
+    if !v.doubts.is_empty() && v.severity != Severity::Negligible {
+        let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
+        return format!(
+            "S = {:.2} % is not to be trusted alone: {}",
+            q.s,
+            doubts.join("; ")
+        );
+    }
+    match v.severity {
+        Severity::Negligible => format!("no stiction found (S at most {NEGLIGIBLE_S} %)"),
+        Severity::Slight => {
+            format!("slight stiction (S between {NEGLIGIBLE_S} and {HARMFUL_S} %)")
+        }
+        Severity::Harmful if q.s >= MAINTENANCE_S => format!(
+            "the valve sticks (S of {HARMFUL_S} % or more degrades control; at or above the {MAINTENANCE_S} % maintenance threshold)"
+        ),
+        Severity::Harmful => {
+            format!("the valve sticks (S of {HARMFUL_S} % or more degrades control)")
+        }
+    }
+}
+
+/// The best model's own parameters and derived values, `name = value` (3 decimals).
+pub fn own_params(entry: &ModelEntry, q: &Quantification) -> Vec<String> {
+    entry
+        .params
+        .iter()
+        .zip(q.stiction.param_values())
+        .map(|(p, v)| format!("{} = {v:.3}", p.name))
+        .chain(
+            q.stiction
+                .derived_values()
+                .into_iter()
+                .map(|(k, v)| format!("{k} = {v:.3}")),
+        )
+        .collect()
+}
+
+/// The numbers of one run as name/value pairs.
+pub fn facts(r: &Fitted) -> Block {
+    let q = &r.result;
+    let (fid, fval) = q.fits.rank(q.criterion);
+    let (oid, oval) = q.fits.rank(q.criterion.other());
+    let own = own_params(r.stiction, q);
+    let orders: Vec<String> = r
+        .identifier
+        .orders()
+        .iter()
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect();
+    Block::Facts(vec![
+        (
+            "S (% of valve span)".into(),
+            format!(
+                "{:.2}  (region {:.2}-{:.2})",
+                q.s, q.interval.s[0], q.interval.s[1]
+            ),
+        ),
+        (
+            "J (% of valve span)".into(),
+            format!(
+                "{:.2}  (region {:.2}-{:.2})",
+                q.j, q.interval.j[0], q.interval.j[1]
+            ),
+        ),
+        ("stiction parameters".into(), own.join(", ")),
+        (
+            "linear model".into(),
+            format!(
+                "{} ({}), dead time {} samples",
+                r.linear,
+                orders.join(", "),
+                r.delay
+            ),
+        ),
+        (
+            format!("F_PV {} id / val (%)", q.criterion.label()),
+            format!("{} / {}", f2(fid), f2(fval)),
+        ),
+        (
+            format!("F_PV {} id / val (%)", q.criterion.other().label()),
+            format!("{} / {}", f2(oid), f2(oval)),
+        ),
+        ("F_MV (%)".into(), opt2(q.fits.mv)),
+        (
+            "best fit without stiction (val, %)".into(),
+            opt2(q.fit_no_stiction),
+        ),
+        (
+            "grid".into(),
+            format!(
+                "{} nodes ({} skipped), finest step {}, OP span {:.2}",
+                q.nodes_evaluated,
+                q.nodes_skipped,
+                (q.grid.step() * 1e6).round() / 1e6,
+                q.span
+            ),
+        ),
+        (
+            "samples".into(),
+            format!(
+                "{} (valve state known from {}, validation from {})",
+                q.mv_est.len(),
+                q.fits.valid_from,
+                q.split_index
+            ),
+        ),
+        ("run time".into(), format!("{:.0} ms", r.elapsed_ms)),
+    ])
+}
+
+/// The figures of one run: time trends, phase plots, fit surface. `prefix` keeps the file
+/// names of several runs apart; `role` (e.g. `baseline`) is added to the model in the titles.
+pub fn run_figures(
+    sig: &LoopSignals<'_>,
+    r: &Fitted,
+    prefix: &str,
+    role: &str,
+) -> Result<Vec<Figure>, ReportError> {
+    let model = if role.is_empty() {
+        combo(r)
+    } else {
+        format!("{}, {role}", combo(r))
+    };
+    let q = &r.result;
+    Ok(vec![
+        figures::time_trends(sig, q, &model, &format!("{prefix}trends"))?,
+        figures::phase_plots(sig, q, &model, &format!("{prefix}phase"))?,
+        figures::fit_surface(q, sig.name, &model, &format!("{prefix}surface"))?,
+    ])
+}
+
+/// The page of `quantify`: the numbers, the verdict, the figures.
+pub fn quantify_page(d: &LoopData, r: &Fitted) -> Result<Report, ReportError> {
+    let name = loop_name(d);
+    let mut result = Section::new("Result");
+    result.push(facts(r));
+    result.push(Block::Paragraph(format!(
+        "Verdict: {}.",
+        verdict_line(&r.result)
+    )));
+    for w in &r.result.warnings {
+        result.push(Block::Note(w.clone()));
+    }
+    let mut figs = Section::new("Figures");
+    if let Some(sig) = signals(d, &name) {
+        for f in run_figures(&sig, r, "", "")? {
+            figs.push(Block::Figure(f));
+        }
+    }
+    Ok(Report {
+        title: format!("quantify: loop {name}, {}", combo(r)),
+        subtitle: format!("{} · {} samples · stiction quantify", d.source, d.len()),
+        summary: vec![verdict(&r.result, &combo(r))],
+        sections: vec![result, figs],
+    })
+}
+
+/// The report of `compare`: the table, then each combination's numbers and figures.
+pub fn compare_page(
+    d: &LoopData,
+    rows: &[(&str, &str, Result<&Fitted, String>)],
+    criterion: &str,
+) -> Result<Report, ReportError> {
+    let name = loop_name(d);
+    let header = [
+        "stiction", "linear", "S", "S range", "J", "J range", "F_PV id", "F_PV val", "F_MV",
+        "time (s)",
+    ]
+    .map(String::from)
+    .to_vec();
+    let mut table = Vec::new();
+    let mut ok: Vec<&Fitted> = Vec::new();
+    for (st, li, r) in rows {
+        match r {
+            Ok(r) => {
+                let q = &r.result;
+                let (fid, fval) = q.fits.rank(q.criterion);
+                table.push(vec![
+                    st.to_string(),
+                    li.to_string(),
+                    format!("{:.2}", q.s),
+                    format!("{:.2}-{:.2}", q.interval.s[0], q.interval.s[1]),
+                    format!("{:.2}", q.j),
+                    format!("{:.2}-{:.2}", q.interval.j[0], q.interval.j[1]),
+                    format!("{fid:.2}"),
+                    format!("{fval:.2}"),
+                    opt2(q.fits.mv),
+                    format!("{:.2}", r.elapsed_ms / 1e3),
+                ]);
+                ok.push(r);
+            }
+            Err(msg) => {
+                let mut row = vec![st.to_string(), li.to_string(), format!("error: {msg}")];
+                row.resize(header.len(), String::new());
+                table.push(row);
+            }
+        }
+    }
+    let mut summary = Vec::new();
+    let best = ok.iter().max_by(|a, b| {
+        a.result
+            .fits_score(a.result.criterion)
+            .total_cmp(&b.result.fits_score(b.result.criterion))
+    });
+    if let Some(b) = best {
+        summary.push(format!(
+            "Best validation fit: {}",
+            verdict(&b.result, &combo(b))
+        ));
+        let mut ss: Vec<f64> = ok.iter().map(|r| r.result.s).collect();
+        ss.sort_by(f64::total_cmp);
+        summary.push(format!(
+            "Across the {} combinations that ran, S ranges {:.2}-{:.2} % (median {:.2} %) and \
+             J {:.2}-{:.2} %; {} failed.",
+            ok.len(),
+            ss[0],
+            ss[ss.len() - 1],
+            ss[ss.len() / 2],
+            ok.iter().map(|r| r.result.j).fold(f64::INFINITY, f64::min),
+            ok.iter()
+                .map(|r| r.result.j)
+                .fold(f64::NEG_INFINITY, f64::max),
+            rows.len() - ok.len()
+        ));
+    } else {
+        summary.push("No combination could be fitted; the table gives each one's reason.".into());
+    }
+    let mut overview = Section::new("All combinations");
+    overview.push(Block::Paragraph(format!(
+        "S and J in % of valve span with their likelihood-ratio ranges; F_PV in % ({}), \
+         identification and validation; F_MV when MV is logged.",
+        criterion
+    )));
+    overview.push(Block::Table {
+        header,
+        rows: table,
+    });
+    let mut sections = vec![overview];
+    let sig = signals(d, &name);
+    for r in &ok {
+        let view = r;
+        let mut sec = Section::new(combo(view));
+        sec.push(Block::Paragraph(verdict(&r.result, &combo(view))));
+        sec.push(facts(view));
+        for w in &r.result.warnings {
+            sec.push(Block::Note(w.clone()));
+        }
+        if let Some(sig) = &sig {
+            let prefix = format!("{}-{}-", r.stiction.name, r.linear);
+            for f in run_figures(sig, view, &prefix, "")? {
+                sec.push(Block::Figure(f));
+            }
+        }
+        sections.push(sec);
+    }
+    Ok(Report {
+        title: format!("compare: loop {name}"),
+        subtitle: format!(
+            "{} · {} samples · stiction compare ({} combinations)",
+            d.source,
+            d.len(),
+            rows.len()
+        ),
+        summary,
+        sections,
+    })
+}
+
+/// The report of `diagnose`: the verdict, the findings, the baseline's and the extended
+/// model's figures, and what the residuals show.
+pub fn diagnose_page(d: &LoopData, dg: &Diagnosis) -> Result<Report, ReportError> {
+    let name = loop_name(d);
+    let base = &dg.baseline_fit;
+    let base_label = combo(base);
+    let chosen = dg
+        .chosen
+        .and_then(|i| dg.findings.get(i))
+        .and_then(|f| f.fitted.as_ref().map(|x| (f, x)));
+    let mut findings = Section::new("Causes tested");
+    findings.push(Block::Paragraph(format!(
+        "Each cause is tested by fitting the model extended for it and comparing the \
+         validation fit with the baseline {base_label} by a likelihood ratio (LR) that must \
+         pass the threshold. Chosen cause: {}.",
+        dg.cause
+    )));
+    let rows = dg
+        .findings
+        .iter()
+        .map(|f| {
+            let (ext, s_, j_) = match &f.extended {
+                Some(e) => (
+                    format!("{} × {} d={}", e.stiction_model, e.linear_model, e.delay),
+                    format!("{:.2}", e.s),
+                    format!("{:.2}", e.j),
+                ),
+                None => (
+                    f.error.clone().unwrap_or_else(|| "-".into()),
+                    "-".into(),
+                    "-".into(),
+                ),
+            };
+            vec![
+                f.cause.to_string(),
+                format!("{:.2}", f.statistic),
+                format!("{:.1}", f.lr),
+                format!("{:.1}", f.threshold.abs()),
+                if f.significant { "yes" } else { "no" }.into(),
+                ext,
+                s_,
+                j_,
+                format!("{:+.2}", f.gain_fit_pv_val),
+                f.evidence.clone(),
+            ]
+        })
+        .collect();
+    findings.push(Block::Table {
+        header: [
+            "cause",
+            "statistic",
+            "LR",
+            "needed",
+            "significant",
+            "extension",
+            "S",
+            "J",
+            "ΔF_PV val",
+            "evidence",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    });
+    let mut first = Section::new("Verdict");
+    first.push(Block::Verdict(format!(
+        "Cause: {}.",
+        discrepancy::action_line(dg)
+    )));
+    first.push(Block::Paragraph(dg.summary.clone()));
+    let mut sections = vec![first];
+    let mut later = vec![findings];
+    let sig = signals(d, &name);
+    let mut baseline = Section::new(format!("Baseline: {base_label}"));
+    baseline.push(Block::Paragraph(verdict(
+        &base.result,
+        &format!("Before the diagnosis, the baseline {base_label}"),
+    )));
+    baseline.push(facts(base));
+    if let Some(sig) = &sig {
+        for f in run_figures(sig, base, "baseline-", "baseline")? {
+            baseline.push(Block::Figure(f));
+        }
+    }
+    later.push(baseline);
+    if let Some(sig) = &sig {
+        let mut res = Section::new("Residuals");
+        let r = &dg.residuals;
+        res.push(Block::Facts(vec![
+            (
+                "Ljung-Box Q (limit)".into(),
+                format!("{:.1} ({:.1})", r.ljung_box_q, r.ljung_box_limit),
+            ),
+            (
+                "cross-correlation with past MV".into(),
+                format!("z = {:.2} at lag {}", r.cross_mv_z, r.cross_mv_lag),
+            ),
+            (
+                "low-frequency share of the simulation residual".into(),
+                format!("{:.2}", r.low_frequency_ratio),
+            ),
+            (
+                "mean residual moving up / down".into(),
+                format!(
+                    "{:.3} / {:.3} (t = {:.2})",
+                    r.mean_up, r.mean_down, r.direction_t
+                ),
+            ),
+        ]));
+        let ext = chosen.map(|(f, x)| (x, format!("{} ({})", combo(x), f.cause)));
+        let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
+        res.push(Block::Figure(figures::residual_trends(
+            sig,
+            (&base.result, &base_label),
+            ext_ref,
+            "residuals",
+        )?));
+        res.push(Block::Figure(figures::residual_spectrum(
+            sig,
+            (&base.result, &base_label),
+            ext_ref,
+            "spectrum",
+        )?));
+        later.push(res);
+        if let Some((f, x)) = chosen {
+            let view = x;
+            let label = combo(view);
+            let mut sec = Section::new(format!("Extended model for {}: {label}", f.cause));
+            sec.push(Block::Paragraph(format!(
+                "{} The extension changes the validation F_PV by {:+.2} points, S by {:+.2} and \
+                 J by {:+.2} % of valve span.",
+                verdict(&view.result, &label),
+                f.gain_fit_pv_val,
+                f.delta_s,
+                f.delta_j
+            )));
+            sec.push(facts(view));
+            if let Some(fig) = figures::disturbance(sig, &view.result, &label, "disturbance")? {
+                sec.push(Block::Figure(fig));
+            }
+            for fig in run_figures(sig, view, "extended-", &format!("extended for {}", f.cause))? {
+                sec.push(Block::Figure(fig));
+            }
+            sections.push(sec);
+        }
+    }
+    // The verdict and the model to use first; then how it was reached.
+    sections.extend(later);
+    Ok(Report {
+        title: format!("diagnose: loop {name}, {base_label}"),
+        subtitle: format!(
+            "{} · {} samples · stiction diagnose · cause: {}",
+            d.source,
+            d.len(),
+            dg.cause
+        ),
+        summary: Vec::new(),
+        sections,
+    })
+}
+
+/// The report of `trend`: the verdict, then per combination S over the registrations and
+/// the table behind it.
+pub fn trend_page(vt: &ValveTrend) -> Result<Report, ReportError> {
+    let threshold = vt.options.threshold;
+    let (valve, regs) = (vt.valve.as_str(), vt.registrations.as_slice());
+    let (verdict, reason, rule) = (vt.verdict.label(), vt.reason.as_str(), vt.rule());
+    let dated = regs.iter().all(|r| r.start.is_some());
+    let day = |k: usize, r: &Registration| match (dated, r.start) {
+        (true, Some(t)) => t / 86400.0,
+        _ => (k + 1) as f64,
+    };
+    let mut sections = Vec::new();
+    for (c, ct) in vt.combinations.iter().enumerate() {
+        let t = &ct.trend;
+        let model = format!("{} × {}", ct.stiction, ct.linear);
+        let mut sec = Section::new(model.clone());
+        let mut points = Vec::new();
+        let mut rows = Vec::new();
+        for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
+            let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
+            match (r.fit(c), r.error(c)) {
+                (None, e) => rows.push(vec![
+                    (k + 1).to_string(),
+                    time,
+                    "-".into(),
+                    "-".into(),
+                    "-".into(),
+                    "-".into(),
+                    "error".into(),
+                    format!(
+                        "{}: {}",
+                        r.file,
+                        e.map(ToString::to_string).unwrap_or_default()
+                    ),
+                ]),
+                (Some(f), _) => {
+                    let status = match flag {
+                        Flag::Used => TrendStatus::Used,
+                        Flag::Weak | Flag::Error => TrendStatus::Weak,
+                        Flag::Outlier => TrendStatus::Outlier,
+                    };
+                    points.push(TrendPoint {
+                        day: day(k, r),
+                        s: f.s,
+                        interval: Some(f.s_range),
+                        status,
+                    });
+                    rows.push(vec![
+                        (k + 1).to_string(),
+                        time,
+                        format!("{:.2}", f.s),
+                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
+                        format!("{:.2}", f.j),
+                        format!("{:.1}", f.fit_val),
+                        flag.label().into(),
+                        if *flag == Flag::Used {
+                            String::new()
+                        } else {
+                            f.evidence
+                                .iter()
+                                .map(ToString::to_string)
+                                .collect::<Vec<_>>()
+                                .join("; ")
+                        },
+                    ]);
+                }
+            }
+        }
+        // The Theil-Sen line through the used points: slope, and the median intercept.
+        let line = t.slope_30d.filter(|_| dated).and_then(|m30| {
+            let slope = m30 / 30.0;
+            let used: Vec<&TrendPoint> = points
+                .iter()
+                .filter(|p| p.status == TrendStatus::Used)
+                .collect();
+            let day0 = used.first()?.day;
+            let icpt: Vec<f64> = used.iter().map(|p| p.s - slope * (p.day - day0)).collect();
+            Some(TrendLine {
+                day0,
+                s0: median(&icpt),
+                slope,
+            })
+        });
+        sec.push(Block::Paragraph(format!(
+            "Level (median S of the usable registrations) {}; trend {}; latest usable S {}.",
+            t.level.map_or("-".into(), |v| format!("{v:.2} %")),
+            t.slope_30d
+                .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
+            t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
+        )));
+        if !points.is_empty() {
+            let fig = figures::s_trend(
+                valve,
+                &model,
+                &points,
+                threshold,
+                line,
+                dated,
+                &format!("{}-{}-s-trend", ct.stiction, ct.linear),
+            )?;
+            sec.push(Block::Figure(fig));
+        }
+        sec.push(Block::Table {
+            header: ["#", "time", "S", "S range", "J", "F_PV val", "flag", "why"]
+                .map(String::from)
+                .to_vec(),
+            rows,
+        });
+        sections.push(sec);
+    }
+    // Registrations the reader refused: the reason and the raw columns (the first few).
+    let refused: Vec<(&Registration, &RegistrationError)> = regs
+        .iter()
+        .filter_map(|r| r.outcome.as_ref().err().map(|e| (r, e)))
+        .collect();
+    if !refused.is_empty() {
+        let mut sec = Section::new(format!("Refused registrations ({})", refused.len()));
+        for (k, (r, e)) in refused.iter().enumerate() {
+            sec.push(Block::Note(format!("{}: {e}", r.file)));
+            if k >= 4 {
+                continue;
+            }
+            let stem = r
+                .path
+                .file_stem()
+                .map_or_else(|| r.file.clone(), |s| s.to_string_lossy().into_owned());
+            if let Some(cols) = datasets::raw_columns(&r.path) {
+                let fig = figures::raw_signals(&stem, &cols, &format!("raw-{}", k + 1))?;
+                sec.push(Block::Figure(fig));
+            }
+        }
+        sections.push(sec);
+    }
+    let mut rules = Section::new("How the verdict is reached");
+    rules.push(Block::Paragraph(rule));
+    sections.push(rules);
+    // The verdict first, in its own box, then why.
+    let mut first = Section::new("Verdict");
+    first.push(Block::Verdict(format!("Verdict: {verdict}.")));
+    first.push(Block::Paragraph(reason.to_string()));
+    sections.insert(0, first);
+    Ok(Report {
+        title: format!("trend: valve {valve}"),
+        subtitle: format!(
+            "{} registration(s) · stiction trend · threshold {} % of valve span",
+            regs.len(),
+            threshold
+        ),
+        summary: Vec::new(),
+        sections,
+    })
+}
+
+/// The page of a loop that could not be read: the reason and, when the file is delimited text
+/// (not `-`), its columns as logged.
+pub fn refused_page(path: &Path, message: &str, command: &str) -> Report {
+    let stem = path.file_stem().map_or_else(
+        || path.display().to_string(),
+        |s| s.to_string_lossy().into(),
+    );
+    let mut sec = Section::new("Why the data were refused");
+    sec.push(Block::Note(message.to_string()));
+    let mut figure = None;
+    if path.as_os_str() != "-" {
+        if let Some(cols) = datasets::raw_columns(path) {
+            match figures::raw_signals(&stem, &cols, "raw") {
+                Ok(f) => figure = Some(f),
+                Err(e) => {
+                    sec.push(Block::Note(format!("the raw data could not be drawn: {e}")));
+                }
+            }
+        }
+    }
+    sec.push(Block::Paragraph(if figure.is_some() {
+        "The data were not analysed: the estimate would not be trustworthy. The figure shows \
+         the columns as logged so the problem can be seen; see `stiction --help` for the \
+         column and gap options."
+            .into()
+    } else {
+        "The data were not analysed: the estimate would not be trustworthy. No column of the \
+         file could be read as numbers to draw; see `stiction --help` for the column and gap \
+         options."
+            .into()
+    }));
+    if let Some(f) = figure {
+        sec.push(Block::Figure(f));
+    }
+    Report {
+        title: format!("{command}: loop {stem} refused"),
+        subtitle: format!("{} · stiction {command}", path.display()),
+        summary: vec![format!("No estimate: {message}")],
+        sections: vec![sec],
+    }
+}

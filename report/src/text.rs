@@ -1,0 +1,443 @@
+//! The plain-text output of each command (what `stiction` prints without `--json`), from the
+//! typed results. Each function returns the text; the CLI prints it.
+
+use std::fmt::{self, Write};
+
+use datasets::{format_epoch, LoopData};
+use discrepancy::Diagnosis;
+use grid_search::Criterion;
+use linear_id::Structure;
+use monitoring::batch::{OkRow, Row};
+use monitoring::identify::Identification;
+use monitoring::trend::ValveTrend;
+use monitoring::{Evidence, Fitted, Flag, Trend};
+
+use crate::pages::{self, opt2};
+
+/// The text of `quantify`: the combination, S and J with their ranges, the fits, the grid, the
+/// verdict and the warnings. `init` is the initialization's label.
+pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Error> {
+    let q = &r.result;
+    let mut text = String::new();
+    let out = &mut text;
+
+    let orders: Vec<String> = r
+        .identifier
+        .orders()
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
+    let delay_note = match &r.delay_scan {
+        Some(_) => format!("dead time {} samples (estimated)", r.delay),
+        None => format!("dead time {} samples", r.delay),
+    };
+    writeln!(
+        out,
+        "{}: {} + {} ({}), {}, {delay_note}, ranked by one-step {}",
+        source,
+        r.stiction.name,
+        r.linear,
+        orders.join(", "),
+        init,
+        q.criterion.label()
+    )?;
+    let own = pages::own_params(r.stiction, q);
+    writeln!(
+        out,
+        "  S = {:.2} %  [{:.2}, {:.2}]    J = {:.2} %  [{:.2}, {:.2}]    ({})",
+        q.s,
+        q.interval.s[0],
+        q.interval.s[1],
+        q.j,
+        q.interval.j[0],
+        q.interval.j[1],
+        own.join(", ")
+    )?;
+    let (fid, fval) = q.fits.rank(q.criterion);
+    let (oid, oval) = q.fits.rank(q.criterion.other());
+    writeln!(
+        out,
+        "  F_PV id {:.2} %, val {:.2} %   (other fit: id {}, val {})   F_MV {}   no stiction: val {}",
+        fid,
+        fval,
+        opt2(Some(oid)),
+        opt2(Some(oval)),
+        opt2(q.fits.mv),
+        opt2(q.fit_no_stiction)
+    )
+    ?;
+    writeln!(
+        out,
+        "  [S, J] ranges: {} nodes within the {:.0} % likelihood-ratio region; grid {} nodes ({} skipped), step {}, OP span {:.2}; {:.0} ms",
+        q.interval.nodes,
+        100.0 * q.interval.confidence,
+        q.nodes_evaluated,
+        q.nodes_skipped,
+        (q.grid.step() * 1e6).round() / 1e6,
+        q.span,
+        r.elapsed_ms
+    )
+    ?;
+    writeln!(out, "  verdict: {}", pages::verdict_line(q))?;
+    for (i, w) in q.warnings.iter().enumerate() {
+        let kind = if i < q.doubts.len() {
+            "warning"
+        } else {
+            "note"
+        };
+        writeln!(out, "  {kind}: {w}")?;
+    }
+    Ok(text)
+}
+
+/// One combination of a `compare`: its names and its fit or its error.
+pub type CompareRow<'a> = (&'a str, &'a str, Result<&'a Fitted, String>);
+
+/// The table of `compare` (the layout of the paper's Tables 3-8).
+pub fn compare(
+    d: &LoopData,
+    split: f64,
+    init: &str,
+    criterion: Criterion,
+    rows: &[CompareRow<'_>],
+) -> Result<String, fmt::Error> {
+    let mut text = String::new();
+    let out = &mut text;
+
+    writeln!(
+        out,
+        "{}: {} samples, identification {} / validation {}, {}, ranked by one-step {}",
+        d.source,
+        d.len(),
+        (d.len() as f64 * split).floor(),
+        d.len() - (d.len() as f64 * split).floor() as usize,
+        init,
+        criterion.label()
+    )?;
+    writeln!(
+        out,
+        "{:<10} {:<7} {:>6} {:>13} {:>6} {:>13} {:>9} {:>9} {:>7} {:>8}",
+        "stiction", "linear", "S", "S range", "J", "J range", "F_PV id", "F_PV val", "F_MV", "time"
+    )?;
+    for (st, li, r) in rows {
+        match r {
+            Ok(r) => {
+                let q = &r.result;
+                let (fid, fval) = q.fits.rank(q.criterion);
+                writeln!(
+                    out,
+                    "{:<10} {:<7} {:>6.2} {:>13} {:>6.2} {:>13} {:>9.2} {:>9.2} {:>7} {:>7.1}s",
+                    st,
+                    li,
+                    q.s,
+                    format!("{:.2}-{:.2}", q.interval.s[0], q.interval.s[1]),
+                    q.j,
+                    format!("{:.2}-{:.2}", q.interval.j[0], q.interval.j[1]),
+                    fid,
+                    fval,
+                    opt2(q.fits.mv),
+                    r.elapsed_ms / 1e3
+                )?;
+            }
+            Err(msg) => {
+                writeln!(out, "{st:<10} {li:<7} error: {msg}")?;
+            }
+        }
+    }
+    Ok(text)
+}
+
+/// The text of `diagnose`: the cause to act on, the summary and the table of causes.
+pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
+    let mut text = String::new();
+    let out = &mut text;
+
+    writeln!(
+        out,
+        "{}: diagnosis of {} + {} ({} samples, {:.1} s)",
+        d.source,
+        dg.baseline.stiction_model,
+        dg.baseline.linear_model,
+        d.len(),
+        dg.elapsed_ms / 1e3
+    )?;
+    writeln!(out, "cause: {}", discrepancy::action_line(dg))?;
+    writeln!(out)?;
+    writeln!(out, "{}", dg.summary)?;
+    writeln!(out)?;
+    writeln!(
+        out,
+        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>8}",
+        "cause",
+        "statistic",
+        "LR",
+        "needed",
+        "signif.",
+        "model fitted",
+        "S",
+        "J",
+        "F_PV val",
+        "ΔF_PV"
+    )?;
+    let b = &dg.baseline;
+    writeln!(
+        out,
+        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7.2} {:>7.2} {:>9.2} {:>8}",
+        "(baseline)",
+        "-",
+        "-",
+        "-",
+        "-",
+        format!("{} + {} d={}", b.stiction_model, b.linear_model, b.delay),
+        b.s,
+        b.j,
+        b.fit_pv_val,
+        "-"
+    )?;
+    for f in &dg.findings {
+        let (ext, s_, j_, fv) = match &f.extended {
+            Some(e) => (
+                format!("{} + {} d={}", e.stiction_model, e.linear_model, e.delay),
+                format!("{:.2}", e.s),
+                format!("{:.2}", e.j),
+                format!("{:.2}", e.fit_pv_val),
+            ),
+            None => (
+                f.error.clone().unwrap_or_else(|| "-".into()),
+                "-".into(),
+                "-".into(),
+                "-".into(),
+            ),
+        };
+        writeln!(
+            out,
+            "{:<20} {:>9.2} {:>11.1} {:>8.1} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>+8.2}",
+            f.cause,
+            f.statistic,
+            f.lr,
+            f.threshold.abs(),
+            if f.significant { "yes" } else { "no" },
+            ext,
+            s_,
+            j_,
+            fv,
+            f.gain_fit_pv_val
+        )?;
+    }
+    writeln!(
+        out,
+        "S, J: the fitted model's (no-stiction: the best valve with S at most {} %); F_PV val: its validation fit; ΔF_PV: against the baseline.",
+        grid_search::NEGLIGIBLE_S
+    )
+    ?;
+    Ok(text)
+}
+
+/// The text of `trend`: per combination the registrations with their flags and evidence, the
+/// level and the slope; then the verdict and its rule.
+pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
+    let mut text = String::new();
+    let out = &mut text;
+
+    let regs = &vt.registrations;
+    let first = regs.iter().find_map(|r| r.start).map(format_epoch);
+    let last = regs.iter().rev().find_map(|r| r.start).map(format_epoch);
+    writeln!(
+        out,
+        "valve {}: {} registration(s), {} .. {}{}",
+        vt.valve,
+        regs.len(),
+        first.unwrap_or_else(|| "?".into()),
+        last.unwrap_or_else(|| "?".into()),
+        if regs.iter().any(|r| r.integrating) {
+            "; integrating loop: identified from MV to ΔPV"
+        } else {
+            ""
+        }
+    )?;
+    for (c, ct) in vt.combinations.iter().enumerate() {
+        let t = &ct.trend;
+        writeln!(out, "\n{} + {}", ct.stiction, ct.linear)?;
+        writeln!(
+            out,
+            "{:>3}  {:<16}  {:>6} {:>13}  {:>5} {:>11}  {:>8}  {:<7}  why",
+            "#", "time", "S", "S range", "J", "J range", "F_PV val", "flag"
+        )?;
+        for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
+            let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
+            match (r.fit(c), r.error(c)) {
+                (Some(f), _) => {
+                    let why = if *flag == Flag::Used {
+                        String::new()
+                    } else if f.evidence.is_empty() {
+                        "no evidence of a disturbance in this registration: the valve itself \
+                         may have changed (maintenance, operating range)"
+                            .to_string()
+                    } else {
+                        join(&f.evidence)
+                    };
+                    writeln!(
+                        out,
+                        "{:>3}  {time:<16}  {:>6.2} {:>13}  {:>5.2} {:>11}  {:>8.1}  {:<7}  {why}",
+                        k + 1,
+                        f.s,
+                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
+                        f.j,
+                        format!("{:.2}-{:.2}", f.j_range[0], f.j_range[1]),
+                        f.fit_val,
+                        flag.label()
+                    )?;
+                }
+                (None, e) => {
+                    let e = e.map(ToString::to_string).unwrap_or_default();
+                    writeln!(out, "{:>3}  {time:<16}  error: {}: {e}", k + 1, r.file)?;
+                }
+            }
+        }
+        let count = |x: Flag| t.flags.iter().filter(|f| **f == x).count();
+        writeln!(
+            out,
+            "  usable {}, weak {}, outliers {}, errors {}{}",
+            count(Flag::Used),
+            count(Flag::Weak),
+            count(Flag::Outlier),
+            count(Flag::Error),
+            t.band
+                .map(|b| format!("; outlier band S in [{:.2}, {:.2}]", b[0], b[1]))
+                .unwrap_or_default()
+        )?;
+        writeln!(out, "  {}", level_line(t))?;
+    }
+    writeln!(out, "\nverdict: {}: {}", vt.verdict, vt.reason)?;
+    writeln!(out, "rule: {}", vt.rule())?;
+    Ok(text)
+}
+
+/// Evidence joined with `; `.
+pub fn join(evidence: &[Evidence]) -> String {
+    let v: Vec<String> = evidence.iter().map(ToString::to_string).collect();
+    v.join("; ")
+}
+
+/// `level (median S) ...; trend ...; latest usable S ...`.
+fn level_line(t: &Trend) -> String {
+    format!(
+        "level (median S) {}; trend {}; latest usable S {}",
+        t.level.map_or("-".into(), |v| format!("{v:.2} %")),
+        t.slope_30d
+            .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
+        t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
+    )
+}
+
+/// The text of `identify`: the model, its poles and fits.
+pub fn identify(source: &str, id: &Identification) -> Result<String, fmt::Error> {
+    let mut text = String::new();
+    let out = &mut text;
+    let (fit, stable) = (&id.fit, id.fit.is_stable());
+    let (fit_id, fit_val, sim_val) = (id.fit_id, id.fit_val, id.sim_val);
+    let (ni, n) = (id.samples[0], id.samples[0] + id.samples[1]);
+    let o: Vec<String> = id.orders.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    writeln!(
+        out,
+        "{source}: {} from {} to PV ({}), {ni} identification / {} validation samples",
+        id.linear,
+        id.input,
+        o.join(", "),
+        n - ni
+    )?;
+    match fit.structure() {
+        Structure::Polynomial { a, b, c, delay } => {
+            let fmt = |v: &[f64]| {
+                v.iter()
+                    .map(|x| format!("{x:.6}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            writeln!(out, "  A(q) = [{}]", fmt(a))?;
+            writeln!(
+                out,
+                "  B(q) = [{}]  (q^-1 .. q^-{}, dead time {delay})",
+                fmt(b),
+                b.len()
+            )?;
+            if c.len() > 1 {
+                writeln!(out, "  C(q) = [{}]", fmt(c))?;
+            }
+        }
+        Structure::StateSpace { a, .. } => {
+            writeln!(
+                out,
+                "  state space, order {} (A, B, C, D, K, x0 with --json)",
+                a.len()
+            )?;
+        }
+    }
+    let poles: Vec<String> = fit
+        .poles()
+        .iter()
+        .map(|(re, im)| {
+            if im.abs() < 1e-12 {
+                format!("{re:.4}")
+            } else {
+                format!("{re:.4}{im:+.4}i")
+            }
+        })
+        .collect();
+    writeln!(
+        out,
+        "  static gain {:.4}, poles {} ({})",
+        fit.static_gain(),
+        poles.join(", "),
+        if stable { "stable" } else { "UNSTABLE" }
+    )?;
+    writeln!(
+        out,
+        "  F_PV one-step prediction: id {fit_id:.2} %, val {fit_val:.2} %; free-run simulation val {}",
+        sim_val.filter(|v| v.is_finite()).map_or("-".into(), |v| format!("{v:.2} %"))
+    )
+    ?;
+    if let Some(eta) = fit.disturbance() {
+        let (lo, hi) = eta
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        writeln!(
+            out,
+            "  estimated disturbance η̂: {} samples, range [{lo:.4}, {hi:.4}] (series with --json)",
+            eta.len()
+        )?;
+    }
+    Ok(text)
+}
+
+/// The rows of `batch` as a table (without `-o`).
+pub fn batch_table(rows: &[Row]) -> String {
+    let mut out = format!(
+        "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  error\n",
+        "file", "valve", "time", "status", "S", "S range", "J", "F_PV val"
+    );
+    for r in rows {
+        let num = |f: &dyn Fn(&OkRow) -> f64| {
+            r.ok()
+                .map(f)
+                .filter(|v| v.is_finite())
+                .map_or("-".into(), |v| format!("{v:.2}"))
+        };
+        let _ = writeln!(
+            out,
+            "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  {}",
+            r.file,
+            r.valve,
+            r.time.as_deref().unwrap_or("?"),
+            if r.is_ok() { "ok" } else { "error" },
+            num(&|o| o.s),
+            format!("{}-{}", num(&|o| o.s_lo), num(&|o| o.s_hi)),
+            num(&|o| o.j),
+            num(&|o| o.fit_pv_val),
+            r.error().unwrap_or("")
+        );
+    }
+    out
+}
