@@ -66,6 +66,9 @@ pub enum DiagnoseError {
         /// Valid range.
         expected: String,
     },
+    /// A search setting that cannot work for a diagnosis (the message names the CLI's flag).
+    #[error("{0}")]
+    Setting(String),
     /// A cause named in `disabled` or asked for does not exist.
     #[error("unknown cause {name:?}; registered: {known}")]
     UnknownCause {
@@ -82,6 +85,7 @@ impl From<monitoring::MonitoringError> for DiagnoseError {
             monitoring::MonitoringError::Stiction(e) => DiagnoseError::Stiction(e),
             monitoring::MonitoringError::Identification(e) => DiagnoseError::Identifier(e),
             monitoring::MonitoringError::Search(e) => DiagnoseError::Search(e),
+            monitoring::MonitoringError::Setting { message, .. } => DiagnoseError::Setting(message),
             other => DiagnoseError::NoValidNode {
                 model: "combination".into(),
                 reason: other.to_string(),
@@ -93,6 +97,47 @@ impl From<monitoring::MonitoringError> for DiagnoseError {
 /// The model a diagnosis starts from: a [`Combination`] with a fixed dead time (its grid and
 /// search options are the diagnosis's, [`DiagnoseOptions::search`]).
 pub type Baseline = Combination;
+
+/// The baseline of a diagnosis from the search settings as the CLI's flags spell them: the
+/// combination with a fixed dead time (`--delay auto` is refused: the diagnosis tests the dead
+/// time itself) and its orders in full (defaults filled in), so that an extension with another
+/// identifier inherits the orders they share. The CLI and the Python package both start here.
+pub fn baseline(
+    args: &monitoring::SearchArgs,
+    stiction: &str,
+    linear: &str,
+) -> Result<Baseline, DiagnoseError> {
+    let delay = match args.delay {
+        monitoring::DelayArg::Samples(d) => d,
+        monitoring::DelayArg::Auto => {
+            return Err(DiagnoseError::Setting(
+                "--delay auto: diagnose tests the dead time itself (cause time-delay); give the baseline's fixed dead time".into(),
+            ))
+        }
+    };
+    let mut baseline = args.settings(&[linear])?.combination(stiction, linear)?;
+    baseline.orders = baseline
+        .identifier(delay)?
+        .orders()
+        .into_iter()
+        .filter(|(k, _)| *k != "delay")
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    Ok(baseline)
+}
+
+/// The diagnosis's options for a record whose OP spans `span`, with the causes `without` left
+/// out.
+pub fn options_for(
+    args: &monitoring::SearchArgs,
+    span: f64,
+    without: &[String],
+) -> Result<DiagnoseOptions, DiagnoseError> {
+    let mut options = DiagnoseOptions::for_span(span);
+    options.search = args.settings(&[])?.options(span);
+    options.disabled = without.to_vec();
+    Ok(options)
+}
 
 /// What a cause computes from the baseline's residuals and the data, before any refit.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -110,6 +110,23 @@ pub enum MonitoringError {
         /// The sentence.
         message: String,
     },
+    /// A trend was asked for a valve with no registration among the files.
+    #[error("no registration of valve {valve} (found: {})", .found.join(", "))]
+    NoRegistration {
+        /// The valve asked for.
+        valve: String,
+        /// The valves found.
+        found: Vec<String>,
+    },
+    /// A trend over no registration file at all.
+    #[error("no registration files found")]
+    NoFiles,
+    /// A trend follows one valve, and the files hold several: one must be chosen.
+    #[error("trend follows one valve; the files hold {}: choose one with --valve", .0.join(", "))]
+    SeveralValves(
+        /// Each valve with its number of registrations, `TAG (n)`.
+        Vec<String>,
+    ),
     /// A label that is neither `stiction` nor `no-stiction`.
     #[error("{}: row {row}, column label: {value:?} is not stiction / no-stiction", .path.display())]
     BadLabel {

@@ -286,6 +286,33 @@ pub fn by_valve(files: Vec<PathBuf>) -> BTreeMap<String, Vec<PathBuf>> {
     out
 }
 
+/// The valve a trend follows and its files: `valve` when given (an error when it has no
+/// registration), else the only valve among `files` (an error when there are none or
+/// several).
+pub fn select(
+    files: Vec<PathBuf>,
+    valve: Option<&str>,
+) -> Result<(String, Vec<PathBuf>), MonitoringError> {
+    let mut by_valve = by_valve(files);
+    match valve {
+        Some(v) => match by_valve.remove(v) {
+            Some(f) => Ok((v.to_string(), f)),
+            None => Err(MonitoringError::NoRegistration {
+                valve: v.to_string(),
+                found: by_valve.keys().cloned().collect(),
+            }),
+        },
+        None if by_valve.len() == 1 => by_valve.pop_first().ok_or(MonitoringError::NoFiles),
+        None if by_valve.is_empty() => Err(MonitoringError::NoFiles),
+        None => Err(MonitoringError::SeveralValves(
+            by_valve
+                .iter()
+                .map(|(k, v)| format!("{k} ({})", v.len()))
+                .collect(),
+        )),
+    }
+}
+
 /// Follow `valve` over its registration `files`: search each one with every combination (in
 /// parallel), order them in time, flag weak and outlying registrations, and give the verdict.
 /// With a `diagnoser`, each weak or outlying registration's evidence starts with its

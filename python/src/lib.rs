@@ -172,7 +172,10 @@ fn read_csv<'py>(
 struct Request {
     stiction: Vec<String>,
     linear: Vec<String>,
+    args: SearchArgs,
     settings: Settings,
+    /// diagnose: causes left out (`--without`).
+    without: Vec<String>,
 }
 
 fn names(v: Option<serde_json::Value>, key: &str, default: &str) -> PyResult<Vec<String>> {
@@ -199,6 +202,10 @@ fn request(settings_json: &str) -> PyResult<Request> {
         serde_json::from_str(settings_json).map_err(usage_err)?;
     let stiction = names(v.remove("stiction"), "stiction", "kano")?;
     let linear = names(v.remove("linear"), "linear", "arx")?;
+    let without = match v.remove("without") {
+        None => Vec::new(),
+        x => names(x, "without", "")?,
+    };
     let args: SearchArgs =
         serde_json::from_value(serde_json::Value::Object(v)).map_err(usage_err)?;
     for name in &stiction {
@@ -209,7 +216,9 @@ fn request(settings_json: &str) -> PyResult<Request> {
     Ok(Request {
         stiction,
         linear,
+        args,
         settings,
+        without,
     })
 }
 
@@ -246,6 +255,60 @@ fn quantify_record(
     Ok(fitted.record(&req.settings.search.init))
 }
 
+/// The `diagnose --json` document (`discrepancy::baseline`, `options_for`, `diagnose`).
+fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
+    use discrepancy::DiagnoseError;
+    use grid_search::SearchError;
+    let usage_of = |e: DiagnoseError| usage_err(e.to_string());
+    let baseline =
+        discrepancy::baseline(&req.args, &req.stiction[0], &req.linear[0]).map_err(usage_of)?;
+    let pv = d.require_pv().map_err(data_err)?;
+    let span = monitoring::span_of(&d.op);
+    let options = discrepancy::options_for(&req.args, span, &req.without).map_err(usage_of)?;
+    let problem = Problem {
+        op: &d.op,
+        pv,
+        mv: d.mv.as_deref(),
+    };
+    let dg = discrepancy::diagnose(problem, &baseline, &options).map_err(|e| match e {
+        e @ DiagnoseError::UnknownCause { .. } => usage_err(e.to_string()),
+        DiagnoseError::Search(
+            e @ (SearchError::Budget { .. } | SearchError::InvalidOption { .. }),
+        ) => usage_err(format!("{}: {e}", d.source)),
+        other => data_err(format!("{}: {other}", d.source)),
+    })?;
+    Ok(dg.record(&d.source, &req.settings.search.init))
+}
+
+/// The `identify --json` document: the identifier with its orders and dead time, from MV when
+/// the record has it, else from OP, to PV.
+fn identify_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
+    let entry = linear_id::find_identifier(&req.linear[0]).map_err(usage_err)?;
+    let delay = match req.args.delay {
+        monitoring::DelayArg::Samples(n) => n,
+        monitoring::DelayArg::Auto => {
+            return Err(usage_err("identify: delay must be a number of samples"))
+        }
+    };
+    let named = req.settings.orders.resolve(entry).map_err(usage_err)?;
+    let identifier = monitoring::build_identifier(entry, &named, delay).map_err(usage_err)?;
+    let (u, input): (&[f64], &str) = match &d.mv {
+        Some(mv) => (mv, "MV"),
+        None => (&d.op, "OP"),
+    };
+    let y = d.require_pv().map_err(data_err)?;
+    let id = monitoring::identify::identify(
+        identifier.as_ref(),
+        entry.name,
+        &d.source,
+        (u, input),
+        (y, "PV"),
+        req.args.split,
+    )
+    .map_err(data_err)?;
+    serde_json::to_value(id.record(delay)).map_err(data_err)
+}
+
 /// `command` ("quantify" or "compare") on a record: the CLI's JSON document as text.
 fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
     let doc = match command {
@@ -275,6 +338,8 @@ fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
             }
             serde_json::to_value(doc).map_err(data_err)?
         }
+        "diagnose" => diagnose_doc(d, req)?,
+        "identify" => identify_doc(d, req)?,
         other => return Err(usage_err(format!("unknown command {other:?}"))),
     };
     serde_json::to_string(&doc).map_err(data_err)
@@ -445,6 +510,69 @@ fn batch_file(
         .collect())
 }
 
+/// The `trend --json` document of one valve over registration files under `paths`.
+#[pyfunction]
+#[pyo3(signature = (paths, settings_json, reader = None, valve = None))]
+fn trend(
+    py: Python<'_>,
+    paths: Vec<std::path::PathBuf>,
+    settings_json: &str,
+    reader: Option<&Bound<'_, PyDict>>,
+    valve: Option<&str>,
+) -> PyResult<String> {
+    use monitoring::trend::TrendOptions;
+    let mut v: serde_json::Map<String, serde_json::Value> =
+        serde_json::from_str(settings_json).map_err(usage_err)?;
+    let number = |v: Option<serde_json::Value>, key: &str, default: f64| -> PyResult<f64> {
+        match v {
+            None => Ok(default),
+            Some(x) => x
+                .as_f64()
+                .filter(|f| f.is_finite() && *f >= 0.0)
+                .ok_or_else(|| {
+                    usage_err(format!("{key}: expected a non-negative number, got {x}"))
+                }),
+        }
+    };
+    let defaults = TrendOptions::default();
+    let threshold = number(v.remove("threshold"), "threshold", defaults.threshold)?;
+    let horizon = number(v.remove("horizon"), "horizon", defaults.horizon)?;
+    let diagnose = v
+        .remove("diagnose")
+        .map(|x| {
+            x.as_bool()
+                .ok_or_else(|| usage_err("diagnose: expected True or False"))
+        })
+        .transpose()?
+        .unwrap_or(true);
+    let opts_json = batch_options(&serde_json::Value::Object(v).to_string(), reader)?;
+    let run = batch_opts(&opts_json)?;
+    let op = run.read.op.clone().unwrap_or_else(|| "OP".into());
+    let options = TrendOptions {
+        run,
+        threshold,
+        horizon,
+    };
+    py.detach(|| {
+        let (files, _skipped) =
+            monitoring::registration::expand(&paths, &[], &op).map_err(usage_err)?;
+        let (valve, files) = monitoring::trend::select(files, valve).map_err(|e| match e {
+            MonitoringError::SeveralValves(_) => usage_err(e.to_string()),
+            other => data_err(other.to_string()),
+        })?;
+        let diagnoser = discrepancy::registration::RegistrationDiagnosis;
+        let vt = monitoring::trend::follow(
+            &valve,
+            &files,
+            &options,
+            diagnose.then_some(&diagnoser as _),
+            None,
+        )
+        .map_err(usage_err)?;
+        serde_json::to_string(&vt.record()).map_err(data_err)
+    })
+}
+
 /// `file -> "stiction" | "no-stiction"` from a labels CSV (columns `file`, `label`).
 #[pyfunction]
 fn batch_labels(path: std::path::PathBuf) -> PyResult<BTreeMap<String, String>> {
@@ -598,6 +726,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch_file, m)?)?;
     m.add_function(wrap_pyfunction!(batch_labels, m)?)?;
     m.add_function(wrap_pyfunction!(batch_finish, m)?)?;
+    m.add_function(wrap_pyfunction!(trend, m)?)?;
     m.add_function(wrap_pyfunction!(valve, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(default_scenario, m)?)?;

@@ -33,10 +33,13 @@ __all__ = [
     "StictionError",
     "UsageError",
     "compare",
+    "diagnose",
+    "identify",
     "quantify",
     "quantify_file",
     "read",
     "simulate",
+    "trend",
     "valve",
 ]
 
@@ -113,6 +116,78 @@ def compare(
     `results` (quantify documents) and `errors`. Same options as `quantify`."""
     options.update(stiction=_names(stiction), linear=_names(linear))
     return _run("compare", data, source, ("stiction", "linear") + SEARCH_OPTIONS, options)
+
+
+def diagnose(
+    data: Any,
+    *,
+    stiction: str = "kano",
+    linear: str = "arx",
+    without: Any = None,
+    source: Optional[str] = None,
+    **options: Any,
+) -> Dict[str, Any]:
+    """What the Hammerstein model gets wrong and why (`stiction diagnose --json`): `cause`,
+    `findings`, `extended`, `gain_fit_pv_val`, `summary` (the actionable sentence first),
+    `residuals`. `without` leaves causes out (names as `stiction models` lists them). Search
+    options as for `quantify`; the dead time must be a number (the diagnosis tests it).
+
+    >>> d = stiction.diagnose(pd.read_csv("loop.csv"))                  # doctest: +SKIP
+    >>> d["cause"], d["summary"][0]                                     # doctest: +SKIP
+    """
+    options.update(stiction=stiction, linear=linear)
+    if without is not None:
+        options["without"] = _names(without)
+    return _run("diagnose", data, source, ("stiction", "linear", "without") + SEARCH_OPTIONS, options)
+
+
+def identify(
+    data: Any,
+    *,
+    linear: str = "arx",
+    source: Optional[str] = None,
+    **options: Any,
+) -> Dict[str, Any]:
+    """Identify the linear model from MV (when logged, else OP) to PV (`stiction identify
+    --json`): `model`, `poles`, `stable`, `static_gain`, fits. Options: `orders`, `delay`
+    (samples), `split`.
+
+    >>> m = stiction.identify(pd.read_csv("loop.csv"), linear="armax", orders="2,2,2")  # doctest: +SKIP
+    """
+    options.update(linear=linear)
+    return _run("identify", data, source, ("linear", "orders", "delay", "split"), options)
+
+
+def trend(
+    paths: Any,
+    *,
+    valve: Optional[str] = None,
+    stiction: Any = "kano",
+    linear: Any = "arx",
+    threshold: Optional[float] = None,
+    horizon: Optional[float] = None,
+    diagnose: bool = True,
+    **options: Any,
+) -> Dict[str, Any]:
+    """One valve over repeated registrations (`stiction trend --json`): `verdict`, `reason`,
+    `level`, `latest`, `slope_per_30_days`, `registrations`, ... `paths`: a directory, a file
+    or a list of them (registration files named `<valve>_YYYYMMDD-HHMM`); `valve` is needed
+    when they hold several valves. `threshold` (S, %) and `horizon` (days) of the maintenance
+    rule; `diagnose=False` skips the diagnosis of doubtful registrations. Other options: the
+    search options, `integrating`, `min_fit` and the reader's.
+
+    >>> t = stiction.trend("../shared/data/plant", valve="2411FIC20102")  # doctest: +SKIP
+    >>> t["verdict"], t["level"]                                          # doctest: +SKIP
+    """
+    if _data.is_path(paths):
+        paths = [paths]
+    reader, settings = _split(options, ("integrating", "min_fit") + SEARCH_OPTIONS)
+    settings.update(stiction=_names(stiction), linear=_names(linear), diagnose=bool(diagnose))
+    if threshold is not None:
+        settings["threshold"] = threshold
+    if horizon is not None:
+        settings["horizon"] = horizon
+    return json.loads(_native.trend([str(p) for p in paths], json.dumps(settings), reader, valve))
 
 
 def _names(v: Any) -> list:

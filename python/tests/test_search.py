@@ -71,3 +71,37 @@ def test_search_errors_are_the_cli_messages(loop_csv):
     flat = {"OP": np.full(200, 50.0), "PV": np.linspace(0, 1, 200)}
     with pytest.raises(stiction.DataError):
         stiction.quantify(flat)
+
+
+def test_diagnose_equals_the_cli(loop_csv, cli_json):
+    expected = cli_json("diagnose", str(loop_csv), "--step", "0.5")
+    got = stiction.diagnose(loop_csv, step=0.5)
+    same_document(got, expected)
+    assert got["cause"] == expected["cause"]
+
+
+def test_diagnose_refuses_an_estimated_dead_time(loop_csv):
+    with pytest.raises(stiction.UsageError, match="--delay auto"):
+        stiction.diagnose(loop_csv, delay="auto")
+    with pytest.raises(stiction.UsageError, match="unknown cause"):
+        stiction.diagnose(loop_csv, step=0.5, without=["gremlins"])
+
+
+def test_identify_equals_the_cli(loop_csv, cli_json):
+    expected = cli_json("identify", str(loop_csv), "--linear", "armax", "--orders", "2,2,1",
+                        "--delay", "1")
+    got = stiction.identify(pd.read_csv(loop_csv), source=str(loop_csv), linear="armax",
+                            orders="2,2,1", delay=1)
+    same_document(got, expected)
+
+
+def test_trend_equals_the_cli(tmp_path, cli_json):
+    for k, (s, day) in enumerate([(2.0, 1), (2.5, 9), (3.0, 17), (3.5, 25)]):
+        df = stiction.simulate(valve={"kind": "kano", "S": s, "J": 0.5}, samples=600, seed=k)
+        df[["t", "SP", "PV", "OP"]].to_csv(tmp_path / f"FIC7_202405{day:02d}-1000.csv", index=False)
+    expected = cli_json("trend", str(tmp_path), "--step", "0.25")
+    got = stiction.trend(tmp_path, step=0.25)
+    same_document(got, expected)
+    assert got["registrations"] == 4 and len(got["combinations"][0]["registrations"]) == 4
+    with pytest.raises(stiction.DataError, match="no registration of valve"):
+        stiction.trend(tmp_path, valve="LIC1", step=0.25)

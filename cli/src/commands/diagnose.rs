@@ -4,12 +4,12 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use discrepancy::{diagnose_with_progress, DiagnoseOptions};
+use discrepancy::diagnose_with_progress;
 use grid_search::Problem;
 
 use super::load::DataFlags;
 use super::quantify::{loop_data, Example};
-use super::search_flags::{DelayFlag, SearchFlags};
+use super::search_flags::SearchFlags;
 use crate::reporting::{self, ReportFlags};
 use crate::{data, usage, CmdResult, Streams};
 
@@ -60,25 +60,8 @@ pub struct Args {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    let delay = match args.search.delay {
-        DelayFlag::Samples(d) => d,
-        DelayFlag::Auto => {
-            return Err(usage(anyhow!(
-                "--delay auto: diagnose tests the dead time itself (cause time-delay); give the baseline's fixed dead time"
-            )))
-        }
-    };
-    let mut baseline = args.search.combination(&args.stiction, &args.linear)?;
-    // The baseline's orders in full (defaults filled in), so that an extension with another
-    // identifier inherits the orders they share.
-    baseline.orders = baseline
-        .identifier(delay)
-        .map_err(usage)?
-        .orders()
-        .into_iter()
-        .filter(|(k, _)| *k != "delay")
-        .map(|(k, v)| (k.to_string(), v))
-        .collect();
+    let search = args.search.args();
+    let baseline = discrepancy::baseline(&search, &args.stiction, &args.linear).map_err(usage)?;
     let file = args.file.as_deref();
     let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "diagnose", s);
     let d = match loop_data(file, args.example, &args.data, s) {
@@ -86,9 +69,8 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         Err(f) => return Err(refused(f, s)),
     };
     let pv = d.require_pv().map_err(data)?;
-    let mut options = DiagnoseOptions::for_span(monitoring::span_of(&d.op));
-    options.search = args.search.options(monitoring::span_of(&d.op))?;
-    options.disabled = args.without.clone();
+    let options = discrepancy::options_for(&search, monitoring::span_of(&d.op), &args.without)
+        .map_err(usage)?;
     let problem = Problem {
         op: &d.op,
         pv,

@@ -97,30 +97,10 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     for n in &not_loops {
         let _ = writeln!(s.stderr, "note: skipped {}: {n}", n.path.display());
     }
-    let mut by_valve = trend::by_valve(files);
-    let (valve, files) = match &args.valve {
-        Some(v) => match by_valve.remove(v) {
-            Some(f) => (v.clone(), f),
-            None => {
-                return Err(data(anyhow!(
-                    "no registration of valve {v} (found: {})",
-                    by_valve.keys().cloned().collect::<Vec<_>>().join(", ")
-                )))
-            }
-        },
-        None if by_valve.len() == 1 => by_valve.pop_first().unwrap_or_default(),
-        None if by_valve.is_empty() => return Err(data(anyhow!("no registration files found"))),
-        None => {
-            let list: Vec<String> = by_valve
-                .iter()
-                .map(|(k, v)| format!("{k} ({})", v.len()))
-                .collect();
-            return Err(usage(anyhow!(
-                "trend follows one valve; the files hold {}: choose one with --valve",
-                list.join(", ")
-            )));
-        }
-    };
+    let (valve, files) = trend::select(files, args.valve.as_deref()).map_err(|e| match e {
+        monitoring::MonitoringError::SeveralValves(_) => usage(e),
+        other => data(other),
+    })?;
     let options = TrendOptions {
         run: monitoring::batch::BatchOptions {
             stiction: args.stiction.clone(),
