@@ -704,6 +704,78 @@ fn simulate<'py>(py: Python<'py>, scenario_json: &str) -> PyResult<(Bound<'py, P
     Ok((out, summary))
 }
 
+/// One column of a frame on its way to the reader: numbers, or text (time stamps, a mode).
+enum Column<'py> {
+    Numbers(PyReadonlyArray1<'py, f64>),
+    Text(Vec<Option<String>>),
+}
+
+impl<'py> FromPyObject<'_, 'py> for Column<'py> {
+    type Error = PyErr;
+    fn extract(ob: Borrowed<'_, 'py, PyAny>) -> PyResult<Self> {
+        if let Ok(a) = ob.extract::<PyReadonlyArray1<'py, f64>>() {
+            return Ok(Column::Numbers(a));
+        }
+        Ok(Column::Text(ob.extract()?))
+    }
+}
+
+/// The CSV text of named columns (numbers written in Rust's shortest round-trip form, NaN as
+/// an empty cell, as pandas writes it): how a DataFrame reaches the reader, without pandas'
+/// `to_csv` (48 ms for 3000 rows here, against under 2 ms).
+#[pyfunction]
+fn csv_text(names: Vec<String>, columns: Vec<Column<'_>>) -> PyResult<String> {
+    if names.len() != columns.len() {
+        return Err(usage_err(format!(
+            "{} column names for {} columns",
+            names.len(),
+            columns.len()
+        )));
+    }
+    let slices: Vec<Result<&[f64], &Vec<Option<String>>>> = columns
+        .iter()
+        .map(|c| match c {
+            Column::Numbers(a) => a.as_slice().map_err(|e| usage_err(e.to_string())).map(Ok),
+            Column::Text(t) => Ok(Err(t)),
+        })
+        .collect::<PyResult<_>>()?;
+    let rows = slices
+        .iter()
+        .map(|c| match c {
+            Ok(x) => x.len(),
+            Err(t) => t.len(),
+        })
+        .max()
+        .unwrap_or(0);
+    if slices.iter().any(|c| match c {
+        Ok(x) => x.len() != rows,
+        Err(t) => t.len() != rows,
+    }) {
+        return Err(usage_err("the columns have different lengths"));
+    }
+    let mut w = csv::Writer::from_writer(Vec::with_capacity(rows * names.len() * 20));
+    w.write_record(&names).map_err(usage_err)?;
+    let mut cell = String::new();
+    let mut record: Vec<String> = vec![String::new(); names.len()];
+    for k in 0..rows {
+        for (j, c) in slices.iter().enumerate() {
+            cell.clear();
+            match c {
+                Ok(x) if x[k].is_nan() => {}
+                Ok(x) => {
+                    use std::fmt::Write as _;
+                    let _ = write!(cell, "{:?}", x[k]);
+                }
+                Err(t) => cell.push_str(t[k].as_deref().unwrap_or("")),
+            }
+            record[j].clone_from(&cell);
+        }
+        w.write_record(&record).map_err(usage_err)?;
+    }
+    let bytes = w.into_inner().map_err(|e| usage_err(e.to_string()))?;
+    String::from_utf8(bytes).map_err(usage_err)
+}
+
 /// The default scenario (the paper's benchmark) as JSON.
 #[pyfunction]
 fn default_scenario() -> String {
@@ -730,5 +802,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(valve, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(default_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(csv_text, m)?)?;
     Ok(())
 }

@@ -7,7 +7,6 @@ error messages are the same as for a file given to `stiction quantify`.
 
 from __future__ import annotations
 
-import io
 import os
 from typing import Any, Mapping, Optional
 
@@ -50,10 +49,23 @@ def frame(data: Any) -> pd.DataFrame:
 
 
 def csv_text(data: Any) -> str:
-    """The CSV text the reader gets for `data` (floats written in their shortest exact form)."""
-    buf = io.StringIO()
-    frame(data).to_csv(buf, index=False)
-    return buf.getvalue()
+    """The CSV text the reader gets for `data`: numeric columns as float64 arrays, written by
+    the extension in their shortest exact form (NaN as an empty cell, as pandas writes it);
+    other columns (time stamps, a controller mode) as text."""
+    from . import _native
+
+    df = frame(data)
+    names, columns = [], []
+    for name in df.columns:
+        col = df[name]
+        names.append(str(name))
+        if pd.api.types.is_bool_dtype(col.dtype):
+            columns.append(col.map(lambda v: "" if pd.isna(v) else str(int(v))).tolist())
+        elif pd.api.types.is_numeric_dtype(col.dtype):
+            columns.append(np.ascontiguousarray(col.to_numpy(dtype=np.float64, na_value=np.nan)))
+        else:
+            columns.append([None if pd.isna(v) else str(v) for v in col.tolist()])
+    return _native.csv_text(names, columns)
 
 
 def options(kwargs: Mapping[str, Any]) -> dict:
