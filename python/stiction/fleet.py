@@ -70,9 +70,15 @@ def rows_of_file(path: PathLike, options_json: str, label: Optional[str] = None)
     return [json.loads(line) for line in _native.batch_file(str(path), options_json, label)]
 
 
+def lines_of_file(path: PathLike, options_json: str, label: Optional[str] = None) -> List[str]:
+    """One registration's rows as the JSON lines of OUT.jsonl: what each task runs (here on
+    Dask, or under Spark or Ray, docs/FLEET.md)."""
+    return _native.batch_file(str(path), options_json, label)
+
+
 def _task(path: str, label: Optional[str], options_json: str) -> List[str]:
     # runs on a worker; JSON lines travel back (small, and exactly what goes into OUT.jsonl)
-    return _native.batch_file(path, options_json, label)
+    return lines_of_file(path, options_json, label)
 
 
 def run(
