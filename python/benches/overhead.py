@@ -1,0 +1,61 @@
+"""What a Python call adds to the search, on one loop, in one run.
+
+    python python/benches/overhead.py [--samples 3000] [--step X] [--repeat 30]
+
+Times, as medians over the repeats: `stiction.quantify(frame)`; the same from the CSV file;
+the extension alone on the CSV text (reading + search + JSON, what the CLI does in process);
+the search alone (`elapsed_ms` of the result); and the frame's conversion to the reader's text.
+The Python overhead is the frame call minus the extension alone.
+"""
+
+import argparse
+import json
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import stiction
+from stiction import _data, _native
+
+
+def median_ms(f, n):
+    out, last = [], None
+    for _ in range(n):
+        t0 = time.perf_counter()
+        last = f()
+        out.append((time.perf_counter() - t0) * 1e3)
+    return statistics.median(out), last
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--samples", type=int, default=3000)
+    ap.add_argument("--step", type=float, default=None)
+    ap.add_argument("--repeat", type=int, default=30)
+    a = ap.parse_args()
+    loop = stiction.simulate(valve={"kind": "kano", "S": 9.0, "J": 3.0}, samples=a.samples, seed=1)
+    df = loop[["t", "SP", "PV", "OP"]]
+    path = Path(tempfile.mkdtemp()) / "loop.csv"
+    df.to_csv(path, index=False)
+    opts = {} if a.step is None else {"step": a.step}
+    settings = json.dumps({"stiction": "kano", "linear": "arx", **opts})
+    text = _data.csv_text(df)
+    stiction.quantify(df, **opts)  # warm
+    t_frame, r = median_ms(lambda: stiction.quantify(df, **opts), a.repeat)
+    t_path, _ = median_ms(lambda: stiction.quantify(path, **opts), a.repeat)
+    t_native, _ = median_ms(lambda: json.loads(_native.run_csv("quantify", text, "x", {}, settings)), a.repeat)
+    t_conv, _ = median_ms(lambda: _data.csv_text(df), a.repeat)
+    search = statistics.median(stiction.quantify(df, **opts)["elapsed_ms"] for _ in range(a.repeat))
+    print(f"{a.samples} samples, kano + arx, {'step ' + str(a.step) if a.step else 'default grid plan'}, "
+          f"{r['grid']['nodes']} nodes")
+    print(f"search alone            {search:8.2f} ms")
+    print(f"extension on CSV text   {t_native:8.2f} ms (reading + search + JSON, as the CLI in process)")
+    print(f"quantify(path)          {t_path:8.2f} ms")
+    print(f"quantify(DataFrame)     {t_frame:8.2f} ms (of which the frame to text {t_conv:.2f} ms)")
+    print(f"Python overhead: {t_frame - t_native:.2f} ms = {100 * (t_frame - t_native) / search:.1f} % "
+          f"of the search (from a path: {100 * (t_path - t_native) / search:.1f} %)")
+
+
+if __name__ == "__main__":
+    main()
