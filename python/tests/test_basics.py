@@ -70,3 +70,17 @@ def test_bad_input_raises_the_cli_message():
         stiction.simulate(nosie_sigma=0.1)
     # the errors are also ValueError-free StictionErrors: one base to catch
     assert issubclass(stiction.DataError, stiction.StictionError)
+
+
+def test_frame_text_is_exact_and_quoted():
+    from stiction import _data
+
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=2000) * 10.0 ** rng.integers(-30, 30, size=2000)
+    text = _data.csv_text({"a,b": x, "mode": ["AUTO"] * 1999 + ['M"AN']})
+    back = pd.read_csv(__import__("io").StringIO(text))
+    assert list(back.columns) == ["a,b", "mode"]
+    np.testing.assert_array_equal(back["a,b"].to_numpy(), x)
+    assert back["mode"].iloc[-1] == 'M"AN'
+    gap = _data.csv_text({"OP": [1.0, float("nan")]})
+    assert gap.splitlines()[2] == ""
