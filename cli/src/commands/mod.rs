@@ -12,7 +12,7 @@ pub mod simulate;
 pub mod trend;
 pub mod valve;
 
-use anyhow::{anyhow, Context};
+use anyhow::Context;
 use stiction_models::{find_model, Direction, InitialState, StictionModel};
 
 use crate::{usage, Failure};
@@ -126,9 +126,4 @@ where
         }
         _ => f(stdout).map_err(crate::data),
     }
-}
-
-/// Error for a value that the user gave but is meaningless.
-pub(crate) fn bad_usage(msg: impl std::fmt::Display) -> Failure {
-    usage(anyhow!("{msg}"))
 }

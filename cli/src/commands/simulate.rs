@@ -3,10 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use datasets::simulate::{Disturbance, PlantPreset, PlantSpec, Scenario};
-use stiction_models::find_model;
+use datasets::simulate::{Overrides, Scenario};
 
-use super::{bad_usage, parse_param, with_output};
+use super::{parse_param, with_output};
 use crate::{data, usage, CmdResult, Failure, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
@@ -70,9 +69,6 @@ pub struct Args {
     output: Option<PathBuf>,
 }
 
-/// The largest controller gain `--kc` / `--ki` accept.
-const MAX_GAIN: f64 = 1e6;
-
 fn scenario(args: &Args, s: &mut Streams<'_>) -> Result<Scenario, Failure> {
     let mut sc = match &args.config {
         Some(path) => {
@@ -94,70 +90,20 @@ fn scenario(args: &Args, s: &mut Streams<'_>) -> Result<Scenario, Failure> {
         }
         None => Scenario::default(),
     };
-    if let Some(name) = &args.plant {
-        let preset = PlantPreset::parse(name)
-            .ok_or_else(|| bad_usage(format!("unknown plant {name:?}; presets are paper, slow")))?;
-        sc.plant = PlantSpec::Preset(preset);
-    }
-    if let Some(d) = args.delay {
-        let mut plant = sc.plant.plant();
-        plant.delay = d;
-        sc.plant = PlantSpec::Explicit(plant);
-    }
-    // The valve: a new model by name, or the configured one with some parameters changed.
-    if args.valve.is_some() || !args.params.is_empty() {
-        let name = args
-            .valve
-            .clone()
-            .unwrap_or_else(|| sc.valve.name().to_string());
-        let entry = find_model(&name).map_err(usage)?;
-        let mut pairs: Vec<(String, f64)> = Vec::new();
-        if entry.name == sc.valve.name() {
-            pairs.extend(
-                entry
-                    .params
-                    .iter()
-                    .map(|p| p.name.to_string())
-                    .zip(sc.valve.param_values()),
-            );
-        }
-        pairs.extend(args.params.iter().cloned());
-        sc.valve = entry.build_named(&pairs).map_err(usage)?;
-    }
-    // Gains beyond any process's are a typo, not a tuning (1e308 overflows the simulation):
-    // bad usage, named as given. An unstable but plausible tuning is a failed computation.
-    for (flag, v) in [("--kc", args.kc), ("--ki", args.ki)] {
-        if let Some(v) = v.filter(|v| !(v.is_finite() && v.abs() <= MAX_GAIN)) {
-            return Err(bad_usage(format!(
-                "{flag} {v:e}: expected a finite controller gain of magnitude at most {MAX_GAIN:e}"
-            )));
-        }
-    }
-    if let Some(kc) = args.kc {
-        sc.controller.kc = kc;
-    }
-    if let Some(ki) = args.ki {
-        sc.controller.ki = ki;
-    }
-    if let Some(a) = args.disturbance {
-        sc.disturbances
-            .retain(|d| !matches!(d, Disturbance::Paper { .. }));
-        if a != 0.0 {
-            sc.disturbances.push(Disturbance::Paper { a });
-        }
-    }
-    if let Some(n) = args.noise {
-        sc.noise_sigma = n;
-    }
-    if let Some(n) = args.samples {
-        sc.samples = n;
-    }
-    if let Some(n) = args.warmup {
-        sc.warmup = n;
-    }
-    if let Some(n) = args.seed {
-        sc.seed = n;
-    }
+    sc.apply(&Overrides {
+        plant: args.plant.clone(),
+        delay: args.delay,
+        valve: args.valve.clone(),
+        params: args.params.clone(),
+        kc: args.kc,
+        ki: args.ki,
+        disturbance: args.disturbance,
+        noise: args.noise,
+        samples: args.samples,
+        warmup: args.warmup,
+        seed: args.seed,
+    })
+    .map_err(usage)?;
     // Flags are usage: a bad value given on the command line exits 2.
     sc.validate().map_err(|e| {
         if args.config.is_some() {

@@ -58,8 +58,10 @@
 //! changing a probability or σ does not shift the other streams (common random numbers).
 //! The sines use the platform's `f64::sin`.
 
+mod overrides;
 mod plant;
 
+pub use overrides::{OverrideError, Overrides, MAX_GAIN};
 pub use plant::{Plant, PlantPreset};
 
 use rand::{Rng, SeedableRng};
