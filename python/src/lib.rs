@@ -206,13 +206,7 @@ fn request(settings_json: &str) -> PyResult<Request> {
         None => Vec::new(),
         x => names(x, "without", "")?,
     };
-    let args: SearchArgs =
-        serde_json::from_value(serde_json::Value::Object(v)).map_err(usage_err)?;
-    for name in &stiction {
-        find_model(name).map_err(usage_err)?;
-    }
-    let refs: Vec<&str> = linear.iter().map(String::as_str).collect();
-    let settings = args.settings(&refs).map_err(usage_err)?;
+    let (args, settings) = search_settings(v, &stiction, &linear)?;
     Ok(Request {
         stiction,
         linear,
@@ -220,6 +214,23 @@ fn request(settings_json: &str) -> PyResult<Request> {
         settings,
         without,
     })
+}
+
+/// The search settings among a call's options (the rest of `v`, which must all be
+/// [`SearchArgs`] fields), checked against the models and identifiers of the call.
+fn search_settings(
+    v: serde_json::Map<String, serde_json::Value>,
+    stiction: &[String],
+    linear: &[String],
+) -> PyResult<(SearchArgs, Settings)> {
+    let args: SearchArgs =
+        serde_json::from_value(serde_json::Value::Object(v)).map_err(usage_err)?;
+    for name in stiction {
+        find_model(name).map_err(usage_err)?;
+    }
+    let refs: Vec<&str> = linear.iter().map(String::as_str).collect();
+    let settings = args.settings(&refs).map_err(usage_err)?;
+    Ok((args, settings))
 }
 
 /// A failed search: bad usage (node budget, invalid option) or refused data, with the source.
@@ -410,13 +421,7 @@ fn batch_options(settings_json: &str, reader: Option<&Bound<'_, PyDict>>) -> PyR
             .filter(|f| f.is_finite())
             .ok_or_else(|| usage_err(format!("min_fit: expected a number, got {x}")))?,
     };
-    let args: SearchArgs =
-        serde_json::from_value(serde_json::Value::Object(v)).map_err(usage_err)?;
-    for name in &stiction {
-        find_model(name).map_err(usage_err)?;
-    }
-    let refs: Vec<&str> = linear.iter().map(String::as_str).collect();
-    let settings = args.settings(&refs).map_err(usage_err)?;
+    let (_, settings) = search_settings(v, &stiction, &linear)?;
     let opts = BatchOptions {
         stiction,
         linear,
@@ -684,17 +689,7 @@ fn simulate<'py>(py: Python<'py>, scenario_json: &str) -> PyResult<(Bound<'py, P
     let sc = datasets::simulate::Scenario::from_json(scenario_json).map_err(usage_err)?;
     sc.validate().map_err(usage_err)?;
     let sim = py.detach(|| sc.simulate()).map_err(data_err)?;
-    let eq = sc.valve.equivalent();
-    let summary = format!(
-        "simulated {} samples (warm-up {} discarded), seed {}: valve {} (S = {}, J = {}), stuck at {:.1} % of samples",
-        sim.len(),
-        sc.warmup,
-        sc.seed,
-        sc.valve.name(),
-        eq.s,
-        eq.j,
-        100.0 * sim.stuck_fraction()
-    );
+    let summary = sim.summary(&sc);
     let out = PyDict::new(py);
     out.set_item("t", sim.t.into_pyarray(py))?;
     out.set_item("SP", sim.sp.into_pyarray(py))?;

@@ -124,19 +124,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         });
     }
     let sim = sc.simulate().map_err(data)?;
-    let eq = sc.valve.equivalent();
-    writeln!(
-        s.stderr,
-        "simulated {} samples (warm-up {} discarded), seed {}: valve {} (S = {}, J = {}), stuck at {:.1} % of samples",
-        sim.len(),
-        sc.warmup,
-        sc.seed,
-        sc.valve.name(),
-        eq.s,
-        eq.j,
-        100.0 * sim.stuck_fraction()
-    )
-    .map_err(data)?;
+    writeln!(s.stderr, "{}", sim.summary(&sc)).map_err(data)?;
     with_output(args.output.as_deref(), s.stdout, |w| {
         sim.write_csv(w).context("writing CSV")?;
         Ok(())

@@ -620,6 +620,21 @@ impl SimulatedLoop {
         stuck as f64 / (self.mv.len() - 1) as f64
     }
 
+    /// The line `stiction simulate` prints about this simulation of `scenario`.
+    pub fn summary(&self, scenario: &Scenario) -> String {
+        let eq = scenario.valve.equivalent();
+        format!(
+            "simulated {} samples (warm-up {} discarded), seed {}: valve {} (S = {}, J = {}), stuck at {:.1} % of samples",
+            self.len(),
+            scenario.warmup,
+            scenario.seed,
+            scenario.valve.name(),
+            eq.s,
+            eq.j,
+            100.0 * self.stuck_fraction()
+        )
+    }
+
     /// Write CSV with the header `t,SP,PV,OP,MV` (numbers in Rust's shortest round-trip
     /// format, so reading the file back gives the same values).
     pub fn write_csv(&self, mut w: impl std::io::Write) -> std::io::Result<()> {
