@@ -72,11 +72,10 @@ fn a_flat_record_is_not_called_sticky_and_says_why() {
     }
 }
 
-#[test]
-fn a_generated_sticky_loop_is_stiction_with_the_contract_keys() {
-    // A slow self-regulating plant, PI 0.3/0.1, Kano S = 4, J = 1, constant set point: a limit
-    // cycle (the same loop as the detection crate's tests).
-    let dir = std::env::temp_dir().join(format!("stiction-detect-{}", std::process::id()));
+/// A slow self-regulating plant, PI 0.3/0.1, Kano S = 4, J = 1, constant set point: a limit
+/// cycle (the same loop as the detection crate's tests), as CSV text.
+fn sticky_loop(name: &str) -> common::Out {
+    let dir = std::env::temp_dir().join(format!("stiction-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let config = dir.join("sticky.json");
     std::fs::write(
@@ -90,6 +89,12 @@ fn a_generated_sticky_loop_is_stiction_with_the_contract_keys() {
     let sim = run(&["simulate", "--config", config.to_str().unwrap()], b"");
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(sim.code, 0, "{}", sim.stderr);
+    sim
+}
+
+#[test]
+fn a_generated_sticky_loop_is_stiction_with_the_contract_keys() {
+    let sim = sticky_loop("detect");
     let v = json(
         &["detect", "-", "--json", "--integrating", "no"],
         sim.stdout.as_bytes(),
@@ -125,4 +130,30 @@ fn a_generated_sticky_loop_is_stiction_with_the_contract_keys() {
     assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stdout.starts_with("-: stiction (score"), "{}", o.stdout);
     assert!(o.stdout.contains("horch-xcorr"), "{}", o.stdout);
+}
+
+/// `quantify` and `diagnose` end their text with the detector's line and add its object to
+/// their JSON: the same answer as `stiction detect` on the same record.
+#[test]
+fn quantify_and_diagnose_carry_the_detectors_answer() {
+    let sim = sticky_loop("detect-wired");
+    let csv = sim.stdout.as_bytes();
+    let det = json(&["detect", "-", "--json"], csv);
+    let score = det["score"].as_f64().unwrap();
+    assert_eq!(det["verdict"], "stiction", "{det:#}");
+    let line = format!(
+        "detection: stiction (score {score:.2}): {}",
+        det["reason"].as_str().unwrap()
+    );
+    for cmd in ["quantify", "diagnose"] {
+        let o = run(&[cmd, "-", "--step", "0.5"], csv);
+        assert_eq!(o.code, 0, "{cmd}: {}", o.stderr);
+        assert_eq!(o.stdout.lines().last(), Some(line.as_str()), "{}", o.stdout);
+        assert_eq!(o.stdout.matches("detection:").count(), 1, "{}", o.stdout);
+        let v = json(&[cmd, "-", "--step", "0.5", "--json"], csv);
+        let d = &v["detection"];
+        assert_eq!(d["verdict"], "stiction", "{cmd}: {v:#}");
+        assert_eq!(d["score"].as_f64(), Some(score), "{cmd}");
+        assert_eq!(d["reason"], det["reason"], "{cmd}");
+    }
 }

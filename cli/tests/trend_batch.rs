@@ -198,6 +198,25 @@ fn batch_writes_rows_reports_failures_and_resumes() {
     let csv = std::fs::read_to_string(dir.join("out.csv")).unwrap();
     assert_eq!(csv.lines().count(), 7, "{csv}");
     assert!(csv.starts_with("file,valve,time,status,stiction_model,linear_model,S,S_lo,S_hi"));
+    // The detector's answer: the last two columns and keys; none for the unreadable file.
+    assert!(
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with(",error,detect_score,detect_verdict"),
+        "{csv}"
+    );
+    let score = good["detect_score"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&score), "{good}");
+    let verdict = good["detect_verdict"].as_str().unwrap();
+    assert!(
+        ["stiction", "no-stiction", "inconclusive"].contains(&verdict),
+        "{good}"
+    );
+    assert!(
+        bad["detect_score"].is_null() && bad["detect_verdict"] == "",
+        "{bad}"
+    );
 
     // Again: everything is already done.
     let out = run(&args, b"");
@@ -225,6 +244,108 @@ fn batch_writes_rows_reports_failures_and_resumes() {
     );
     let rows = jsonl(&dir.join("out.jsonl"));
     assert_eq!(rows.len(), 6);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `--labels` reports the ROC AUC of S and, over the same rows, of the detector's score.
+#[test]
+fn batch_labels_report_the_auc_of_s_and_of_the_detector_score() {
+    let dir = temp_dir("batch-labels");
+    write_registrations(&dir);
+    // S = 2, 3 % called healthy, 4, 5, 6 % sticky; the bad file's row has no estimate.
+    let labels = dir.join("labels.csv");
+    std::fs::write(
+        &labels,
+        "file,label\nV1_20240101-0800.csv,no-stiction\nV1_20240201-0800.csv,no-stiction\n\
+         V1_20240301-0800.csv,stiction\nV1_20240401-0800.csv,stiction\n\
+         V1_20240501-0800.csv,stiction\nV1_20240615-0800.csv,stiction\n",
+    )
+    .unwrap();
+    let out = run(
+        &[
+            "batch",
+            dir.to_str().unwrap(),
+            "--labels",
+            labels.to_str().unwrap(),
+        ],
+        b"",
+    );
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    let lines: Vec<&str> = out.stdout.lines().collect();
+    let s_line = lines
+        .iter()
+        .position(|l| l.contains("ROC AUC of S = "))
+        .unwrap_or_else(|| panic!("{}", out.stdout));
+    assert!(lines[s_line].contains("5 labelled rows: 3 stiction, 2 no-stiction"));
+    let det = lines[s_line + 1];
+    assert!(
+        det.starts_with("labels (detector, same rows, 5 with a score: 3 stiction, 2 no-stiction): ROC AUC of detect_score = "),
+        "{}",
+        out.stdout
+    );
+    let auc: f64 = det
+        .split("ROC AUC of detect_score = ")
+        .nth(1)
+        .and_then(|r| r.split(';').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((0.0..=1.0).contains(&auc), "{det}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A valve whose S reaches the threshold but whose latest usable registrations the detector
+/// calls no-stiction gets no maintenance call, and the reason says why (the healthy level loop
+/// of the plant data, with a threshold below its S; skipped when the data are absent).
+#[test]
+fn trend_makes_no_maintenance_call_on_a_valve_the_detector_finds_healthy() {
+    let plant = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/plant");
+    if !plant.is_dir() {
+        println!("skipped: {} not found", plant.display());
+        return;
+    }
+    let dir = temp_dir("trend-detector");
+    for day in ["23", "24", "25"] {
+        let f = format!("2111LIC31102B_202408{day}-2155.csv");
+        std::fs::copy(plant.join(&f), dir.join(&f)).unwrap();
+    }
+    let out = run(
+        &[
+            "trend",
+            dir.to_str().unwrap(),
+            "--json",
+            "--threshold",
+            "0.5",
+        ],
+        b"",
+    );
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    let doc: Value = serde_json::from_str(&out.stdout).unwrap();
+    let level = doc["level"].as_f64().unwrap();
+    assert!(
+        level >= 0.5,
+        "S alone would schedule maintenance: level {level}"
+    );
+    let regs = doc["combinations"][0]["registrations"].as_array().unwrap();
+    for r in regs {
+        assert_eq!(r["flag"], "ok", "{r}");
+        assert_eq!(r["detection"]["verdict"], "no-stiction", "{r}");
+        assert!(r["detection"]["score"].as_f64().unwrap() <= 0.35, "{r}");
+    }
+    assert_eq!(doc["verdict"], "watch", "{}", doc["reason"]);
+    let reason = doc["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("at or above the threshold")
+            && reason.contains("detector finds no stiction"),
+        "{reason}"
+    );
+    let text = run(&["trend", dir.to_str().unwrap(), "--threshold", "0.5"], b"");
+    assert!(
+        text.stdout.contains("verdict: watch: ")
+            && text.stdout.contains("detector finds no stiction"),
+        "{}",
+        text.stdout
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -155,6 +155,14 @@ pub struct Row {
     /// The result.
     #[serde(flatten)]
     pub status: Status,
+    /// The detector's score in `[0, 1]` on the file's record (the same on every row of the
+    /// file); `null` when it could not run or the row predates it.
+    #[serde(default)]
+    pub detect_score: Option<f64>,
+    /// The detector's verdict: `stiction`, `no-stiction` or `inconclusive`; empty when the file
+    /// could not be read or the row predates the detector.
+    #[serde(default)]
+    pub detect_verdict: String,
 }
 
 /// A row's result: `"status": "ok"` with the estimate, or `"status": "error"`.
@@ -265,7 +273,7 @@ impl Row {
 }
 
 /// The columns of `OUT.csv`.
-pub const CSV_COLUMNS: [&str; 19] = [
+pub const CSV_COLUMNS: [&str; 21] = [
     "file",
     "valve",
     "time",
@@ -285,6 +293,8 @@ pub const CSV_COLUMNS: [&str; 19] = [
     "why",
     "notes",
     "error",
+    "detect_score",
+    "detect_verdict",
 ];
 
 fn csv_cell(v: &serde_json::Value) -> String {
@@ -324,6 +334,10 @@ fn rows_of(reg: &Registration, settings: &str) -> Vec<Row> {
         notes: reg.notes.iter().map(|n| n.text.clone()).collect(),
         settings: settings.to_string(),
         status,
+        detect_score: reg.detection.as_ref().and_then(|d| d.score()),
+        detect_verdict: reg
+            .detect_verdict()
+            .map_or(String::new(), |v| v.as_str().to_string()),
     };
     match &reg.outcome {
         Err(e) => vec![row(Status::Error(ErrorRow {
@@ -640,12 +654,32 @@ pub struct LabelSummary {
 
 /// The ROC of S against the labels over the `ok` rows of `stiction` × `linear`.
 pub fn label_summary(rows: &[Row], stiction: &str, linear: &str) -> LabelSummary {
+    summary(rows, stiction, linear, |ok, _| Some(ok.s))
+}
+
+/// The ROC of the detector's score against the labels over the same rows as
+/// [`label_summary`] (the labelled `ok` rows of `stiction` × `linear` with a finite S), less
+/// those without a score (the detector could not run, or the row predates it): `rows` says
+/// how many were scored.
+pub fn detect_label_summary(rows: &[Row], stiction: &str, linear: &str) -> LabelSummary {
+    summary(rows, stiction, linear, |_, r| r.detect_score)
+}
+
+fn summary(
+    rows: &[Row],
+    stiction: &str,
+    linear: &str,
+    score: impl Fn(&OkRow, &Row) -> Option<f64>,
+) -> LabelSummary {
     let scores: Vec<(f64, bool)> = rows
         .iter()
         .filter_map(|r| {
             let ok = r.ok()?;
-            (ok.stiction_model == stiction && ok.linear_model == linear && ok.s.is_finite())
-                .then_some((ok.s, r.label? == Label::Stiction))
+            if !(ok.stiction_model == stiction && ok.linear_model == linear && ok.s.is_finite()) {
+                return None;
+            }
+            let x = score(ok, r).filter(|x| x.is_finite())?;
+            Some((x, r.label? == Label::Stiction))
         })
         .collect();
     LabelSummary {

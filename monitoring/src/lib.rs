@@ -3,7 +3,8 @@
 //! [`Settings`] a run shares between its combinations; registrations read and searched with
 //! the evidence behind a doubtful estimate ([`registration`]); the batch over many loops, its
 //! rows and labels ([`batch`]); the trend of a valve over repeated registrations with its
-//! maintenance verdict ([`trend`]); ROC and robust statistics ([`stats`]).
+//! maintenance verdict ([`trend`]); the detection crate's verdict on each record read
+//! ([`detect`]); ROC and robust statistics ([`stats`]).
 //!
 //! The CLI parses arguments, calls this crate and prints; `discrepancy` extends the
 //! combinations it runs; `xtask reproduce` runs the paper's study through them. This crate
@@ -11,6 +12,7 @@
 
 pub mod batch;
 mod combination;
+pub mod detect;
 pub mod identify;
 mod record;
 pub mod registration;
@@ -23,6 +25,7 @@ use std::path::PathBuf;
 pub use combination::{
     build_identifier, span_of, Combination, Delay, FitSummary, Fitted, MAX_AUTO_DELAY,
 };
+pub use detect::{detect_file, detect_loop, sample_time, DetectError, Detected, DetectionRecord};
 pub use record::{
     on_grid, CompareError, CompareRecord, DelayScore, GridRecord, IntervalRecord, OtherFit,
     QuantifyRecord,
@@ -32,7 +35,7 @@ pub use registration::{
 };
 pub use settings::{parse_orders, DelayArg, Orders, SearchArgs, Settings};
 pub use stats::{median, roc, theil_sen, Roc};
-pub use trend::{maintenance, trend, Flag, Maintenance, Point, Trend};
+pub use trend::{maintenance, trend, with_detection, Flag, Maintenance, Point, Trend};
 
 /// Errors of the workflow.
 #[derive(Debug, thiserror::Error)]

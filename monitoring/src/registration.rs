@@ -1,5 +1,6 @@
-//! Registrations: finding the files of a folder that are loop registrations, reading each one
-//! and searching it with every combination, and the evidence that explains a doubtful
+//! Registrations: finding the files of a folder that are loop registrations, reading each one,
+//! searching it with every combination and asking the detector whether the valve sticks, and
+//! the evidence that explains a doubtful
 //! estimate. What `trend` and `batch` share.
 //!
 //! Conventions (documented in `docs/PLANT_DATA.md`):
@@ -19,6 +20,7 @@ use datasets::{parse_registration_name, DataError, LoopData, Note, NoteKind, Rea
 use grid_search::{Problem, Quantification};
 use serde::{Deserialize, Serialize};
 
+use crate::detect::{detect_loop, Detected};
 use crate::{error_line, Combination, MonitoringError, QuantifyRecord};
 
 /// File extensions read from a directory.
@@ -306,12 +308,21 @@ pub struct Registration {
     pub notes: Vec<Note>,
     /// Results per combination (in the plan's order), or why the file could not be used.
     pub outcome: Result<Vec<ComboOutcome>, RegistrationError>,
+    /// The detection crate's verdict on the record as read (time series only: PV, OP, SP,
+    /// the sampling time and [`Registration::integrating`]); `None` when the file could not be
+    /// read.
+    pub detection: Option<Detected>,
 }
 
 impl Registration {
     /// The fit of combination `c`, when there is one.
     pub fn fit(&self, c: usize) -> Option<&ComboFit> {
         self.outcome.as_ref().ok()?.get(c)?.result.as_ref().ok()
+    }
+
+    /// The detector's verdict, `None` when it did not run (the file could not be read).
+    pub fn detect_verdict(&self) -> Option<detection::Verdict> {
+        self.detection.as_ref().map(Detected::verdict)
     }
 
     /// The error of combination `c` (or of the whole registration), when there is one.
@@ -336,7 +347,8 @@ pub struct Plan<'a> {
     pub explainer: &'a (dyn ExplainFit + Sync),
 }
 
-/// Read and search one registration with every combination of `plan`. Never fails and never
+/// Read and search one registration with every combination of `plan`, and run the detection
+/// crate on the record as read ([`detect_loop`], kept in [`Registration::detection`]). Never fails and never
 /// panics: a problem is recorded in the registration — a panic too (the registration runs
 /// isolated, so one bad file cannot end a batch or a trend).
 pub fn evaluate(path: &Path, plan: &Plan<'_>) -> Registration {
@@ -374,6 +386,7 @@ pub(crate) fn unread(path: &Path, integrating: Integrating) -> Registration {
         },
         notes: Vec::new(),
         outcome: Ok(Vec::new()),
+        detection: None,
     }
 }
 
@@ -399,6 +412,7 @@ fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
         }
     }
     reg.notes = d.notes.clone();
+    reg.detection = Some(detect_loop(&d, reg.integrating));
     let used = if reg.integrating { increments(&d) } else { d };
     let combos = plan
         .combinations

@@ -11,11 +11,13 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::batch::BatchOptions;
+use crate::detect::DetectionRecord;
 use crate::registration::{
     evaluate, file_name, Diagnoser, Evidence, FitEvidence, Plan, Registration, TimeSource,
 };
 use crate::stats::{median, theil_sen};
 use crate::{MonitoringError, QuantifyRecord};
+use detection::Verdict;
 
 /// How one registration counts in a trend.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -212,6 +214,46 @@ pub fn maintenance(
     }
 }
 
+/// How many of a valve's latest usable registrations the detector's word is taken from
+/// ([`with_detection`]).
+pub const DETECT_WINDOW: usize = 3;
+
+/// The maintenance verdict of [`maintenance`] with the detector's word on the valve's latest
+/// usable registrations (`latest`: `(file, verdict)` of up to [`DETECT_WINDOW`] of them, in
+/// time order): when the verdict is *schedule maintenance* but the detector calls every one of
+/// them it can judge `no-stiction` (at least one; `inconclusive` ones do not count), the valve
+/// is only watched, and the reason says so. Every other verdict is kept as it is.
+pub fn with_detection(
+    verdict: Maintenance,
+    reason: String,
+    latest: &[(String, Verdict)],
+) -> (Maintenance, String) {
+    let conclusive: Vec<&(String, Verdict)> = latest
+        .iter()
+        .filter(|(_, v)| *v != Verdict::Inconclusive)
+        .collect();
+    let healthy =
+        !conclusive.is_empty() && conclusive.iter().all(|(_, v)| *v == Verdict::NoStiction);
+    if verdict != Maintenance::Schedule || !healthy {
+        return (verdict, reason);
+    }
+    let files: Vec<&str> = conclusive.iter().map(|(f, _)| f.as_str()).collect();
+    let others = latest.len() - conclusive.len();
+    (
+        Maintenance::Watch,
+        format!(
+            "{reason}, but the stiction detector finds no stiction in the latest usable \
+             registration{} ({}{}): no maintenance call on S alone, watch",
+            if conclusive.len() == 1 { "" } else { "s" },
+            files.join(", "),
+            match others {
+                0 => String::new(),
+                n => format!("; {n} more inconclusive"),
+            }
+        ),
+    )
+}
+
 /// Default maintenance threshold on S, % of valve span (see `docs/PLANT_DATA.md`).
 pub const DEFAULT_THRESHOLD: f64 = grid_search::MAINTENANCE_S;
 
@@ -253,7 +295,8 @@ pub struct CombinationTrend {
 }
 
 /// One valve followed over its registrations: each registration's results, each
-/// combination's trend and the maintenance verdict on their mean.
+/// combination's trend and the maintenance verdict on their mean, with the detector's word
+/// ([`with_detection`]).
 #[derive(Debug)]
 pub struct ValveTrend {
     /// The valve.
@@ -411,6 +454,7 @@ pub fn follow(
     let slope_30d = mean_of(&|t| t.slope_30d);
     let (verdict, reason) =
         maintenance(level, latest, slope_30d, options.threshold, options.horizon);
+    let (verdict, reason) = with_detection(verdict, reason, &latest_detections(&regs, &trends));
     Ok(ValveTrend {
         valve: valve.to_string(),
         options: options.clone(),
@@ -422,6 +466,22 @@ pub fn follow(
         verdict,
         reason,
     })
+}
+
+/// `(file, detector verdict)` of the latest [`DETECT_WINDOW`] usable registrations (used in
+/// the trend of at least one combination), in time order.
+fn latest_detections(regs: &[Registration], trends: &[CombinationTrend]) -> Vec<(String, Verdict)> {
+    let usable: Vec<(String, Verdict)> = regs
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| {
+            trends
+                .iter()
+                .any(|t| t.trend.flags.get(*k) == Some(&Flag::Used))
+        })
+        .filter_map(|(_, r)| Some((r.file.clone(), r.detect_verdict()?)))
+        .collect();
+    usable[usable.len().saturating_sub(DETECT_WINDOW)..].to_vec()
 }
 
 /// One registration in a combination's trend (`trend --json`).
@@ -463,6 +523,9 @@ pub struct RegistrationRecord {
     /// The contract's quantify object.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub quantify: Option<QuantifyRecord>,
+    /// The detector's verdict on the registration (absent when the file could not be read).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detection: Option<DetectionRecord>,
 }
 
 /// One combination's trend (`trend --json`).
@@ -520,10 +583,13 @@ impl ValveTrend {
             "schedule maintenance when the level (median S of the usable registrations, mean over \
              combinations) >= {t} %; watch when it is below but the latest usable S or the \
              {h}-day projection of the Theil-Sen trend reaches {t} %, or the level >= {half} %; \
-             healthy otherwise",
+             healthy otherwise; no maintenance call (watch instead) when the stiction detector \
+             calls the latest usable registrations (up to {w}) no-stiction, every one it can \
+             judge",
             t = self.options.threshold,
             h = self.options.horizon,
-            half = self.options.threshold / 2.0
+            half = self.options.threshold / 2.0,
+            w = DETECT_WINDOW
         )
     }
 
@@ -562,6 +628,7 @@ impl ValveTrend {
                             fit_pv_val: fit.map(|f| f.fit_val),
                             why: fit.map(|f| f.evidence.iter().map(ToString::to_string).collect()),
                             quantify: fit.map(|f| f.record.clone()),
+                            detection: r.detection.as_ref().map(|d| d.record()),
                         }
                     })
                     .collect(),
@@ -597,6 +664,42 @@ mod tests {
         assert_eq!(v(Some(0.6), Some(0.6), Some(0.0)), Maintenance::Watch);
         assert_eq!(v(Some(0.2), Some(0.2), Some(0.0)), Maintenance::Healthy);
         assert_eq!(v(None, None, None), Maintenance::Undetermined);
+    }
+
+    #[test]
+    fn the_detector_vetoes_a_maintenance_call_only_when_it_finds_the_valve_healthy() {
+        let (schedule, why) = maintenance(Some(1.2), Some(1.2), None, 1.0, 90.0);
+        assert_eq!(schedule, Maintenance::Schedule);
+        let regs = |v: &[Verdict]| -> Vec<(String, Verdict)> {
+            v.iter()
+                .enumerate()
+                .map(|(k, v)| (format!("V_{k}.csv"), *v))
+                .collect()
+        };
+        use Verdict::{Inconclusive as I, NoStiction as N, Stiction as S};
+        let (m, reason) = with_detection(schedule, why.clone(), &regs(&[N, I, N]));
+        assert_eq!(m, Maintenance::Watch);
+        assert!(reason.starts_with(&why), "{reason}");
+        assert!(reason.contains("detector finds no stiction"), "{reason}");
+        assert!(
+            reason.contains("V_0.csv, V_2.csv; 1 more inconclusive"),
+            "{reason}"
+        );
+        // A sticky, a mixed or an undecided record keeps the call.
+        for v in [&[S][..], &[N, S], &[I, I], &[]] {
+            assert_eq!(
+                with_detection(schedule, why.clone(), &regs(v)),
+                (schedule, why.clone()),
+                "{v:?}"
+            );
+        }
+        // Every other verdict is kept as it is.
+        let (watch, w) = maintenance(Some(0.6), Some(0.6), Some(0.0), 1.0, 90.0);
+        assert_eq!(
+            with_detection(watch, w.clone(), &regs(&[S])),
+            (watch, w.clone())
+        );
+        assert_eq!(with_detection(watch, w.clone(), &regs(&[N])), (watch, w));
     }
 
     #[test]

@@ -137,3 +137,87 @@ fn a_run_resumes_and_labels_measure_s() {
     assert_eq!(table.lines().count(), 5);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The detector's answer travels with every row: the same score and verdict as the detection
+/// crate gives on the record as read, in the last two CSV columns; rows written before these
+/// keys existed still read; `--labels` measures the score on the same rows as S.
+#[test]
+fn rows_carry_the_detector_answer_and_old_rows_still_read() {
+    let dir = temp_dir("detect");
+    let good = dir.join("V1_20240101-0800.csv");
+    write_loop(&good, 4.0, 3);
+    let opts = options();
+    let rows = batch::run_file(&good, &opts);
+    let d = datasets::read_path(&good, &opts.read).unwrap();
+    let direct = monitoring::detect_loop(&d, false);
+    let score = direct.score().unwrap();
+    assert!((0.0..=1.0).contains(&score), "{score}");
+    for r in &rows {
+        assert_eq!(r.detect_score, Some(score));
+        assert_eq!(r.detect_verdict, direct.verdict().as_str());
+    }
+    let header = batch::CSV_COLUMNS.join(",");
+    assert!(
+        header.ends_with(",error,detect_score,detect_verdict"),
+        "{header}"
+    );
+    let cells = rows[0].csv_record();
+    assert_eq!(cells[cells.len() - 2], score.to_string());
+    assert_eq!(cells[cells.len() - 1], direct.verdict().as_str());
+    // A file that cannot be read: no score, no verdict.
+    let missing = batch::run_file(&dir.join("V9_nope.csv"), &opts);
+    assert_eq!(missing[0].detect_score, None);
+    assert_eq!(missing[0].detect_verdict, "");
+    // A JSONL line of an older version (without the two keys) still reads.
+    let mut old: serde_json::Value = serde_json::from_str(&rows[0].to_json_line()).unwrap();
+    let obj = old.as_object_mut().unwrap();
+    assert!(obj.remove("detect_score").is_some() && obj.remove("detect_verdict").is_some());
+    let back: Row = serde_json::from_value(old).unwrap();
+    assert_eq!(
+        (back.detect_score, back.detect_verdict.as_str()),
+        (None, "")
+    );
+    assert_eq!(back.status, rows[0].status);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_detector_score_is_measured_on_the_same_labelled_rows_as_s() {
+    let dir = temp_dir("detect-auc");
+    let f = dir.join("V1_20240101-0800.csv");
+    write_loop(&f, 4.0, 3);
+    let template = batch::run_file(&f, &options());
+    // kano + arx rows: S and the score rank the labels in opposite orders.
+    let row = |file: &str, s: f64, score: Option<f64>, label: Label| {
+        let mut r = template[0].clone();
+        r.file = file.into();
+        r.label = Some(label);
+        r.detect_score = score;
+        if let Status::Ok(ok) = &mut r.status {
+            ok.s = s;
+        }
+        r
+    };
+    let mut rows = vec![
+        row("a", 1.0, Some(0.9), Label::NoStiction),
+        row("b", 2.0, Some(0.8), Label::NoStiction),
+        row("c", 3.0, Some(0.2), Label::Stiction),
+        row("d", 4.0, Some(0.1), Label::Stiction),
+        // no score: left out of the detector's ROC only
+        row("e", 5.0, None, Label::Stiction),
+        // S not finite: left out of both
+        row("f", f64::NAN, Some(0.95), Label::Stiction),
+    ];
+    // another combination: left out of both
+    let mut he = template[1].clone();
+    he.label = Some(Label::Stiction);
+    he.detect_score = Some(0.99);
+    rows.push(he);
+    let s = batch::label_summary(&rows, "kano", "arx");
+    assert_eq!((s.rows, s.stiction), (5, 3));
+    assert_eq!(s.roc.map(|r| r.auc), Some(1.0));
+    let det = batch::detect_label_summary(&rows, "kano", "arx");
+    assert_eq!((det.rows, det.stiction), (4, 2));
+    assert_eq!(det.roc.map(|r| r.auc), Some(0.0));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -597,7 +597,8 @@ fn batch_labels(path: std::path::PathBuf) -> PyResult<BTreeMap<String, String>> 
 
 /// The end of a batch: reads `jsonl`, writes `csv` (the rows sorted, as the CLI writes
 /// OUT.csv) and returns a summary dict: `rows`, `ok`, `errors`, and with labels `labelled`,
-/// `labelled_stiction`, `auc`, `threshold` (of S, first combination).
+/// `labelled_stiction`, `auc`, `threshold` (of S, first combination), `detect_scored`,
+/// `detect_auc` (of the detector's score over the same rows).
 #[pyfunction]
 fn batch_finish<'py>(
     py: Python<'py>,
@@ -621,6 +622,10 @@ fn batch_finish<'py>(
         out.set_item("labelled_stiction", sum.stiction)?;
         out.set_item("auc", sum.roc.map(|r| r.auc))?;
         out.set_item("threshold", sum.roc.map(|r| r.threshold))?;
+        let det =
+            monitoring::batch::detect_label_summary(&rows, &opts.stiction[0], &opts.linear[0]);
+        out.set_item("detect_scored", det.rows)?;
+        out.set_item("detect_auc", det.roc.map(|r| r.auc))?;
     }
     Ok(out)
 }

@@ -10,7 +10,7 @@ use linear_id::Structure;
 use monitoring::batch::{OkRow, Row};
 use monitoring::identify::Identification;
 use monitoring::trend::ValveTrend;
-use monitoring::{Evidence, Fitted, Flag, Trend};
+use monitoring::{Detected, Evidence, Fitted, Flag, Trend};
 
 use crate::pages::{self, opt2};
 
@@ -311,6 +311,18 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
     writeln!(out, "\nverdict: {}: {}", vt.verdict, vt.reason)?;
     writeln!(out, "rule: {}", vt.rule())?;
     Ok(text)
+}
+
+/// The detector's line under `quantify` and `diagnose`:
+/// `detection: <verdict> (score 0.xx): <reason>` (`no score` when it could not run).
+pub fn detection_line(d: &Detected) -> String {
+    format!(
+        "detection: {} ({}): {}",
+        d.verdict(),
+        d.score()
+            .map_or("no score".into(), |s| format!("score {s:.2}")),
+        d.reason()
+    )
 }
 
 /// Evidence joined with `; `.

@@ -14,8 +14,10 @@ use crate::{data, usage, CmdResult, Streams};
 pub(crate) const AFTER_HELP: &str = "\
 Loops run in parallel (each grid search shares the same thread pool). Each file gets one row
 per stiction x linear combination: file, valve, time, status ok/error, S, J with their
-likelihood-ratio ranges, F_PV, the no-stiction fit, the reader's notes and, for a failure,
-its one-line error. Without -o the rows are printed as a table.
+likelihood-ratio ranges, F_PV, the no-stiction fit, the reader's notes, for a failure its
+one-line error, and the stiction detector's score and verdict on the file's record
+(detect_score, detect_verdict: as `stiction detect` gives them). Without -o the rows are
+printed as a table.
 
 With -o OUT, rows go to OUT.jsonl (one JSON object per line, appended as each loop finishes)
 and OUT.csv (rewritten at the end from OUT.jsonl). The run is resumable: a file whose name,
@@ -24,7 +26,8 @@ skipped; change the file or the settings and it is done again.
 
 --labels FILE (CSV with columns file,label; label stiction / no-stiction) adds the label to
 each row and reports how well S separates the labels: ROC AUC and the threshold maximising
-TPR - FPR (Youden), over the rows with status ok of the first combination.
+TPR - FPR (Youden), over the rows with status ok of the first combination; and the same for
+the detector's score over the same rows.
 
 Examples:
   stiction batch ../shared/data/plant -o plant --labels ../shared/data/plant/labels.csv
@@ -53,7 +56,8 @@ pub struct Args {
     /// Linear identifiers, comma-separated.
     #[arg(long, value_name = "X,Y", value_delimiter = ',', default_value = "arx")]
     linear: Vec<String>,
-    /// Labels (CSV `file,label`, label `stiction` / `no-stiction`): report ROC AUC of S.
+    /// Labels (CSV `file,label`, label `stiction` / `no-stiction`): report ROC AUC of S and of
+    /// the detector's score.
     #[arg(long, value_name = "FILE")]
     labels: Option<PathBuf>,
     /// Minimum validation F_PV (%) below which the evidence says "poor fit".
@@ -183,6 +187,25 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             None => writeln!(
                 out,
                 "labels: ROC needs ok rows of both labels ({n} labelled ok rows, {npos} stiction)"
+            ),
+        }
+        .map_err(data)?;
+        let det = batch::detect_label_summary(rows, st, li);
+        let (n, npos) = (det.rows, det.stiction);
+        match det.roc {
+            Some(monitoring::Roc {
+                auc,
+                threshold: thr,
+                tpr,
+                fpr,
+            }) => writeln!(
+                out,
+                "labels (detector, same rows, {n} with a score: {npos} stiction, {} no-stiction): ROC AUC of detect_score = {auc:.3}; best threshold score >= {thr:.2} (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
+                n - npos
+            ),
+            None => writeln!(
+                out,
+                "labels (detector): ROC needs scored ok rows of both labels ({n} labelled scored rows, {npos} stiction)"
             ),
         }
         .map_err(data)?;

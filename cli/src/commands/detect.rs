@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use detection::{detect, Registration};
 use serde_json::{json, Value};
 
 use super::batch::IntegratingFlag;
@@ -50,32 +49,13 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         )));
     }
     let d = load(&args.file, &args.data, true, 30, s)?;
-    let pv = d.require_pv().map_err(data)?;
-    // Seconds per sample from the time column (its median step), else 1 s.
-    let ts =
-        d.t.as_ref()
-            .map(|t| {
-                let dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-                monitoring::median(&dts)
-            })
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .unwrap_or(1.0);
-    let name = args
-        .file
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let valve = name.split('_').next().unwrap_or("");
-    let integrating = monitoring::Integrating::from(args.integrating).applies(valve);
-    let mut reg = Registration::new(pv, &d.op, ts)
-        .map_err(|e| data(anyhow!("{}: {e}", d.source)))?
-        .integrating(integrating);
-    if let Some(sp) = d.sp.as_deref() {
-        reg = reg
-            .with_sp(sp)
-            .map_err(|e| data(anyhow!("{}: {e}", d.source)))?;
-    }
-    let det = detect(&reg);
+    d.require_pv().map_err(data)?;
+    let ts = monitoring::sample_time(&d);
+    let integrating = monitoring::Integrating::from(args.integrating);
+    let det = match monitoring::detect_file(&d, Some(&args.file), integrating) {
+        monitoring::Detected::Ran(det) => det,
+        monitoring::Detected::Failed(e) => return Err(data(anyhow!("{}: {e}", d.source))),
+    };
     if args.json {
         let tests: Vec<Value> = det
             .tests
@@ -122,7 +102,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         } else {
             "self-regulating"
         },
-        reg.len()
+        d.op.len()
     )
     .map_err(data)?;
     writeln!(

@@ -95,12 +95,15 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         Err(other) => return Err(refused(data(anyhow!("{}: {other}", d.source)), s)),
     };
     reporting::write(&args.report, s, || report::pages::diagnose_page(&d, &dg))?;
+    let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
     if args.json {
-        let v = dg.record(&d.source, &args.search.init);
+        let mut v = dg.record(&d.source, &args.search.init);
+        v["detection"] = serde_json::json!(det.record());
         serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
         writeln!(s.stdout).map_err(data)?;
         return Ok(());
     }
     let text = report::text::diagnose(&d, &dg).map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)
+    write!(s.stdout, "{text}").map_err(data)?;
+    writeln!(s.stdout, "{}", report::text::detection_line(&det)).map_err(data)
 }

@@ -198,15 +198,18 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         r.write_surface(path).map_err(data)?;
     }
     reporting::write(&args.report, s, || report::pages::quantify_page(&d, &r))?;
+    let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
     if args.json {
         let mut v = quantify_json(&r, &args.search.init);
         v["source"] = json!(d.source);
+        v["detection"] = json!(det.record());
         serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
         writeln!(s.stdout).map_err(data)?;
         return Ok(());
     }
     let text = report::text::quantify(&d.source, &r, args.search.init.label()).map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)
+    write!(s.stdout, "{text}").map_err(data)?;
+    writeln!(s.stdout, "{}", report::text::detection_line(&det)).map_err(data)
 }
 
 pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {

@@ -1,0 +1,191 @@
+//! The detection crate's verdict on a loop read by the workflow: the time series of the record
+//! (PV, OP, SP when there is one), its sampling time and whether the loop is integrating —
+//! never the file name beyond that flag, the labels or the source path.
+//!
+//! [`detect_loop`] is what `registration::evaluate` runs on each record it reads (so `batch`,
+//! `trend`, `quantify` and `diagnose` all see the same answer) and what `stiction detect`
+//! prints in full.
+
+use std::path::Path;
+
+use datasets::{DataError, LoopData};
+use detection::{Detection, DetectionError, Verdict};
+use serde::Serialize;
+
+use crate::registration::{file_name, Integrating};
+use crate::stats::median;
+
+/// Why the detector could not run on a record.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DetectError {
+    /// The record has no PV (or the reader refused it).
+    #[error(transparent)]
+    Data(#[from] DataError),
+    /// The series cannot make a detection registration (lengths, sampling time).
+    #[error(transparent)]
+    Detection(#[from] DetectionError),
+}
+
+/// The detector's answer on one record: the [`Detection`], or why it could not run (an
+/// inconclusive result with that reason).
+#[derive(Debug)]
+pub enum Detected {
+    /// The detector ran (its verdict may still be `inconclusive`, with its reason).
+    Ran(Detection),
+    /// It could not run.
+    Failed(DetectError),
+}
+
+impl Detected {
+    /// The verdict (`inconclusive` when the detector could not run).
+    pub fn verdict(&self) -> Verdict {
+        match self {
+            Detected::Ran(d) => d.verdict,
+            Detected::Failed(_) => Verdict::Inconclusive,
+        }
+    }
+
+    /// The score in `[0, 1]` (`None` when the detector could not run).
+    pub fn score(&self) -> Option<f64> {
+        match self {
+            Detected::Ran(d) => Some(d.score).filter(|s| s.is_finite()),
+            Detected::Failed(_) => None,
+        }
+    }
+
+    /// Why, in one sentence.
+    pub fn reason(&self) -> String {
+        match self {
+            Detected::Ran(d) => d.reason.clone(),
+            Detected::Failed(e) => format!("the detector could not run: {e}"),
+        }
+    }
+
+    /// The full detection, when the detector ran.
+    pub fn detection(&self) -> Option<&Detection> {
+        match self {
+            Detected::Ran(d) => Some(d),
+            Detected::Failed(_) => None,
+        }
+    }
+
+    /// The `detection` object of the JSON documents.
+    pub fn record(&self) -> DetectionRecord {
+        DetectionRecord {
+            verdict: self.verdict().as_str(),
+            score: self.score(),
+            reason: self.reason(),
+        }
+    }
+}
+
+/// The `detection` object of `quantify --json`, `diagnose --json` and each registration of
+/// `trend --json` (`stiction detect --json` gives every test besides).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DetectionRecord {
+    /// `stiction`, `no-stiction` or `inconclusive`.
+    pub verdict: &'static str,
+    /// The score in `[0, 1]`; `null` when the detector could not run.
+    pub score: Option<f64>,
+    /// Why, in one sentence.
+    pub reason: String,
+}
+
+/// Seconds per sample of a record: the median step of its time column, else 1 s.
+pub fn sample_time(d: &LoopData) -> f64 {
+    d.t.as_ref()
+        .map(|t| {
+            let dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+            median(&dts)
+        })
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .unwrap_or(1.0)
+}
+
+/// Run every detection test on the record `d` (PV, OP, SP when there is one, the sampling
+/// time of [`sample_time`]) for a loop that is `integrating` or not. Never panics on bad data:
+/// a record the detector cannot take is [`Detected::Failed`], a record it cannot judge (flat,
+/// too short, not oscillating) gets an `inconclusive` or `no-stiction` verdict with the reason.
+pub fn detect_loop(d: &LoopData, integrating: bool) -> Detected {
+    match try_detect(d, integrating) {
+        Ok(det) => Detected::Ran(det),
+        Err(e) => Detected::Failed(e),
+    }
+}
+
+/// [`detect_loop`] on the record of `file` (`None` for a made-up record, e.g. an example),
+/// integrating as `integrating` decides from the file's valve tag (the file name up to the
+/// first `_`), as `trend` and `batch` do.
+pub fn detect_file(d: &LoopData, file: Option<&Path>, integrating: Integrating) -> Detected {
+    let valve = file
+        .map(|f| datasets::parse_registration_name(&file_name(f)).valve)
+        .unwrap_or_default();
+    detect_loop(d, integrating.applies(&valve))
+}
+
+fn try_detect(d: &LoopData, integrating: bool) -> Result<Detection, DetectError> {
+    let pv = d.require_pv()?;
+    let mut reg = detection::Registration::new(pv, &d.op, sample_time(d))?.integrating(integrating);
+    if let Some(sp) = d.sp.as_deref() {
+        reg = reg.with_sp(sp)?;
+    }
+    Ok(detection::detect(&reg))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(pv: Vec<f64>, op: Vec<f64>, t: Option<Vec<f64>>) -> LoopData {
+        LoopData {
+            source: "x".into(),
+            start: None,
+            t,
+            sp: None,
+            pv: Some(pv),
+            op,
+            mv: None,
+            notes: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn sample_time_is_the_median_step_else_one_second() {
+        let d = record(vec![0.0; 4], vec![0.0; 4], Some(vec![0.0, 5.0, 10.0, 16.0]));
+        assert_eq!(sample_time(&d), 5.0);
+        let d = record(vec![0.0; 4], vec![0.0; 4], None);
+        assert_eq!(sample_time(&d), 1.0);
+        let d = record(vec![0.0; 3], vec![0.0; 3], Some(vec![3.0, 3.0, 3.0]));
+        assert_eq!(sample_time(&d), 1.0);
+    }
+
+    #[test]
+    fn a_flat_record_is_inconclusive_with_the_reason() {
+        let d = record(vec![50.0; 400], vec![30.0; 400], None);
+        let det = detect_loop(&d, false);
+        assert_eq!(det.verdict(), Verdict::Inconclusive);
+        assert!(det.score().is_some());
+        assert!(det.reason().contains("flat"), "{}", det.reason());
+    }
+
+    #[test]
+    fn a_record_the_detector_cannot_take_is_an_inconclusive_failure() {
+        let d = record(vec![50.0; 400], vec![30.0; 399], None);
+        let det = detect_loop(&d, false);
+        assert!(matches!(det, Detected::Failed(DetectError::Detection(_))));
+        assert_eq!(det.verdict(), Verdict::Inconclusive);
+        assert_eq!(det.score(), None);
+        assert!(
+            det.reason().contains("different lengths"),
+            "{}",
+            det.reason()
+        );
+        let mut no_pv = record(vec![], vec![30.0; 400], None);
+        no_pv.pv = None;
+        assert!(matches!(
+            detect_loop(&no_pv, false),
+            Detected::Failed(DetectError::Data(_))
+        ));
+    }
+}
