@@ -25,7 +25,9 @@ use std::path::PathBuf;
 pub use combination::{
     build_identifier, span_of, Combination, Delay, FitSummary, Fitted, MAX_AUTO_DELAY,
 };
-pub use detect::{detect_file, detect_loop, sample_time, DetectError, Detected, DetectionRecord};
+pub use detect::{
+    detect_document, detect_file, detect_loop, sample_time, DetectError, Detected, DetectionRecord,
+};
 pub use record::{
     on_grid, CompareError, CompareRecord, DelayScore, GridRecord, IntervalRecord, OtherFit,
     QuantifyRecord,

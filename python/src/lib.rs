@@ -266,6 +266,16 @@ fn quantify_record(
     Ok(fitted.record(&req.settings.search.init))
 }
 
+/// The detector on a record, integrating decided as the CLI decides it from the file's valve tag
+/// (the record's source names the file).
+fn detected(d: &LoopData) -> monitoring::Detected {
+    monitoring::detect_file(
+        d,
+        Some(std::path::Path::new(&d.source)),
+        monitoring::Integrating::Auto,
+    )
+}
+
 /// The `diagnose --json` document (`discrepancy::baseline`, `options_for`, `diagnose`).
 fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
     use discrepancy::DiagnoseError;
@@ -288,7 +298,9 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
         ) => usage_err(format!("{}: {e}", d.source)),
         other => data_err(format!("{}: {other}", d.source)),
     })?;
-    Ok(dg.record(&d.source, &req.settings.search.init))
+    let mut v = dg.record(&d.source, &req.settings.search.init);
+    v["detection"] = serde_json::json!(detected(d).record());
+    Ok(v)
 }
 
 /// The `identify --json` document: the identifier with its orders and dead time, from MV when
@@ -327,7 +339,17 @@ fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
             let r = quantify_record(d, &req.stiction[0], &req.linear[0], req)?;
             let mut v = serde_json::to_value(r).map_err(data_err)?;
             v["source"] = serde_json::json!(d.source);
+            v["detection"] = serde_json::json!(detected(d).record());
             v
+        }
+        "detect" => {
+            d.require_pv().map_err(data_err)?;
+            match detected(d) {
+                monitoring::Detected::Ran(det) => monitoring::detect_document(d, &det),
+                monitoring::Detected::Failed(e) => {
+                    return Err(data_err(format!("{}: {e}", d.source)))
+                }
+            }
         }
         "compare" => {
             let mut doc = monitoring::CompareRecord {

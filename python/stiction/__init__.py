@@ -33,6 +33,7 @@ __all__ = [
     "StictionError",
     "UsageError",
     "compare",
+    "detect",
     "diagnose",
     "identify",
     "quantify",
@@ -116,6 +117,18 @@ def compare(
     `results` (quantify documents) and `errors`. Same options as `quantify`."""
     options.update(stiction=_names(stiction), linear=_names(linear))
     return _run("compare", data, source, ("stiction", "linear") + SEARCH_OPTIONS, options)
+
+
+def detect(data: Any, *, source: Optional[str] = None, **reader: Any) -> Dict[str, Any]:
+    """Is it the valve? The published detection tests and one verdict (`stiction detect
+    --json`): `score` (0-1), `verdict` (stiction / no-stiction / inconclusive), `reason`,
+    `oscillating`, `period_s`, `integrating`, `tests` ({name, statistic, verdict, evidence}).
+    A level loop (valve tag with letter L, from `source` or the file name) is treated as
+    integrating.
+
+    >>> stiction.detect(pd.read_csv("loop.csv"))["verdict"]               # doctest: +SKIP
+    """
+    return _run("detect", data, source, (), reader)
 
 
 def diagnose(

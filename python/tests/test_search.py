@@ -105,3 +105,11 @@ def test_trend_equals_the_cli(tmp_path, cli_json):
     assert got["registrations"] == 4 and len(got["combinations"][0]["registrations"]) == 4
     with pytest.raises(stiction.DataError, match="no registration of valve"):
         stiction.trend(tmp_path, valve="LIC1", step=0.25)
+
+
+def test_detect_equals_the_cli(loop_csv, cli_json):
+    expected = cli_json("detect", str(loop_csv))
+    got = stiction.detect(pd.read_csv(loop_csv), source=str(loop_csv))
+    same_document(got, expected)
+    assert got["verdict"] in ("stiction", "no-stiction", "inconclusive")
+    assert len(got["tests"]) >= 5

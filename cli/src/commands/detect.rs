@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use serde_json::{json, Value};
 
 use super::batch::IntegratingFlag;
 use super::load::{load, DataFlags};
@@ -57,29 +56,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         monitoring::Detected::Failed(e) => return Err(data(anyhow!("{}: {e}", d.source))),
     };
     if args.json {
-        let tests: Vec<Value> = det
-            .tests
-            .iter()
-            .map(|t| {
-                json!({
-                    "name": t.name,
-                    "statistic": t.statistic.filter(|v| v.is_finite()),
-                    "verdict": t.verdict.as_str(),
-                    "evidence": t.evidence,
-                })
-            })
-            .collect();
-        let doc = json!({
-            "source": d.source,
-            "score": det.score,
-            "verdict": det.verdict.as_str(),
-            "reason": det.reason,
-            "oscillating": det.oscillating,
-            "period_s": det.period_s,
-            "integrating": det.integrating,
-            "sample_time_s": ts,
-            "tests": tests,
-        });
+        let doc = monitoring::detect_document(&d, &det);
         writeln!(s.stdout, "{doc:#}").map_err(data)?;
         return Ok(());
     }
