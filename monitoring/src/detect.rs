@@ -133,6 +133,36 @@ fn try_detect(d: &LoopData, integrating: bool) -> Result<Detection, DetectError>
     Ok(detection::detect(&reg))
 }
 
+/// The `detect --json` document of `d`'s detection: `source`, `score`, `verdict`, `reason`,
+/// `oscillating`, `period_s`, `integrating`, `sample_time_s`, `tests` (array of `{name,
+/// statistic, verdict, evidence}`).
+pub fn detect_document(d: &LoopData, det: &Detection) -> serde_json::Value {
+    use serde_json::json;
+    let tests: Vec<serde_json::Value> = det
+        .tests
+        .iter()
+        .map(|t| {
+            json!({
+                "name": t.name,
+                "statistic": t.statistic.filter(|v| v.is_finite()),
+                "verdict": t.verdict.as_str(),
+                "evidence": t.evidence,
+            })
+        })
+        .collect();
+    json!({
+        "source": d.source,
+        "score": det.score,
+        "verdict": det.verdict.as_str(),
+        "reason": det.reason,
+        "oscillating": det.oscillating,
+        "period_s": det.period_s,
+        "integrating": det.integrating,
+        "sample_time_s": sample_time(d),
+        "tests": tests,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -188,34 +218,4 @@ mod tests {
             Detected::Failed(DetectError::Data(_))
         ));
     }
-}
-
-/// The `detect --json` document of `d`'s detection: `source`, `score`, `verdict`, `reason`,
-/// `oscillating`, `period_s`, `integrating`, `sample_time_s`, `tests` (array of `{name,
-/// statistic, verdict, evidence}`).
-pub fn detect_document(d: &LoopData, det: &Detection) -> serde_json::Value {
-    use serde_json::json;
-    let tests: Vec<serde_json::Value> = det
-        .tests
-        .iter()
-        .map(|t| {
-            json!({
-                "name": t.name,
-                "statistic": t.statistic.filter(|v| v.is_finite()),
-                "verdict": t.verdict.as_str(),
-                "evidence": t.evidence,
-            })
-        })
-        .collect();
-    json!({
-        "source": d.source,
-        "score": det.score,
-        "verdict": det.verdict.as_str(),
-        "reason": det.reason,
-        "oscillating": det.oscillating,
-        "period_s": det.period_s,
-        "integrating": det.integrating,
-        "sample_time_s": sample_time(d),
-        "tests": tests,
-    })
 }
