@@ -105,12 +105,7 @@ impl DetectionTest for CurveFit {
     fn run(&self, reg: &Registration<'_>) -> Result<TestOutcome, DetectionError> {
         let p = reg.prepared()?;
         let o = p.oscillation;
-        let period = o
-            .period
-            .filter(|_| o.is_regular())
-            .ok_or(DetectionError::NoOscillation {
-                regularity: o.regularity,
-            })?;
+        let period = o.regular_period()?;
         let (signal, x) = if reg.is_integrating() {
             ("PV", &p.pv)
         } else {

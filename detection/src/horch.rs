@@ -61,12 +61,7 @@ impl DetectionTest for HorchXcorr {
             ));
         }
         let o = p.oscillation;
-        let period = o
-            .period
-            .filter(|_| o.is_regular())
-            .ok_or(DetectionError::NoOscillation {
-                regularity: o.regularity,
-            })?;
+        let period = o.regular_period()?;
         let max_lag = ((period / 2.0).round() as usize).max(2);
         let share = odd_share(&p.op, &p.pv, max_lag);
         let verdict = if share > 2.0 / 3.0 {
@@ -139,12 +134,7 @@ impl DetectionTest for HorchIntegrating {
             ));
         }
         let o = p.oscillation;
-        let period = o
-            .period
-            .filter(|_| o.is_regular())
-            .ok_or(DetectionError::NoOscillation {
-                regularity: o.regularity,
-            })?;
+        let period = o.regular_period()?;
         let d2 = second_difference(&p.pv, period);
         if d2.len() < 20 {
             return Err(DetectionError::TooShort {

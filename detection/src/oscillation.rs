@@ -40,6 +40,16 @@ impl Oscillation {
     pub fn is_regular(&self) -> bool {
         self.regularity > 1.0 && self.crossings >= 4 && self.period.is_some()
     }
+
+    /// The period in samples when the oscillation is regular, else
+    /// [`DetectionError::NoOscillation`]: what the shape tests need before they judge.
+    pub fn regular_period(&self) -> Result<f64, crate::DetectionError> {
+        self.period
+            .filter(|_| self.is_regular())
+            .ok_or(crate::DetectionError::NoOscillation {
+                regularity: self.regularity,
+            })
+    }
 }
 
 /// Analyse the (detrended) control error.

@@ -181,12 +181,7 @@ impl DetectionTest for AreaRatio {
             ));
         }
         let o = p.oscillation;
-        let period = o
-            .period
-            .filter(|_| o.is_regular())
-            .ok_or(DetectionError::NoOscillation {
-                regularity: o.regularity,
-            })?;
+        let period = o.regular_period()?;
         let (r, halves) = area_ratio(&p.error, period).ok_or(DetectionError::NoOscillation {
             regularity: o.regularity,
         })?;
