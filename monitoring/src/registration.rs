@@ -45,12 +45,25 @@ impl Integrating {
         match self {
             Integrating::Yes => true,
             Integrating::No => false,
-            Integrating::Auto => valve
-                .chars()
-                .find(|c| c.is_ascii_alphabetic())
-                .is_some_and(|c| c.eq_ignore_ascii_case(&'l')),
+            Integrating::Auto => is_level_tag(valve),
         }
     }
+}
+
+/// Whether `valve` reads as an ISA-5.1 tag of a level loop: a tag has a number (`LIC101`,
+/// `2111LIC31102B`) and its function letters are a run of two to four letters, the first `L`.
+/// A name that is not a tag (`loop`, `line_a`, `level`) is not a level loop: the default,
+/// self-regulating, is then kept rather than guessed from a word's first letter.
+pub fn is_level_tag(valve: &str) -> bool {
+    if !valve.chars().any(|c| c.is_ascii_digit()) {
+        return false;
+    }
+    let letters: String = valve
+        .chars()
+        .skip_while(|c| !c.is_ascii_alphabetic())
+        .take_while(|c| c.is_ascii_alphabetic())
+        .collect();
+    (2..=4).contains(&letters.len()) && letters.starts_with(['L', 'l'])
 }
 
 /// A file of a directory that is not a loop registration.
@@ -632,5 +645,28 @@ mod tests {
         assert_eq!(i.pv, Some(vec![2.0, -1.0]));
         assert_eq!(i.op, vec![6.0, 7.0]);
         assert_eq!(i.notes[0].kind, NoteKind::Integrating);
+    }
+}
+
+#[cfg(test)]
+mod level_tag_tests {
+    use super::is_level_tag;
+
+    #[test]
+    fn level_tags_and_words() {
+        for tag in ["2111LIC31102B", "LIC101", "LT-12", "lic7"] {
+            assert!(is_level_tag(tag), "{tag}");
+        }
+        for name in [
+            "loop",
+            "level",
+            "line_a",
+            "2411FIC20102",
+            "FIC7",
+            "L1",
+            "LOOPING1",
+        ] {
+            assert!(!is_level_tag(name), "{name}");
+        }
     }
 }
