@@ -5,7 +5,7 @@
 Times, as medians over the repeats: `stiction.quantify(frame)`; the same from the CSV file;
 the extension alone on the CSV text (reading + search + JSON, what the CLI does in process);
 the search alone (`elapsed_ms` of the result); and the frame's conversion to the reader's text.
-The Python overhead is the frame call minus the extension alone.
+The Python overhead is the frame call minus the extension alone, per interleaved round.
 """
 
 import argparse
@@ -42,20 +42,36 @@ def main():
     settings = json.dumps({"stiction": "kano", "linear": "arx", **opts})
     text = _data.csv_text(df)
     stiction.quantify(df, **opts)  # warm
-    t_frame, r = median_ms(lambda: stiction.quantify(df, **opts), a.repeat)
-    t_path, _ = median_ms(lambda: stiction.quantify(path, **opts), a.repeat)
-    t_native, _ = median_ms(lambda: json.loads(_native.run_csv("quantify", text, "x", {}, settings)), a.repeat)
-    t_conv, _ = median_ms(lambda: _data.csv_text(df), a.repeat)
-    search = statistics.median(stiction.quantify(df, **opts)["elapsed_ms"] for _ in range(a.repeat))
-    print(f"{a.samples} samples, kano + arx, {'step ' + str(a.step) if a.step else 'default grid plan'}, "
-          f"{r['grid']['nodes']} nodes")
-    print(f"search alone            {search:8.2f} ms")
-    print(f"extension on CSV text   {t_native:8.2f} ms (reading + search + JSON, as the CLI in process)")
-    print(f"quantify(path)          {t_path:8.2f} ms")
-    print(f"quantify(DataFrame)     {t_frame:8.2f} ms (of which the frame to text {t_conv:.2f} ms)")
-    print(f"Python overhead: {t_frame - t_native:.2f} ms = {100 * (t_frame - t_native) / search:.1f} % "
-          f"of the search (from a path: {100 * (t_path - t_native) / search:.1f} %)")
+    # Interleaved: each round times the three calls back to back, so a slow moment of the
+    # machine (the search's threads jitter by milliseconds) hits all three alike; the
+    # overhead is the median of the per-round differences.
+    native, frame, from_path, search, nodes = [], [], [], [], 0
 
+    def timed(f):
+        t0 = time.perf_counter()
+        r = f()
+        return (time.perf_counter() - t0) * 1e3, r
+
+    for _ in range(a.repeat):
+        t, r = timed(lambda: json.loads(_native.run_csv("quantify", text, "x", {}, settings)))
+        native.append(t)
+        search.append(r["elapsed_ms"])
+        nodes = r["grid"]["nodes"]
+        frame.append(timed(lambda: stiction.quantify(df, **opts))[0])
+        from_path.append(timed(lambda: stiction.quantify(path, **opts))[0])
+    t_conv, _ = median_ms(lambda: _data.csv_text(df), a.repeat)
+    med = statistics.median
+    d_frame = med(f - n for f, n in zip(frame, native))
+    d_path = med(p - n for p, n in zip(from_path, native))
+    s_med = med(search)
+    print(f"{a.samples} samples, kano + arx, {'step ' + str(a.step) if a.step else 'default grid plan'}, "
+          f"{nodes} nodes, {a.repeat} interleaved rounds (medians)")
+    print(f"search alone            {s_med:8.2f} ms")
+    print(f"extension on CSV text   {med(native):8.2f} ms (reading + search + JSON, as the CLI in process)")
+    print(f"quantify(path)          {med(from_path):8.2f} ms")
+    print(f"quantify(DataFrame)     {med(frame):8.2f} ms (of which the frame to text {t_conv:.2f} ms)")
+    print(f"Python overhead: {d_frame:.2f} ms = {100 * d_frame / s_med:.1f} % of the search "
+          f"(from a path: {d_path:.2f} ms = {100 * d_path / s_med:.1f} %)")
 
 if __name__ == "__main__":
     main()

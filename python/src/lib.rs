@@ -397,6 +397,28 @@ fn run_csv(
     })
 }
 
+/// A command on named columns (a DataFrame's): the text is made and read here, without a
+/// round trip through a Python string.
+#[pyfunction]
+#[pyo3(signature = (command, names, columns, source, options, settings_json))]
+fn run_columns(
+    py: Python<'_>,
+    command: &str,
+    names: Vec<String>,
+    columns: Vec<Column<'_>>,
+    source: &str,
+    options: Option<&Bound<'_, PyDict>>,
+    settings_json: &str,
+) -> PyResult<String> {
+    let reader = read_args(options)?;
+    let req = request(settings_json)?;
+    let text = columns_text(&names, &columns)?;
+    py.detach(|| {
+        let d = read_text(&text, source, &reader, true)?;
+        run_command(command, &d, &req)
+    })
+}
+
 /// `quantify` / `compare` on a file: the JSON document.
 #[pyfunction]
 #[pyo3(signature = (command, path, options, settings_json))]
@@ -747,6 +769,10 @@ impl<'py> FromPyObject<'_, 'py> for Column<'py> {
 /// `to_csv` (48 ms for 3000 rows here, against under 2 ms).
 #[pyfunction]
 fn csv_text(names: Vec<String>, columns: Vec<Column<'_>>) -> PyResult<String> {
+    columns_text(&names, &columns)
+}
+
+fn columns_text(names: &[String], columns: &[Column<'_>]) -> PyResult<String> {
     if names.len() != columns.len() {
         return Err(usage_err(format!(
             "{} column names for {} columns",
@@ -830,6 +856,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_path, m)?)?;
     m.add_function(wrap_pyfunction!(run_csv, m)?)?;
     m.add_function(wrap_pyfunction!(run_path, m)?)?;
+    m.add_function(wrap_pyfunction!(run_columns, m)?)?;
     m.add_function(wrap_pyfunction!(batch_options, m)?)?;
     m.add_function(wrap_pyfunction!(batch_files, m)?)?;
     m.add_function(wrap_pyfunction!(batch_resume, m)?)?;

@@ -66,8 +66,10 @@ def _run(command: str, data: Any, source: Optional[str], allowed: Tuple[str, ...
     if _data.is_path(data):
         doc = _native.run_path(command, str(data), reader, json.dumps(settings))
     else:
-        text = _data.csv_text(data)
-        doc = _native.run_csv(command, text, _data.source_name(data, source), reader, json.dumps(settings))
+        names, columns = _data.columns(data)
+        doc = _native.run_columns(
+            command, names, columns, _data.source_name(data, source), reader, json.dumps(settings)
+        )
     return json.loads(doc)
 
 

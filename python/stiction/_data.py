@@ -49,23 +49,32 @@ def frame(data: Any) -> pd.DataFrame:
 
 
 def csv_text(data: Any) -> str:
-    """The CSV text the reader gets for `data`: numeric columns as float64 arrays, written by
-    the extension in their shortest exact form (NaN as an empty cell, as pandas writes it);
-    other columns (time stamps, a controller mode) as text."""
+    """The CSV text the reader gets for `data` (see `columns`)."""
     from . import _native
 
+    return _native.csv_text(*columns(data))
+
+
+def columns(data: Any):
+    """`(names, columns)` of `data` for the extension: numeric columns as float64 arrays, which
+    it writes in their shortest exact form (NaN as an empty cell, as pandas writes it); other
+    columns (time stamps, a controller mode) as text."""
     df = frame(data)
-    names, columns = [], []
-    for name in df.columns:
-        col = df[name]
+    names, cols = [], []
+    for name, col in df.items():
         names.append(str(name))
-        if pd.api.types.is_bool_dtype(col.dtype):
-            columns.append(col.map(lambda v: "" if pd.isna(v) else str(int(v))).tolist())
+        kind = getattr(col.dtype, "kind", None)
+        if isinstance(col.dtype, np.dtype) and kind in "fiu":
+            # plain numpy numbers: NaN is already NaN (the fast path, no masking)
+            cols.append(np.ascontiguousarray(col.to_numpy(dtype=np.float64)))
+        elif pd.api.types.is_bool_dtype(col.dtype):
+            cols.append(col.map(lambda v: "" if pd.isna(v) else str(int(v))).tolist())
         elif pd.api.types.is_numeric_dtype(col.dtype):
-            columns.append(np.ascontiguousarray(col.to_numpy(dtype=np.float64, na_value=np.nan)))
+            # nullable extension numbers (Float64, Int64): missing values become NaN
+            cols.append(np.ascontiguousarray(col.to_numpy(dtype=np.float64, na_value=np.nan)))
         else:
-            columns.append([None if pd.isna(v) else str(v) for v in col.tolist()])
-    return _native.csv_text(names, columns)
+            cols.append([None if pd.isna(v) else str(v) for v in col.tolist()])
+    return names, cols
 
 
 def options(kwargs: Mapping[str, Any]) -> dict:
