@@ -526,7 +526,13 @@ pub fn resume(
     };
     let current: HashSet<String> = files.iter().map(file_key).collect();
     let row_key = |r: &Row| key(&r.file, r.size, r.mtime);
-    kept.retain(|r| r.settings == settings && current.contains(&row_key(r)));
+    // A row of a registration that was read always has the detector's verdict; one without
+    // it was written before the detector existed and is computed again.
+    kept.retain(|r| {
+        r.settings == settings
+            && current.contains(&row_key(r))
+            && !(r.is_ok() && r.detect_verdict.is_empty())
+    });
     let done: HashSet<String> = kept.iter().map(row_key).collect();
     let todo: Vec<PathBuf> = files
         .iter()

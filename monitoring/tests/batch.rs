@@ -221,3 +221,42 @@ fn the_detector_score_is_measured_on_the_same_labelled_rows_as_s() {
     assert_eq!(det.roc.map(|r| r.auc), Some(0.0));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A resumed run computes again the ok rows written before the detector existed (no verdict),
+/// and keeps the others.
+#[test]
+fn rows_without_the_detector_are_computed_again_on_resume() {
+    let dir = temp_dir("resume-detect");
+    let (a, b) = (
+        dir.join("V1_20240101-0800.csv"),
+        dir.join("V2_20240101-0900.csv"),
+    );
+    write_loop(&a, 4.0, 3);
+    write_loop(&b, 3.0, 4);
+    let opts = options();
+    let jsonl = dir.join("out.jsonl");
+    let files = vec![a.clone(), b.clone()];
+    batch::run(&files, &opts, None, Some(&jsonl), None).unwrap();
+    // strip the detector's keys from V1's rows, as an older build wrote them
+    let text = std::fs::read_to_string(&jsonl).unwrap();
+    let old: Vec<String> = text
+        .lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            if v["file"] == "V1_20240101-0800.csv" {
+                let o = v.as_object_mut().unwrap();
+                o.remove("detect_score");
+                o.remove("detect_verdict");
+            }
+            v.to_string()
+        })
+        .collect();
+    std::fs::write(&jsonl, old.join("\n") + "\n").unwrap();
+    let r = batch::resume(&files, &opts, Some(&jsonl)).unwrap();
+    assert_eq!(r.todo, vec![a.clone()]);
+    assert!(r.kept.iter().all(|row| row.file == "V2_20240101-0900.csv"));
+    let again = batch::run(&files, &opts, None, Some(&jsonl), None).unwrap();
+    assert_eq!((again.computed, again.skipped), (1, 1));
+    assert!(again.rows.iter().all(|row| !row.detect_verdict.is_empty()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
