@@ -95,7 +95,7 @@ def run(
 ) -> pd.DataFrame:
     """`stiction batch` on Dask: the rows (the columns of OUT.csv) as a DataFrame.
 
-    `paths`: directories or files of registrations. `out`: the output prefix (writes
+    `paths`: directories or files of registrations (a manifest is a list of files). `out`: the output prefix (writes
     OUT.jsonl and OUT.csv, and resumes from them); without it the files go to a temporary
     directory. `valve`: only that valve's registrations. `labels`: a CSV `file,label` whose
     labels fill the rows (the summary then has the ROC AUC of S). `client`: a
