@@ -97,6 +97,20 @@ pub enum DataError {
         /// Number of cells in the row.
         got: usize,
     },
+    /// Columns handed over in memory ([`crate::read_columns`]) have different lengths.
+    #[error("{file}: column {column} has {got} rows, column {first} has {expected}")]
+    ColumnLengths {
+        /// Source name.
+        file: String,
+        /// The first column's name.
+        first: String,
+        /// Its number of rows.
+        expected: usize,
+        /// The first column of another length.
+        column: String,
+        /// Its number of rows.
+        got: usize,
+    },
     /// A cell of a used column is not a number.
     #[error("{file}: row {row}, column {column}: {text:?} is not a number")]
     NotANumber {

@@ -213,72 +213,7 @@ pub fn read_csv(
         return Err(DataError::Empty { file });
     }
 
-    // Locate the columns.
-    let wanted = wanted_columns(opts);
-    let mut columns: Vec<Column> = Vec::new();
-    for w in &wanted {
-        let found = header
-            .iter()
-            .position(|h| w.names.iter().any(|n| h.to_lowercase() == *n));
-        if let Some(index) = found {
-            let others: Vec<usize> = header
-                .iter()
-                .enumerate()
-                .filter(|(i, h)| *i != index && w.names.iter().any(|n| h.to_lowercase() == *n))
-                .map(|(i, _)| i + 1)
-                .collect();
-            if !others.is_empty() {
-                notes.push(Note::new(NoteKind::Columns, format!(
-                    "{}: {} columns match; using column {} ({:?}), ignoring column(s) {}; name the one you mean with --{}",
-                    w.label,
-                    others.len() + 1,
-                    index + 1,
-                    header[index],
-                    others
-                        .iter()
-                        .map(|i| format!("{i} ({:?})", header[i - 1]))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    w.label.to_lowercase()
-                )));
-            }
-        }
-        match found {
-            Some(index) => columns.push(Column {
-                role: w.role,
-                name: header[index].clone(),
-                index,
-                required: w.required,
-                values: Vec::new(),
-            }),
-            None if w.required || w.explicit => {
-                let tried = w
-                    .names
-                    .iter()
-                    .map(|n| format!("{n:?}"))
-                    .collect::<Vec<_>>()
-                    .join(" or ");
-                return Err(DataError::MissingColumn {
-                    file,
-                    column: format!("{} ({tried})", w.label),
-                    found: header,
-                });
-            }
-            None => {}
-        }
-    }
-    let ignored: Vec<&str> = header
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !columns.iter().any(|c| c.index == *i))
-        .map(|(_, h)| h.as_str())
-        .collect();
-    if !ignored.is_empty() {
-        notes.push(Note::new(
-            NoteKind::Columns,
-            format!("ignored column(s): {}", ignored.join(", ")),
-        ));
-    }
+    let mut columns = locate_columns(&file, &header, opts, &mut notes)?;
 
     // Parse the rows.
     let mut lines: Vec<u64> = Vec::new();
@@ -327,48 +262,283 @@ pub fn read_csv(
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
-                Cell::NotANumber
-                | Cell::NotFinite
-                | Cell::TooLarge
-                | Cell::BadTime
-                | Cell::BadMode => {
-                    let (file, column, text) = (file, col.name.clone(), excerpt(text));
-                    return Err(match value {
-                        Cell::BadMode => DataError::BadMode {
-                            file,
-                            row,
-                            column,
-                            text,
-                        },
-                        Cell::NotFinite => DataError::NotFinite {
-                            file,
-                            row,
-                            column,
-                            text,
-                        },
-                        Cell::TooLarge => DataError::TooLarge {
-                            file,
-                            row,
-                            column,
-                            text,
-                        },
-                        Cell::BadTime => DataError::BadTime {
-                            file,
-                            row,
-                            column,
-                            text,
-                        },
-                        _ => DataError::NotANumber {
-                            file,
-                            row,
-                            column,
-                            text,
-                        },
-                    });
+                bad => {
+                    return Err(refuse(bad, file, row, col.name.clone(), excerpt(text)));
                 }
             }
         }
     }
+    finish(file, columns, lines, time_kind, decimal_commas, notes, opts)
+}
+
+/// The error for a cell the parsers refused (`cell` is not a gap or a value).
+fn refuse(cell: Cell, file: String, row: u64, column: String, text: String) -> DataError {
+    match cell {
+        Cell::BadMode => DataError::BadMode {
+            file,
+            row,
+            column,
+            text,
+        },
+        Cell::NotFinite => DataError::NotFinite {
+            file,
+            row,
+            column,
+            text,
+        },
+        Cell::TooLarge => DataError::TooLarge {
+            file,
+            row,
+            column,
+            text,
+        },
+        Cell::BadTime => DataError::BadTime {
+            file,
+            row,
+            column,
+            text,
+        },
+        _ => DataError::NotANumber {
+            file,
+            row,
+            column,
+            text,
+        },
+    }
+}
+
+/// One column handed to [`read_columns`]: numbers (NaN is a gap), or text cells (`None` is a
+/// gap), e.g. time stamps or a controller mode.
+#[derive(Debug, Clone, Copy)]
+pub enum ColumnInput<'a> {
+    /// Numbers, as a numeric column of a data frame holds them.
+    Numbers(&'a [f64]),
+    /// Text cells, read as the CSV reader reads a cell (trimmed).
+    Text(&'a [Option<String>]),
+}
+
+impl ColumnInput<'_> {
+    fn len(&self) -> usize {
+        match self {
+            ColumnInput::Numbers(x) => x.len(),
+            ColumnInput::Text(t) => t.len(),
+        }
+    }
+}
+
+/// Read one loop registration from named columns held in memory (a data frame's), with the
+/// same conventions, notes and errors as [`read_csv`] on the CSV text of those columns (header
+/// on line 1, data row `i` on line `i + 2`), without making or parsing that text: numeric
+/// cells of the SP/PV/OP/MV columns are taken as they are (NaN a gap, infinite or beyond
+/// 1e150 refused as the CSV reader refuses them); time, mode and text cells go through the
+/// CSV reader's own cell parsers. Equal column lengths are the caller's to ensure (an error
+/// otherwise). `tests/columns.rs` checks the two entries agree.
+pub fn read_columns(
+    source: &str,
+    names: &[String],
+    columns: &[ColumnInput<'_>],
+    opts: &ReadOptions,
+) -> Result<LoopData, DataError> {
+    let file = source.to_string();
+    if names.len() != columns.len() {
+        return Err(DataError::Limit {
+            file,
+            what: format!("{} column names for {} columns", names.len(), columns.len()),
+        });
+    }
+    let rows = columns.first().map_or(0, ColumnInput::len);
+    if let Some((j, c)) = columns.iter().enumerate().find(|(_, c)| c.len() != rows) {
+        return Err(DataError::ColumnLengths {
+            file,
+            first: names[0].clone(),
+            expected: rows,
+            column: names[j].clone(),
+            got: c.len(),
+        });
+    }
+    if rows > opts.limits.max_rows {
+        return Err(DataError::Limit {
+            file,
+            what: format!(
+                "more than {} data rows (the limit; raise it with --max-rows)",
+                opts.limits.max_rows
+            ),
+        });
+    }
+    let header: Vec<String> = names
+        .iter()
+        .map(|h| excerpt(h.replace(['\n', '\r'], " ").trim()))
+        .collect();
+    if header.iter().all(String::is_empty) {
+        return Err(DataError::Empty { file });
+    }
+    let mut notes = Vec::new();
+    let mut located = locate_columns(&file, &header, opts, &mut notes)?;
+    let lines: Vec<u64> = (0..rows as u64).map(|i| i + 2).collect();
+    let mut time_kind: Option<TimeKind> = None;
+    let mut decimal_commas = 0usize;
+    let mut number = ryu::Buffer::new();
+    for col in &mut located {
+        col.values.reserve_exact(rows);
+    }
+    // Row by row, as the CSV reader goes: the first refused cell is the same one.
+    for (i, &row) in lines.iter().enumerate() {
+        for col in &mut located {
+            let input = columns[col.index];
+            let text: &str = match input {
+                ColumnInput::Numbers(x) => {
+                    let v = x[i];
+                    match col.role {
+                        Role::Time | Role::Mode => {
+                            if v.is_finite() {
+                                number.format_finite(v)
+                            } else if v.is_nan() {
+                                ""
+                            } else if v > 0.0 {
+                                "inf"
+                            } else {
+                                "-inf"
+                            }
+                        }
+                        _ => {
+                            if v.is_nan() {
+                                col.values.push(None);
+                            } else if v.is_infinite() || v.abs() > TOO_LARGE {
+                                let cell = if v.is_infinite() {
+                                    Cell::NotFinite
+                                } else {
+                                    Cell::TooLarge
+                                };
+                                let text = if v.is_infinite() {
+                                    (if v > 0.0 { "inf" } else { "-inf" }).to_string()
+                                } else {
+                                    number.format_finite(v).to_string()
+                                };
+                                return Err(refuse(cell, file, row, col.name.clone(), text));
+                            } else {
+                                col.values.push(Some(v));
+                            }
+                            continue;
+                        }
+                    }
+                }
+                ColumnInput::Text(t) => t[i].as_deref().unwrap_or("").trim(),
+            };
+            if text.len() > opts.limits.max_cell {
+                return Err(DataError::Limit {
+                    file,
+                    what: format!(
+                        "row {row}, column {}: a cell of {} bytes, over the limit of {} KiB: {:?}",
+                        col.name,
+                        text.len(),
+                        opts.limits.max_cell >> 10,
+                        excerpt(text)
+                    ),
+                });
+            }
+            let value = match col.role {
+                Role::Time => parse_time(text, &mut time_kind),
+                Role::Mode => parse_mode(text),
+                _ => parse_number(text, false, &mut decimal_commas),
+            };
+            match value {
+                Cell::Gap => col.values.push(None),
+                Cell::Value(v) => col.values.push(Some(v)),
+                bad => return Err(refuse(bad, file, row, col.name.clone(), excerpt(text))),
+            }
+        }
+    }
+    finish(file, located, lines, time_kind, decimal_commas, notes, opts)
+}
+
+/// The wanted columns found in `header` (by name, case-insensitively), with notes on
+/// ambiguous and ignored columns; a missing required (or explicitly named) column is an error.
+fn locate_columns(
+    file: &str,
+    header: &[String],
+    opts: &ReadOptions,
+    notes: &mut Vec<Note>,
+) -> Result<Vec<Column>, DataError> {
+    let wanted = wanted_columns(opts);
+    let mut columns: Vec<Column> = Vec::new();
+    for w in &wanted {
+        let found = header
+            .iter()
+            .position(|h| w.names.iter().any(|n| h.to_lowercase() == *n));
+        if let Some(index) = found {
+            let others: Vec<usize> = header
+                .iter()
+                .enumerate()
+                .filter(|(i, h)| *i != index && w.names.iter().any(|n| h.to_lowercase() == *n))
+                .map(|(i, _)| i + 1)
+                .collect();
+            if !others.is_empty() {
+                notes.push(Note::new(NoteKind::Columns, format!(
+                    "{}: {} columns match; using column {} ({:?}), ignoring column(s) {}; name the one you mean with --{}",
+                    w.label,
+                    others.len() + 1,
+                    index + 1,
+                    header[index],
+                    others
+                        .iter()
+                        .map(|i| format!("{i} ({:?})", header[i - 1]))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    w.label.to_lowercase()
+                )));
+            }
+        }
+        match found {
+            Some(index) => columns.push(Column {
+                role: w.role,
+                name: header[index].clone(),
+                index,
+                required: w.required,
+                values: Vec::new(),
+            }),
+            None if w.required || w.explicit => {
+                let tried = w
+                    .names
+                    .iter()
+                    .map(|n| format!("{n:?}"))
+                    .collect::<Vec<_>>()
+                    .join(" or ");
+                return Err(DataError::MissingColumn {
+                    file: file.to_string(),
+                    column: format!("{} ({tried})", w.label),
+                    found: header.to_vec(),
+                });
+            }
+            None => {}
+        }
+    }
+    let ignored: Vec<&str> = header
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !columns.iter().any(|c| c.index == *i))
+        .map(|(_, h)| h.as_str())
+        .collect();
+    if !ignored.is_empty() {
+        notes.push(Note::new(
+            NoteKind::Columns,
+            format!("ignored column(s): {}", ignored.join(", ")),
+        ));
+    }
+    Ok(columns)
+}
+
+/// Everything after the cells are parsed, shared by every reader entry: empty columns, unknown
+/// modes, the gap policy, closed-loop selection, time checks, flat and constant columns, the
+/// row count and the OP units.
+fn finish(
+    file: String,
+    columns: Vec<Column>,
+    mut lines: Vec<u64>,
+    time_kind: Option<TimeKind>,
+    decimal_commas: usize,
+    mut notes: Vec<Note>,
+    opts: &ReadOptions,
+) -> Result<LoopData, DataError> {
     if decimal_commas > 0 {
         notes.push(Note::new(
             NoteKind::Format,

@@ -231,8 +231,10 @@ def read(
     """
     if _data.is_path(data):
         return _native.read_path(str(data), _data.options(reader), require_pv)
-    text = _data.csv_text(data)
-    return _native.read_csv(text, _data.source_name(data, source), _data.options(reader), require_pv)
+    names, columns = _data.columns(data)
+    return _native.read_columns(
+        names, columns, _data.source_name(data, source), _data.options(reader), require_pv
+    )
 
 
 def valve(

@@ -1,8 +1,10 @@
 """Turning what Python users hold (DataFrames, dicts of arrays, files) into what the reader reads.
 
-Every record reaches the Rust side as CSV text and is read by the reader the CLI uses
-(`datasets::read_csv`), so the column conventions, OP units detection, gap handling, notes and
-error messages are the same as for a file given to `stiction quantify`.
+A frame reaches the Rust side as named columns (float64 arrays, or text for time stamps and
+modes) and is read by the reader's in-memory entry (`datasets::read_columns`), which applies the
+CSV reader's conventions to the columns as they are: the column names, OP units detection, gap
+handling, notes and error messages are those of a file given to `stiction quantify`, and a test
+on the Rust side checks the two entries agree on the same data.
 """
 
 from __future__ import annotations

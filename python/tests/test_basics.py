@@ -84,3 +84,35 @@ def test_frame_text_is_exact_and_quoted():
     assert back["mode"].iloc[-1] == 'M"AN'
     gap = _data.csv_text({"OP": [1.0, float("nan")]})
     assert gap.splitlines()[2] == ""
+
+
+def test_a_frame_reads_as_its_csv_text():
+    """The in-place reader and the CSV reader agree on a frame (time index, text mode, gaps)."""
+    from stiction import _data, _native
+
+    rng = np.random.default_rng(7)
+    n = 500
+    df = pd.DataFrame(
+        {
+            "PV": 50 + rng.normal(size=n).cumsum(),
+            "OP": 0.5 + 0.01 * rng.normal(size=n).cumsum(),  # a fraction: rescaled with a note
+            "mode": ["MAN"] * 20 + ["AUTO"] * (n - 20),
+        },
+        index=pd.date_range("2024-05-01", periods=n, freq="5s", name="time"),
+    )
+    df.iloc[100, 0] = np.nan
+    for opts in ({"gaps": "hold"}, {"gaps": "drop"}, {}):
+        try:
+            a = stiction.read(df, **opts)
+        except stiction.DataError as e:
+            a = str(e)
+        try:
+            b = _native.read_csv(_data.csv_text(df), "DataFrame", _data.options(opts), True)
+        except stiction.DataError as e:
+            b = str(e)
+        if isinstance(a, str):
+            assert a == b
+            continue
+        assert a["notes"] == b["notes"] and a["start"] == b["start"]
+        for k in ("t", "pv", "op"):
+            np.testing.assert_array_equal(a[k], b[k])
