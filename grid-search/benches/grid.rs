@@ -2,7 +2,8 @@
 //!
 //! Data: the paper's benchmark loop (eq. 10, PI 0.5/0.5, σ_e = 0.1) with a Kano valve S = 9,
 //! J = 3, 3000 samples, seed 1 (OP span ≈ 22.6 %).
-//! - `kano_arx_exhaustive_step_0_1`: every node of the triangle at step 0.1 (25 878 nodes).
+//! - `kano_arx_exhaustive_step_0_1`: every node of the triangle at step 0.1 (25 878 nodes), on
+//!   the fast path (with and without the free run at every node) and the sample path.
 //! - `combination/<stiction>/<linear>`: one `compare` cell at the default grid (coarse span/40,
 //!   refined at 0.1 within two coarse steps), the paper's orders.
 //! - `compare_paper/<path>`: all ten cells of `stiction compare --example paper` in a row, on
@@ -12,7 +13,7 @@
 //!   the number of loops (default 20; the fleet is 1000).
 
 use datasets::simulate::Scenario;
-use grid_search::{quantify, quantify_with, GridPlan, NodePath, Problem, SearchOptions};
+use grid_search::{quantify, quantify_with, GridPlan, NodeFits, NodePath, Problem, SearchOptions};
 use linear_id::find_identifier;
 use stiction_models::{find_model, Kano};
 
@@ -31,19 +32,26 @@ fn data() -> (Vec<f64>, Vec<f64>) {
 }
 
 /// The same exhaustive grid through both node paths, in one run (the ratio is the speed-up).
-#[divan::bench(sample_count = 5, args = ["fast", "sample"])]
+/// `fast`: the default (the free run only at the best node, `NodeFits::Criterion`);
+/// `fast-all-fits`: both criteria's fits at every node (`NodeFits::Both`, as for `--surface`).
+#[divan::bench(sample_count = 5, args = ["fast", "fast-all-fits", "sample"])]
 fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher, path: &str) {
     let (op, pv) = data();
     let kano = find_model("kano").expect("registered");
     let arx = (find_identifier("arx").expect("registered").build)(&[]).expect("default orders");
     let opts = SearchOptions {
         grid: GridPlan::Exhaustive { step: 0.1 },
+        node_fits: if path == "fast-all-fits" {
+            NodeFits::Both
+        } else {
+            NodeFits::Criterion
+        },
         ..SearchOptions::default()
     };
-    let path = if path == "fast" {
-        NodePath::Fast
-    } else {
+    let path = if path == "sample" {
         NodePath::Sample
+    } else {
+        NodePath::Fast
     };
     bencher.bench(|| {
         quantify_with(

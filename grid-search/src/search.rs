@@ -117,6 +117,8 @@ impl GridPlan {
 /// | `split` | 2/3 | fraction of the record used for identification |
 /// | `criterion` | prediction | [`Criterion`] ranking the nodes |
 /// | `confidence` | 0.95 | level of the likelihood-ratio region behind [`Interval`] |
+/// | `max_nodes` | 200 000 | node budget per grid stage |
+/// | `node_fits` | criterion | fits computed at every node ([`NodeFits`]) |
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SearchOptions {
@@ -133,6 +135,24 @@ pub struct SearchOptions {
     /// Node budget per grid stage ([`crate::budget`]): a grid over it is
     /// [`SearchError::Budget`], never an allocation failure.
     pub max_nodes: usize,
+    /// Which fits the fast path computes at every node ([`NodeFits`]).
+    pub node_fits: NodeFits,
+}
+
+/// Which fits every grid node gets on the fast path. The best node is always refitted with
+/// both; only the surface of the other nodes differs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NodeFits {
+    /// The criterion's fits only (default): under [`Criterion::Prediction`] the free-run
+    /// simulation, an O(N) recursion the ranking does not read, is not run, and the surface's
+    /// `sim_id` / `sim_val` are NaN (the best node's are computed). Nothing a search reports
+    /// reads them: the ranking, the region, the fit without stiction and the doubts are the
+    /// criterion's or the best node's.
+    #[default]
+    Criterion,
+    /// Both criteria's fits at every node (for a surface written out, `quantify --surface`).
+    Both,
 }
 
 impl Default for SearchOptions {
@@ -144,6 +164,7 @@ impl Default for SearchOptions {
             criterion: Criterion::Prediction,
             confidence: 0.95,
             max_nodes: crate::budget::DEFAULT_MAX_NODES,
+            node_fits: NodeFits::Criterion,
         }
     }
 }
@@ -166,9 +187,10 @@ pub struct Fits {
     pub pred_id: f64,
     /// One-step prediction, validation window.
     pub pred_val: f64,
-    /// Free-run simulation, identification window.
+    /// Free-run simulation, identification window (NaN on a surface node the fast path did not
+    /// simulate, see [`NodeFits`]).
     pub sim_id: f64,
-    /// Free-run simulation, validation window.
+    /// Free-run simulation, validation window (NaN as `sim_id`).
     pub sim_val: f64,
     /// F_MV (eq. 14) over the samples used, when MV is measured.
     pub mv: Option<f64>,
@@ -386,6 +408,8 @@ struct Ctx<'a, I: ?Sized> {
     init: Initialization,
     split_index: usize,
     path: NodePath,
+    /// The fast path runs the free-run simulation at every node.
+    simulate: bool,
     /// OP indexed for event-driven valve runs (fast path).
     index: Option<OpIndex>,
     /// PV's prefix sums for ARX from normal equations (fast path, ARX only).
@@ -486,7 +510,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         if ni <= k0 || ni - k0 < needed {
             return Err(Skip::InitialState { valid_from: k0 });
         }
-        if distinct_at_least(&mv[k0..ni], 3) < 3 {
+        if !three_distinct(&mv[k0..ni]) {
             return Err(Skip::ValveHardlyMoves);
         }
         Ok(())
@@ -542,15 +566,19 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                     fits_of(&scratch.pred)
                 }
             };
-        let init_len = linear.first_sample().min(n - k0);
-        scratch.sim.resize(n - k0, 0.0);
-        let sim_ok = linear
-            .simulate_blocked_into(&mv[k0..], &pv[k0..k0 + init_len], &mut scratch.sim)
-            .is_ok();
-        let (sim_id, sim_val) = if sim_ok {
-            fits_of(&scratch.sim)
+        let (sim_id, sim_val) = if self.simulate {
+            let init_len = linear.first_sample().min(n - k0);
+            scratch.sim.resize(n - k0, 0.0);
+            let sim_ok = linear
+                .simulate_blocked_into(&mv[k0..], &pv[k0..k0 + init_len], &mut scratch.sim)
+                .is_ok();
+            if sim_ok {
+                fits_of(&scratch.sim)
+            } else {
+                (f64::NEG_INFINITY, f64::NEG_INFINITY)
+            }
         } else {
-            (f64::NEG_INFINITY, f64::NEG_INFINITY)
+            (f64::NAN, f64::NAN)
         };
         let fits = Fits {
             pred_id: pred_fits.0,
@@ -831,6 +859,39 @@ fn fit_from(num: f64, den: f64) -> f64 {
     } else {
         100.0 * (1.0 - num / den)
     }
+}
+
+/// `distinct_at_least(x, 3) >= 3`, in two vectorised passes: finite values take at least
+/// three distinct values iff one lies strictly between their minimum and maximum (a NaN, which
+/// equals nothing, takes the counting path).
+fn three_distinct(x: &[f64]) -> bool {
+    const L: usize = 8;
+    let (mut lo, mut hi, mut nan) = ([f64::INFINITY; L], [f64::NEG_INFINITY; L], [false; L]);
+    let chunks = x.chunks_exact(L);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..L {
+            lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
+            hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
+            nan[l] |= c[l].is_nan();
+        }
+    }
+    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for l in 0..L {
+        min = min.min(lo[l]);
+        max = max.max(hi[l]);
+    }
+    for &v in rest {
+        if v.is_nan() {
+            nan[0] = true;
+        }
+        min = min.min(v);
+        max = max.max(v);
+    }
+    if nan.iter().any(|&b| b) {
+        return distinct_at_least(x, 3) >= 3;
+    }
+    min < max && x.iter().any(|&v| v > min && v < max)
 }
 
 /// Number of distinct values, counting up to `cap`.
@@ -1119,6 +1180,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
         init: options.init,
         split_index: ((n as f64) * options.split).floor() as usize,
         path,
+        simulate: options.criterion == Criterion::Simulation || options.node_fits == NodeFits::Both,
         index: match path {
             NodePath::Fast => Some(OpIndex::new(op)?),
             NodePath::Sample => None,
@@ -1464,5 +1526,24 @@ mod tests {
         assert_eq!(distinct_at_least(&[1.0, 1.0, 1.0], 3), 1);
         assert_eq!(distinct_at_least(&[1.0, 2.0, 1.0, 2.0], 3), 2);
         assert_eq!(distinct_at_least(&[1.0, 2.0, 3.0, 4.0], 3), 3);
+    }
+
+    #[test]
+    fn three_distinct_agrees_with_the_count() {
+        // small alphabets, so that two-valued arrays are common; lengths across the lane width
+        let mut state = 12345u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) as usize
+        };
+        let alphabet = [0.0, -0.0, 1.5, -2.0, 1e300, f64::NAN, 7.25];
+        for _ in 0..20_000 {
+            let len = next() % 40;
+            let k = 1 + next() % alphabet.len();
+            let x: Vec<f64> = (0..len).map(|_| alphabet[next() % k]).collect();
+            assert_eq!(three_distinct(&x), distinct_at_least(&x, 3) >= 3, "{x:?}");
+        }
     }
 }

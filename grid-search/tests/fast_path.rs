@@ -11,7 +11,9 @@
 #![allow(clippy::unwrap_used)]
 
 use datasets::simulate::{PlantPreset, PlantSpec, Scenario};
-use grid_search::{quantify_with, Criterion, GridPlan, NodePath, Problem, SearchOptions};
+use grid_search::{
+    quantify_with, Criterion, GridPlan, NodeFits, NodePath, Problem, Quantification, SearchOptions,
+};
 use linear_id::{Arx, LinearIdentifier};
 use proptest::prelude::*;
 use stiction_models::{find_model, He, Initialization, Kano, KanoAsym, StictionModel};
@@ -66,6 +68,7 @@ fn compare(
         grid: GridPlan::Exhaustive { step },
         init,
         criterion,
+        node_fits: NodeFits::Both,
         ..SearchOptions::default()
     };
     let problem = Problem {
@@ -76,6 +79,17 @@ fn compare(
     let id: &dyn LinearIdentifier = &arx;
     let fast = quantify_with(entry, id, problem, &opts, None, NodePath::Fast);
     let slow = quantify_with(entry, id, problem, &opts, None, NodePath::Sample);
+    // the default: the free run only where the criterion needs it
+    let lazy_opts = SearchOptions {
+        node_fits: NodeFits::Criterion,
+        ..opts
+    };
+    let lazy = quantify_with(entry, id, problem, &lazy_opts, None, NodePath::Fast);
+    if let (Ok(f), Ok(l)) = (&fast, &lazy) {
+        same_but_the_free_run(f, l, criterion)?;
+    } else {
+        prop_assert_eq!(fast.is_ok(), lazy.is_ok());
+    }
     let (fast, slow) = match (fast, slow) {
         (Ok(f), Ok(s)) => (f, s),
         (Err(f), Err(s)) => {
@@ -150,6 +164,34 @@ fn compare(
         slow.interval.fit_threshold
     ));
     prop_assert_eq!(&fast.warnings, &slow.warnings);
+    Ok(())
+}
+
+/// The search with `NodeFits::Criterion` reports what the one with `NodeFits::Both` reports;
+/// only the surface's free-run fits are NaN when the criterion is the prediction.
+fn same_but_the_free_run(
+    both: &Quantification,
+    lazy: &Quantification,
+    criterion: Criterion,
+) -> Result<(), TestCaseError> {
+    for (b, l) in both.surface.iter().zip(&lazy.surface) {
+        match (&b.outcome, &l.outcome) {
+            (Ok(b), Ok(l)) => {
+                let mut expected = *b;
+                if criterion == Criterion::Prediction {
+                    prop_assert!(l.sim_id.is_nan() && l.sim_val.is_nan());
+                    expected.sim_id = l.sim_id;
+                    expected.sim_val = l.sim_val;
+                }
+                prop_assert_eq!(format!("{expected:?}"), format!("{l:?}"));
+            }
+            (b, l) => prop_assert_eq!(b, l),
+        }
+    }
+    prop_assert_eq!(both.fits, lazy.fits);
+    prop_assert_eq!(both.interval, lazy.interval);
+    prop_assert_eq!(&both.warnings, &lazy.warnings);
+    prop_assert_eq!(both.stiction.param_values(), lazy.stiction.param_values());
     Ok(())
 }
 

@@ -145,7 +145,9 @@ fn identical_for_any_thread_count() {
         })
     };
     let (a, b) = (run(1), run(3));
-    assert_eq!(a.surface, b.surface);
+    // bit for bit (the surface's free-run fits are NaN under the prediction criterion, and
+    // NaN != NaN, so the comparison is of the printed bits)
+    assert_eq!(format!("{:?}", a.surface), format!("{:?}", b.surface));
     assert_eq!((a.s, a.j), (b.s, b.j));
 }
 

@@ -147,8 +147,10 @@ pub(crate) fn run_one(
     d: &LoopData,
     s: &mut Streams<'_>,
     (since, step): (Instant, &str),
+    node_fits: grid_search::NodeFits,
 ) -> Result<Run, Failure> {
-    let combination = flags.combination(stiction, linear)?;
+    let mut combination = flags.combination(stiction, linear)?;
+    combination.search.node_fits = node_fits;
     let pv = d.require_pv().map_err(data)?;
     let problem = Problem {
         op: &d.op,
@@ -190,6 +192,12 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         &d,
         s,
         (Instant::now(), ""),
+        // a surface written out carries both criteria's fits at every node
+        if args.surface.is_some() {
+            grid_search::NodeFits::Both
+        } else {
+            grid_search::NodeFits::Criterion
+        },
     ) {
         Ok(r) => r,
         Err(f) => return Err(refused(f, s)),
@@ -238,7 +246,15 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
     for st in &args.stiction {
         for li in &args.linear {
             let step = format!("compare {}/{total}: ", rows.len() + 1);
-            let r = run_one(st, li, &args.search, &d, s, (started, &step));
+            let r = run_one(
+                st,
+                li,
+                &args.search,
+                &d,
+                s,
+                (started, &step),
+                grid_search::NodeFits::Criterion,
+            );
             rows.push((st.clone(), li.clone(), r));
         }
     }
