@@ -39,7 +39,10 @@ pub use limits::Limits;
 pub use mat::{list_mat_loops, read_mat, read_mat_path};
 pub use note::{Note, NoteKind};
 pub use raw::raw_columns;
-pub use read::{read_columns, read_csv, read_csv_path, ColumnInput, GapPolicy, ReadOptions};
+pub use read::{
+    compression, read_columns, read_csv, read_csv_path, ColumnInput, Compression, GapPolicy,
+    ReadOptions, COMPRESSED_SHARE,
+};
 pub use registration::{format_epoch, parse_registration_name, RegistrationName};
 pub use units::OpRange;
 

@@ -28,6 +28,9 @@ pub enum NoteKind {
     Jitter,
     /// Flat stretches (historian compression or a frozen value).
     Flat,
+    /// A column made of straight sloped segments with kinks between them: a historian's
+    /// compressed storage read back by linear interpolation.
+    Compression,
     /// OP's units and the valve span assumed.
     Units,
     /// The loop is integrating and was identified from MV to the PV increment.

@@ -703,6 +703,7 @@ fn finish(
     let mode_cut = select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
     check_time(&file, opts.gaps, &mut columns, &mut lines, &mut notes)?;
     check_flat(&file, &columns, &lines, &mut notes)?;
+    check_compression(&columns, &mut notes);
 
     let n = lines.len();
     if let Some((column, total)) = mode_cut.filter(|_| n < needed) {
@@ -1155,6 +1156,123 @@ fn check_flat(
         }
     }
     Ok(())
+}
+
+/// What [`compression`] found in a column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Compression {
+    /// Share of the samples on straight sloped segments of at least four points.
+    pub share: f64,
+    /// Number of such segments.
+    pub segments: usize,
+    /// Their median length, samples.
+    pub median_len: usize,
+}
+
+/// Samples on straight lines are recognised to this relative round-off of the column's
+/// magnitude (an interpolation in double precision is straight to about 1e-15).
+const STRAIGHT_RELATIVE: f64 = 1e-9;
+
+/// Historian compression read back by linear interpolation (swinging door, box-car): long
+/// runs of samples exactly on a sloped straight line, with kinks where a kept point was.
+///
+/// A sample `t` is *straight* when its second difference is zero to the data's resolution,
+/// `|x(t+1) − 2 x(t) + x(t−1)| <= tol`, and the line is not flat (`|x(t) − x(t−1)| > tol`;
+/// flat stretches are [`NoteKind::Flat`]'s). `tol` is the larger of 1e-9 of the column's
+/// magnitude (round-off of an interpolation) and 2.01 times its smallest nonzero increment
+/// (values written with a fixed number of decimals move by multiples of one quantum `q`, and an
+/// interpolated value rounded to `q` has a second difference of at most `2q`; the smallest
+/// increment is a multiple of `q`, so this never tolerates less than rounding does). A
+/// *segment* is a maximal run of straight samples: `k` straight samples make `k + 2` collinear
+/// points; only segments of at least four points count, so a single straight triple (which
+/// noise makes by chance) does not.
+///
+/// Decision, from the physics rather than from fitted thresholds: a measured, noisy PV has a
+/// second difference of the order of its noise at nearly every sample, so at most a few
+/// percent of its samples fall on 4-point straight runs; a PV read back from compressed storage
+/// is straight almost everywhere between its kept points. The column is called compressed when
+/// at least half of its samples lie on such segments and there are at least three segments (a
+/// single ramp is not an archive's pattern). `None` for fewer than [`FLAT_MIN_ROWS`] samples or
+/// a non-finite value.
+pub fn compression(x: &[f64]) -> Option<Compression> {
+    let n = x.len();
+    if n < FLAT_MIN_ROWS || x.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let quantum = x
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if !quantum.is_finite() {
+        return None; // constant
+    }
+    let tol = (STRAIGHT_RELATIVE * scale).max(2.01 * quantum);
+    let straight =
+        |t: usize| (x[t + 1] - 2.0 * x[t] + x[t - 1]).abs() <= tol && (x[t] - x[t - 1]).abs() > tol;
+    let (mut covered, mut lens) = (0usize, Vec::new());
+    let mut t = 1;
+    while t + 1 < n {
+        if !straight(t) {
+            t += 1;
+            continue;
+        }
+        let start = t;
+        while t + 1 < n && straight(t) {
+            t += 1;
+        }
+        let k = t - start;
+        if k >= 2 {
+            covered += k + 2;
+            lens.push(k + 2);
+        }
+    }
+    if lens.len() < 3 {
+        return Some(Compression {
+            share: covered as f64 / n as f64,
+            segments: lens.len(),
+            median_len: lens.iter().copied().max().unwrap_or(0),
+        });
+    }
+    lens.sort_unstable();
+    Some(Compression {
+        // segments share their end points (the kept points): count each sample once
+        share: (covered.saturating_sub(lens.len() - 1) as f64 / n as f64).min(1.0),
+        segments: lens.len(),
+        median_len: lens[lens.len() / 2],
+    })
+}
+
+/// Share of the samples on straight segments from which a column is called compressed.
+pub const COMPRESSED_SHARE: f64 = 0.5;
+
+impl Compression {
+    /// At least [`COMPRESSED_SHARE`] of the samples on at least three straight segments.
+    pub fn detected(&self) -> bool {
+        self.share >= COMPRESSED_SHARE && self.segments >= 3
+    }
+}
+
+fn check_compression(columns: &[Column], notes: &mut Vec<Note>) {
+    for col in columns
+        .iter()
+        .filter(|c| matches!(c.role, Role::Pv | Role::Op))
+    {
+        let v: Vec<f64> = col.values.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+        if let Some(c) = compression(&v).filter(Compression::detected) {
+            notes.push(Note::new(
+                NoteKind::Compression,
+                format!(
+                    "column {}: {:.0} % of the samples lie on {} straight sloped segments (median {} samples) with kinks between them, as a historian's compressed storage read back by linear interpolation makes; fits on the interpolated values are biased, so treat S and J with caution; kept",
+                    col.name,
+                    100.0 * c.share,
+                    c.segments,
+                    c.median_len
+                ),
+            ));
+        }
+    }
 }
 
 fn parse_time(text: &str, kind: &mut Option<TimeKind>) -> Cell {

@@ -82,6 +82,14 @@ pub enum Doubt {
         /// F_PV on validation data.
         val: f64,
     },
+    /// PV looks read back from a historian's compressed storage (straight segments between
+    /// kept points, `datasets::compression`): one-step fits on interpolated values are biased.
+    CompressedPv {
+        /// Share of the samples on straight sloped segments.
+        share: f64,
+        /// Number of segments.
+        segments: usize,
+    },
 }
 
 impl Doubt {
@@ -108,6 +116,10 @@ impl Doubt {
                 format!("{skipped} of {total} grid nodes were skipped")
             }
             Doubt::WeakFit { val } => format!("the fit is weak (validation F_PV {val:.1} %)"),
+            Doubt::CompressedPv { share, .. } => format!(
+                "PV looks interpolated from compressed storage ({:.0} % on straight segments)",
+                100.0 * share
+            ),
         }
     }
 }
@@ -139,6 +151,11 @@ impl fmt::Display for Doubt {
             Doubt::WeakFit { val } => write!(
                 f,
                 "the fit is weak: validation F_PV {val:.1} % (below {WEAK_FIT} %) leaves most of PV unexplained"
+            ),
+            Doubt::CompressedPv { share, segments } => write!(
+                f,
+                "PV looks read back from a historian's compressed storage ({:.0} % of the samples on {segments} straight segments between kept points): the one-step fits see interpolated values, which they predict too well, and S can be far off; get the raw values or the archive's kept points if you can",
+                100.0 * share
             ),
         }
     }

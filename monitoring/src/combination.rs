@@ -139,13 +139,22 @@ impl Combination {
             }
         };
         let identifier = self.identifier(delay)?;
-        let result = quantify(
+        let mut result = quantify(
             self.stiction,
             identifier.as_ref(),
             problem,
             &options,
             progress,
         )?;
+        // a PV interpolated between a historian's kept points undermines every fit on it
+        if let Some(c) = datasets::compression(problem.pv).filter(datasets::Compression::detected) {
+            let doubt = grid_search::Doubt::CompressedPv {
+                share: c.share,
+                segments: c.segments,
+            };
+            result.warnings.push(doubt.to_string());
+            result.doubts.push(doubt);
+        }
         Ok(Fitted {
             stiction: self.stiction,
             linear: self.linear.name,

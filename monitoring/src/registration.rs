@@ -562,8 +562,14 @@ impl ExplainFit for FitEvidence {
             why.push(Evidence::NoStictionNeeded);
         }
         for n in notes {
-            // Samples made up or left out, a closed-loop segment cut out, flat stretches.
-            if n.kind.changes_samples() || matches!(n.kind, NoteKind::Mode | NoteKind::Flat) {
+            // Samples made up or left out, a closed-loop segment cut out, flat stretches,
+            // compressed storage.
+            if n.kind.changes_samples()
+                || matches!(
+                    n.kind,
+                    NoteKind::Mode | NoteKind::Flat | NoteKind::Compression
+                )
+            {
                 why.push(Evidence::Data(n.clone()));
             }
         }

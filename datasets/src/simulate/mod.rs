@@ -248,6 +248,7 @@ pub enum DisturbanceEntry {
 /// | `pv_bias` | 50 | PV (and initial SP) operating point | finite |
 /// | `op_limits` | none | `[lo, hi]` OP clipping with conditional integration | `lo < hi` |
 /// | `sample_time` | 1 | seconds per sample, for the `t` column | `> 0` |
+/// | `pv_compression` | none | the logged PV as a historian's swinging-door archive with this deviation (PV units), read back by linear interpolation ([`swinging_door`]); the loop itself runs on the true PV | `> 0` |
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Scenario {
@@ -282,6 +283,9 @@ pub struct Scenario {
     pub op_limits: Option<[f64; 2]>,
     /// Seconds per sample.
     pub sample_time: f64,
+    /// Log PV through a swinging-door archive with this deviation ([`swinging_door`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pv_compression: Option<f64>,
 }
 
 impl Default for Scenario {
@@ -306,6 +310,7 @@ impl Default for Scenario {
             pv_bias: 50.0,
             op_limits: None,
             sample_time: 1.0,
+            pv_compression: None,
         }
     }
 }
@@ -424,6 +429,9 @@ impl Scenario {
         param("pv_bias", self.pv_bias, true, "a finite number")?;
         let ts = self.sample_time;
         param("sample_time", ts, ts > 0.0, "a positive number of seconds")?;
+        if let Some(dev) = self.pv_compression {
+            param("pv_compression", dev, dev > 0.0, "a positive deviation")?;
+        }
         if let Some([lo, hi]) = self.op_limits {
             param("op_limits[0]", lo, lo < hi, "lo < hi, both finite")?;
             param("op_limits[1]", hi, true, "lo < hi, both finite")?;
@@ -572,6 +580,9 @@ impl Scenario {
             op_prev = op;
             err_prev = err;
         }
+        if let Some(dev) = self.pv_compression {
+            out.pv = swinging_door(&out.pv, dev).0;
+        }
         Ok(out)
     }
 }
@@ -598,6 +609,45 @@ impl Disturbance {
             Disturbance::RandomSteps { .. } => level,
         }
     }
+}
+
+/// A historian's swinging-door compression of `x` with deviation `dev`, read back by linear
+/// interpolation between the kept points (what a historian client returns for a compressed
+/// tag): `(values, kept points)`. A point is kept when no straight line from the last kept
+/// point stays within `dev` of every sample since (the door closes); the first and last
+/// samples are always kept.
+pub fn swinging_door(x: &[f64], dev: f64) -> (Vec<f64>, usize) {
+    let n = x.len();
+    if n < 3 {
+        return (x.to_vec(), n);
+    }
+    let mut kept = vec![0usize];
+    let mut a = 0usize;
+    while a + 1 < n {
+        let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        let mut j = a + 1;
+        while j < n {
+            let d = (j - a) as f64;
+            hi = hi.min((x[j] + dev - x[a]) / d);
+            lo = lo.max((x[j] - dev - x[a]) / d);
+            if lo > hi {
+                break;
+            }
+            j += 1;
+        }
+        let k = (j - 1).max(a + 1).min(n - 1);
+        kept.push(k);
+        a = k;
+    }
+    let mut out = vec![0.0; n];
+    for w in kept.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        for (t, o) in out.iter_mut().enumerate().take(b + 1).skip(a) {
+            let f = (t - a) as f64 / (b - a) as f64;
+            *o = x[a] + f * (x[b] - x[a]);
+        }
+    }
+    (out, kept.len())
 }
 
 impl SimulatedLoop {

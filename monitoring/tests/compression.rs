@@ -1,0 +1,55 @@
+//! A PV read back from a historian's compressed storage is named among the doubts of every
+//! search on it, and the verdict does not say "the valve sticks" on its strength alone.
+
+use datasets::simulate::Scenario;
+use grid_search::{Doubt, Problem};
+use monitoring::Settings;
+use stiction_models::Kano;
+
+fn search(compression: Option<f64>) -> (f64, Vec<Doubt>, bool) {
+    let sim = Scenario {
+        valve: Box::new(Kano::params().s(4.0).j(1.0).check().expect("test data")),
+        noise_sigma: 0.3,
+        pv_compression: compression,
+        ..Scenario::default()
+    }
+    .simulate()
+    .expect("test data");
+    let fitted = Settings::default()
+        .combination("kano", "arx")
+        .expect("test data")
+        .run(
+            Problem {
+                op: &sim.op,
+                pv: &sim.pv,
+                mv: None,
+            },
+            None,
+        )
+        .expect("test data");
+    let q = &fitted.result;
+    let compressed = q.warnings.iter().any(|w| w.contains("compressed storage"));
+    (q.s, q.doubts.clone(), compressed && !q.verdict().sticks())
+}
+
+#[test]
+fn a_compressed_pv_is_a_doubt() {
+    // the raw PV: no such doubt, the valve sticks
+    let (s, doubts, _) = search(None);
+    assert!(
+        !doubts
+            .iter()
+            .any(|d| matches!(d, Doubt::CompressedPv { .. })),
+        "{doubts:?}"
+    );
+    assert!((s - 4.0).abs() < 0.5, "S = {s}");
+    // archived with a deviation of a tenth of PV's span (about 6): the doubt, no "sticks"
+    let (_, doubts, flagged) = search(Some(0.6));
+    assert!(
+        doubts
+            .iter()
+            .any(|d| matches!(d, Doubt::CompressedPv { .. })),
+        "{doubts:?}"
+    );
+    assert!(flagged, "warning and verdict: {doubts:?}");
+}
