@@ -374,13 +374,21 @@ pub struct Diagnosis {
     pub baseline_fit: Fitted,
     /// The residual analysis of the baseline.
     pub residuals: ResidualAnalysis,
-    /// The chosen cause (`none` when no extension is significant).
+    /// The chosen cause (`none` when no extension is significant): the first of `causes`.
     pub cause: String,
+    /// Every cause found, in the order the forward selection added them (empty: none).
+    pub causes: Vec<String>,
     /// Index in `findings` of the chosen cause.
     pub chosen: Option<usize>,
     /// One per hypothesis tested, best first (chosen first, then by LR margin).
     pub findings: Vec<Finding>,
-    /// Extended minus baseline F_PV on validation data (0 when none).
+    /// The forward selection's later steps: the causes not chosen yet, tested on the model
+    /// extended by every cause chosen before (step `k` on the model of `causes[..=k]`).
+    pub steps: Vec<Vec<Finding>>,
+    /// Index in each step of the cause it added (one fewer than `steps` when the last step
+    /// found nothing).
+    pub picks: Vec<usize>,
+    /// Final (joint) model minus baseline F_PV on validation data (0 when none).
     pub gain_fit_pv_val: f64,
     /// One paragraph for the engineer.
     pub summary: String,
@@ -476,52 +484,10 @@ pub fn diagnose_with_progress(
         if !cause.applies(&ctx) {
             continue;
         }
-        let ev = cause.evidence(&ctx);
-        let finding = match cause.extend(&ctx) {
-            Ok(ext) => {
-                let (threshold, significant) = if cause.overrides() {
-                    // Removing parameters: significant when the loss is small.
-                    (-options.lr_no_stiction, ext.lr > -options.lr_no_stiction)
-                } else {
-                    let t = options.threshold(ext.extra_params);
-                    (t, ext.lr > t)
-                };
-                if significant && cause.overrides() {
-                    overriding.push(entry.name);
-                }
-                let s = ext.fitted.summary();
-                Finding {
-                    cause: entry.name,
-                    evidence: ev.text,
-                    statistic: ev.statistic,
-                    gain_fit_pv_val: ext.fitted.fit_val() - base_fit,
-                    delta_s: ext.fitted.result.s - bs,
-                    delta_j: ext.fitted.result.j - bj,
-                    extended: Some(s),
-                    fitted: Some(ext.fitted),
-                    lr: ext.lr,
-                    threshold,
-                    reference: ext.reference,
-                    significant,
-                    error: None,
-                }
-            }
-            Err(e) => Finding {
-                cause: entry.name,
-                evidence: ev.text,
-                statistic: ev.statistic,
-                extended: None,
-                fitted: None,
-                gain_fit_pv_val: f64::NAN,
-                delta_s: f64::NAN,
-                delta_j: f64::NAN,
-                lr: f64::NEG_INFINITY,
-                threshold: f64::INFINITY,
-                reference: "baseline".into(),
-                significant: false,
-                error: Some(e.to_string()),
-            },
-        };
+        let (finding, overrides) = test_cause(&ctx, cause.as_ref(), entry.name, base_fit, (bs, bj));
+        if overrides {
+            overriding.push(entry.name);
+        }
         findings.push(finding);
     }
     // `no-stiction` is judged against the best significant extension, not against the
@@ -573,21 +539,268 @@ pub fn diagnose_with_progress(
         let kb = (overriding.contains(&b.cause), b.significant);
         kb.cmp(&ka).then(margin(b).total_cmp(&margin(a)))
     });
-    let chosen = findings.first().filter(|f| f.significant).map(|_| 0);
+    let mut chosen = findings.first().filter(|f| f.significant).map(|_| 0);
+    // Forward selection: on the chosen extension, test the causes not chosen yet; add the one
+    // with the largest significant gain; repeat until none is significant. Each step's model
+    // carries every extension chosen before it (its stiction model, identifier and dead
+    // time), so the last is the joint model. Two starts when the runner-up of the first
+    // round is significant too (extensions do not commute: EARX at a scanned dead time is
+    // not the scan of EARX's dead time): the path whose final model fits the validation data
+    // better wins (never the one that names more causes for naming them).
+    let candidates: Vec<&'static str> = findings
+        .iter()
+        .filter(|f| f.significant && f.cause != "no-stiction")
+        .map(|f| f.cause)
+        .collect();
+    let fc = ForwardCtx {
+        problem,
+        span,
+        baseline,
+        options,
+        candidates: &candidates,
+    };
+    let mut path = Path::default();
+    if let Some(i) = chosen.filter(|&i| findings[i].cause != "no-stiction") {
+        path = fc.forward(&findings[i], &tell, done)?;
+        let runner_up = findings
+            .iter()
+            .enumerate()
+            .skip(1)
+            .find(|(_, f)| f.significant && f.cause != "no-stiction" && f.fitted.is_some())
+            .map(|(k, _)| k);
+        if let Some(k) = runner_up.filter(|_| !overriding.contains(&"no-stiction")) {
+            let other = fc.forward(&findings[k], &tell, done)?;
+            let fit = |p: &Path, start: usize| {
+                p.final_fit()
+                    .or(findings[start].fitted.as_ref())
+                    .map_or(f64::NEG_INFINITY, Fitted::fit_val)
+            };
+            if fit(&other, k) > fit(&path, i) {
+                path = other;
+                chosen = Some(k);
+            }
+        }
+    }
     let cause = chosen.map_or("none".to_string(), |i| findings[i].cause.to_string());
-    let gain = chosen.map_or(0.0, |i| findings[i].gain_fit_pv_val);
-    let summary = summarise(&base, &residuals, &findings, chosen);
+    let Path {
+        causes,
+        steps,
+        picks,
+    } = path;
+    // the final model: the last step's pick, else the first cause's extension
+    let final_fit = match (picks.len(), picks.last()) {
+        (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
+        _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
+    };
+    let gain = final_fit.map_or(0.0, |f| f.fit_val() - base_fit);
+    let mut summary = summarise(&base, &residuals, &findings, chosen);
+    for (n, &k) in picks.iter().enumerate() {
+        let f = &steps[n][k];
+        if let Some(e) = &f.extended {
+            summary = format!(
+                "{summary} Also {}: on top of {}, the extension {} + {} (dead time {}) gains {:+.2} points of validation F_PV (likelihood ratio {:.0}, threshold {:.0}): S = {:.2} %, J = {:.2} %.",
+                f.cause,
+                f.reference.trim_start_matches("the ").trim_end_matches(" extension"),
+                e.stiction_model,
+                e.linear_model,
+                e.delay,
+                f.gain_fit_pv_val,
+                f.lr,
+                f.threshold,
+                e.s,
+                e.j
+            );
+        }
+    }
     Ok(Diagnosis {
         baseline: base.summary(),
         baseline_fit: base,
         residuals,
         cause,
+        causes: causes.iter().map(|c| c.to_string()).collect(),
         chosen,
         findings,
+        steps,
+        picks,
         gain_fit_pv_val: gain,
         summary,
         elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
     })
+}
+
+/// What the forward selection needs from a diagnosis.
+struct ForwardCtx<'a> {
+    problem: Problem<'a>,
+    span: f64,
+    baseline: &'a Baseline,
+    options: &'a DiagnoseOptions,
+    /// The causes significant in the first round: the only ones tested again (a cause that
+    /// gains nothing on the baseline is not refitted on every extension; this keeps a
+    /// diagnosis within its time budget).
+    candidates: &'a [&'static str],
+}
+
+/// One forward-selection path: the causes in the order added (the first is the start's) and
+/// the steps that tested the rest.
+#[derive(Default)]
+struct Path {
+    causes: Vec<&'static str>,
+    steps: Vec<Vec<Finding>>,
+    picks: Vec<usize>,
+}
+
+impl Path {
+    fn final_fit(&self) -> Option<&Fitted> {
+        match (self.picks.len(), self.picks.last()) {
+            (n, Some(&k)) if n > 0 => self.steps[n - 1][k].fitted.as_ref(),
+            _ => None,
+        }
+    }
+}
+
+impl ForwardCtx<'_> {
+    /// The forward selection from the first round's `start` (a significant finding).
+    fn forward(
+        &self,
+        start: &Finding,
+        tell: &dyn Fn(usize, &str),
+        done: usize,
+    ) -> Result<Path, DiagnoseError> {
+        let (problem, span, baseline, options) =
+            (self.problem, self.span, self.baseline, self.options);
+        let mut causes = vec![start.cause];
+        let mut steps: Vec<Vec<Finding>> = Vec::new();
+        let mut picks: Vec<usize> = Vec::new();
+        loop {
+            let current = match (steps.last(), picks.last()) {
+                (Some(step), Some(&k)) => step[k].fitted.as_ref(),
+                _ => start.fitted.as_ref(),
+            };
+            let Some(current) = current else { break };
+            let spec = diagnosis_combination(
+                baseline,
+                options,
+                current.stiction,
+                linear_id::find_identifier(current.linear)?,
+                current.delay,
+            );
+            let q = &current.result;
+            let res =
+                ResidualAnalysis::new(problem.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
+            let ctx = Context {
+                problem,
+                span,
+                baseline_spec: &spec,
+                baseline: current,
+                residuals: &res,
+                options,
+            };
+            let prev = *causes.last().unwrap_or(&"baseline");
+            let mut step = Vec::new();
+            for entry in registry() {
+                if options.disabled.iter().any(|d| d == entry.name)
+                    || causes.contains(&entry.name)
+                    || !self.candidates.contains(&entry.name)
+                {
+                    continue;
+                }
+                let cause = (entry.build)();
+                if !cause.applies(&ctx) {
+                    continue;
+                }
+                tell(done, entry.name);
+                let (mut f, _) = test_cause(
+                    &ctx,
+                    cause.as_ref(),
+                    entry.name,
+                    current.fit_val(),
+                    (q.s, q.j),
+                );
+                if f.reference == "baseline" {
+                    f.reference = format!("the {prev} extension");
+                }
+                step.push(f);
+            }
+            let best = step
+                .iter()
+                .enumerate()
+                .filter(|(_, f)| f.significant && f.fitted.is_some())
+                .max_by(|a, b| (a.1.lr - a.1.threshold).total_cmp(&(b.1.lr - b.1.threshold)))
+                .map(|(k, _)| k);
+            let found = best.map(|k| step[k].cause);
+            steps.push(step);
+            match (best, found) {
+                (Some(k), Some(name)) => {
+                    picks.push(k);
+                    causes.push(name);
+                }
+                _ => break,
+            }
+        }
+        Ok(Path {
+            causes,
+            steps,
+            picks,
+        })
+    }
+}
+
+/// Test one cause on the model of `ctx`: its evidence, its extension and the decision.
+/// Returns the finding and whether it is a significant overriding cause (`no-stiction`).
+fn test_cause(
+    ctx: &Context<'_>,
+    cause: &dyn Cause,
+    name: &'static str,
+    base_fit: f64,
+    (bs, bj): (f64, f64),
+) -> (Finding, bool) {
+    let ev = cause.evidence(ctx);
+    let options = ctx.options;
+    let mut overrides = false;
+    let finding = match cause.extend(ctx) {
+        Ok(ext) => {
+            let (threshold, significant) = if cause.overrides() {
+                // Removing parameters: significant when the loss is small.
+                (-options.lr_no_stiction, ext.lr > -options.lr_no_stiction)
+            } else {
+                let t = options.threshold(ext.extra_params);
+                (t, ext.lr > t)
+            };
+            overrides = significant && cause.overrides();
+            let s = ext.fitted.summary();
+            Finding {
+                cause: name,
+                evidence: ev.text,
+                statistic: ev.statistic,
+                gain_fit_pv_val: ext.fitted.fit_val() - base_fit,
+                delta_s: ext.fitted.result.s - bs,
+                delta_j: ext.fitted.result.j - bj,
+                extended: Some(s),
+                fitted: Some(ext.fitted),
+                lr: ext.lr,
+                threshold,
+                reference: ext.reference,
+                significant,
+                error: None,
+            }
+        }
+        Err(e) => Finding {
+            cause: name,
+            evidence: ev.text,
+            statistic: ev.statistic,
+            extended: None,
+            fitted: None,
+            gain_fit_pv_val: f64::NAN,
+            delta_s: f64::NAN,
+            delta_j: f64::NAN,
+            lr: f64::NEG_INFINITY,
+            threshold: f64::INFINITY,
+            reference: "baseline".into(),
+            significant: false,
+            error: Some(e.to_string()),
+        },
+    };
+    (finding, overrides)
 }
 
 /// The summary: the actionable sentence first (which model to use and its S, J), then the
@@ -667,10 +880,16 @@ pub fn action_line(dg: &Diagnosis) -> String {
             "no-stiction: the oscillation is not the valve's (a valve with negligible stiction, fitted S = {:.2} %, explains PV as well); look elsewhere",
             f.extended.as_ref().map_or(f64::NAN, |e| e.s)
         ),
-        Some(f) => match &f.extended {
+        Some(f) => match dg.final_fit().map(Fitted::summary) {
             Some(e) => format!(
                 "{}: use {} + {} (dead time {}): S = {:.2} %, J = {:.2} % (validation F_PV {:+.2} points over the baseline)",
-                f.cause, e.stiction_model, e.linear_model, e.delay, e.s, e.j, f.gain_fit_pv_val
+                dg.causes.join(" + "),
+                e.stiction_model,
+                e.linear_model,
+                e.delay,
+                e.s,
+                e.j,
+                dg.gain_fit_pv_val
             ),
             None => f.cause.to_string(),
         },
@@ -682,6 +901,15 @@ pub fn action_line(dg: &Diagnosis) -> String {
 }
 
 impl Diagnosis {
+    /// The final model: every chosen cause's extension at once (the last forward-selection
+    /// pick, else the first cause's extension); `None` when no cause was found.
+    pub fn final_fit(&self) -> Option<&Fitted> {
+        match (self.picks.len(), self.picks.last()) {
+            (n, Some(&k)) if n > 0 => self.steps[n - 1][k].fitted.as_ref(),
+            _ => self.chosen.and_then(|i| self.findings[i].fitted.as_ref()),
+        }
+    }
+
     /// The document of `diagnose --json` for the loop of `source`, searched with `init`.
     pub fn record(
         &self,
@@ -690,35 +918,38 @@ impl Diagnosis {
     ) -> serde_json::Value {
         use serde_json::{json, Value};
         let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
-        let findings: Vec<Value> = self
-            .findings
-            .iter()
-            .map(|f| {
-                json!({
-                    "cause": f.cause,
-                    "evidence": f.evidence,
-                    "statistic": num(f.statistic),
-                    "extended": f.fitted.as_ref().map(|x| x.record(init)),
-                    "gain_fit_pv_val": num(f.gain_fit_pv_val),
-                    "delta_S": num(f.delta_s),
-                    "delta_J": num(f.delta_j),
-                    "lr": num(f.lr),
-                    "threshold": num(f.threshold),
-                    "reference": f.reference,
-                    "significant": f.significant,
-                    "error": f.error,
-                })
+        let doc = |f: &Finding| {
+            json!({
+                "cause": f.cause,
+                "evidence": f.evidence,
+                "statistic": num(f.statistic),
+                "extended": f.fitted.as_ref().map(|x| x.record(init)),
+                "gain_fit_pv_val": num(f.gain_fit_pv_val),
+                "delta_S": num(f.delta_s),
+                "delta_J": num(f.delta_j),
+                "lr": num(f.lr),
+                "threshold": num(f.threshold),
+                "reference": f.reference,
+                "significant": f.significant,
+                "error": f.error,
             })
+        };
+        let findings: Vec<Value> = self.findings.iter().map(doc).collect();
+        let steps: Vec<Value> = self
+            .steps
+            .iter()
+            .map(|step| Value::Array(step.iter().map(doc).collect()))
             .collect();
         let extended = self
-            .chosen
-            .and_then(|i| findings.get(i))
-            .map_or(Value::Null, |f| f["extended"].clone());
+            .final_fit()
+            .map_or(Value::Null, |x| json!(x.record(init)));
         json!({
             "source": source,
             "baseline": self.baseline_fit.record(init),
             "cause": self.cause,
+            "causes": self.causes,
             "findings": findings,
+            "steps": steps,
             "extended": extended,
             "gain_fit_pv_val": self.gain_fit_pv_val,
             "summary": self.summary,

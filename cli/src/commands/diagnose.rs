@@ -23,7 +23,9 @@ the extension's extra parameters (docs/DIAGNOSE.md):
   asymmetric-stiction  friction differs by direction      -> kano-asym
   time-delay           unmodelled dead time               -> the delay estimated
   no-stiction          the oscillation is not the valve's -> S <= 0.2 % (negligible)
-Otherwise the cause is `none` and the baseline stands.
+Otherwise the cause is `none` and the baseline stands. Several causes: on the chosen extension
+the other causes significant in the first round are tested again, and added while one gains
+significantly (forward selection; the final model carries them all, JSON `causes`).
 
 Examples:
   stiction diagnose loop.csv

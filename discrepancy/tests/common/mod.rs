@@ -25,6 +25,8 @@ pub enum Effect {
     Order,
     /// No stiction at all (linear valve) and an external oscillation: `no-stiction`.
     Oscillation,
+    /// A disturbance (as `Disturbance`) and an extra dead time (as `Delay`) at once.
+    DisturbanceDelay,
 }
 
 impl Effect {
@@ -37,6 +39,16 @@ impl Effect {
             Effect::Delay => "time-delay",
             Effect::Order => "process-order",
             Effect::Oscillation => "no-stiction",
+            Effect::DisturbanceDelay => "disturbance",
+        }
+    }
+
+    /// The set of causes `diagnose` must report (sorted).
+    pub fn causes(self) -> Vec<&'static str> {
+        match self {
+            Effect::Clean => Vec::new(),
+            Effect::DisturbanceDelay => vec!["disturbance", "time-delay"],
+            e => vec![e.cause()],
         }
     }
 }
@@ -61,6 +73,37 @@ fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
     lo + (hi - lo) * rng.random::<f64>()
 }
 
+/// The disturbance of `Effect::Disturbance` (the paper's shape or one sine), drawn from `rng`.
+fn draw_disturbance(rng: &mut ChaCha8Rng, disturbances: &mut Vec<Disturbance>) -> String {
+    if rng.random::<f64>() < 0.5 {
+        let a = uniform(rng, 0.4, 1.0);
+        disturbances.push(Disturbance::Paper { a });
+        format!("paper disturbance a = {a:.2}")
+    } else {
+        let amplitude = uniform(rng, 0.4, 1.0);
+        let frequency = uniform(rng, 0.01, 0.08);
+        // 6.28, not TAU: the seeded suite's draws were set with this bound.
+        #[allow(clippy::approx_constant)]
+        let phase = uniform(rng, 0.0, 6.28);
+        disturbances.push(Disturbance::Sine {
+            amplitude,
+            frequency,
+            phase,
+        });
+        format!("sine amplitude {amplitude:.2} frequency {frequency:.3} rad/sample")
+    }
+}
+
+/// An extra dead time of 3-6 samples, shortened while the PI loop would be unstable.
+fn draw_delay(rng: &mut ChaCha8Rng, plant: &mut Plant, gain: &mut f64) -> String {
+    let d = rng.random_range(3..=6usize);
+    plant.delay = d;
+    while plant.check_stability(*gain, *gain).is_err() {
+        *gain *= 0.8;
+    }
+    format!("extra dead time {d} samples")
+}
+
 /// Generate the loop of `seed` with `effect`, `samples` long.
 pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1A6);
@@ -77,25 +120,7 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
     let what;
     match effect {
         Effect::Clean => what = "none".to_string(),
-        Effect::Disturbance => {
-            if rng.random::<f64>() < 0.5 {
-                let a = uniform(&mut rng, 0.4, 1.0);
-                disturbances.push(Disturbance::Paper { a });
-                what = format!("paper disturbance a = {a:.2}");
-            } else {
-                let amplitude = uniform(&mut rng, 0.4, 1.0);
-                let frequency = uniform(&mut rng, 0.01, 0.08);
-                // 6.28, not TAU: the seeded suite's draws were set with this bound.
-                #[allow(clippy::approx_constant)]
-                let phase = uniform(&mut rng, 0.0, 6.28);
-                disturbances.push(Disturbance::Sine {
-                    amplitude,
-                    frequency,
-                    phase,
-                });
-                what = format!("sine amplitude {amplitude:.2} frequency {frequency:.3} rad/sample");
-            }
-        }
+        Effect::Disturbance => what = draw_disturbance(&mut rng, &mut disturbances),
         Effect::Asymmetric => {
             let small = uniform(&mut rng, 0.2, 1.0);
             let big = small + uniform(&mut rng, 2.0, 4.0);
@@ -117,14 +142,11 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
             valve = Box::new(k);
             what = format!("kano-asym D = {d:.2}, J_up = {j_up:.2}, J_dn = {j_dn:.2}");
         }
-        Effect::Delay => {
-            // 3-6 samples; shortened (deterministically) while the PI loop would be unstable.
-            let d = rng.random_range(3..=6usize);
-            plant.delay = d;
-            while plant.check_stability(gain, gain).is_err() {
-                gain *= 0.8;
-            }
-            what = format!("extra dead time {d} samples");
+        Effect::Delay => what = draw_delay(&mut rng, &mut plant, &mut gain),
+        Effect::DisturbanceDelay => {
+            let a = draw_disturbance(&mut rng, &mut disturbances);
+            let b = draw_delay(&mut rng, &mut plant, &mut gain);
+            what = format!("{a}; {b}");
         }
         Effect::Order => {
             // An extra slow first-order lag in series: A(q) (1 - p q^-1), B scaled by (1 - p).
