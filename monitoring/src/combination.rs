@@ -8,7 +8,7 @@ use std::time::Instant;
 use grid_search::{
     estimate_delay, quantify, DelayScan, GridPlan, Problem, Quantification, SearchOptions,
 };
-use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier};
+use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier, OrderValue};
 use serde::{Deserialize, Serialize};
 use stiction_models::{find_model, ModelEntry};
 
@@ -47,7 +47,7 @@ pub struct Combination {
     pub linear: &'static IdentifierEntry,
     /// Orders as `NAME=value` pairs without the dead time (missing ones take the identifier's
     /// defaults).
-    pub orders: Vec<(String, f64)>,
+    pub orders: Vec<(String, OrderValue)>,
     /// Dead time.
     pub delay: Delay,
     /// Grid plan; `None` = the default grid for the OP span.
@@ -104,7 +104,7 @@ impl Combination {
     /// The identifier with this combination's orders and dead time `delay`.
     pub fn identifier(&self, delay: usize) -> Result<Box<dyn LinearIdentifier>, IdError> {
         let linear = self.linear;
-        let known: Vec<(String, f64)> = self
+        let known: Vec<(String, OrderValue)> = self
             .orders
             .iter()
             .filter(|(k, _)| linear.orders.iter().any(|o| o.name == k))
@@ -299,21 +299,21 @@ pub struct FitSummary {
 /// identifier has no dead-time option and `delay` is not 0.
 pub fn build_identifier(
     linear: &IdentifierEntry,
-    orders: &[(String, f64)],
+    orders: &[(String, OrderValue)],
     delay: usize,
 ) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut pairs: Vec<(String, f64)> = orders
+    let mut pairs: Vec<(String, OrderValue)> = orders
         .iter()
         .filter(|(k, _)| k != "delay")
         .cloned()
         .collect();
     if linear.orders.iter().any(|o| o.name == "delay") {
-        pairs.push(("delay".into(), delay as f64));
+        pairs.push(("delay".into(), OrderValue::Int(delay)));
     } else if delay != 0 {
         return Err(IdError::InvalidOrder {
             identifier: linear.name,
             name: "delay".into(),
-            value: delay as f64,
+            value: OrderValue::Int(delay),
             expected: "0 (this identifier has no dead-time option)".into(),
         });
     }

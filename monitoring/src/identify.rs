@@ -1,7 +1,7 @@
 //! A linear model from an input series to PV (`stiction identify`): identified on the first
 //! part of the record, its one-step prediction and free-run simulation scored on the rest.
 
-use linear_id::{fit_pv, IdError, LinearFit, LinearIdentifier, Structure};
+use linear_id::{fit_pv, IdError, LinearFit, LinearIdentifier, OrderValue, Structure};
 use serde_json::{json, Value};
 
 /// Why an identification gave no model.
@@ -66,7 +66,7 @@ pub struct Identification {
     /// The input column.
     pub input: String,
     /// The identifier's orders (with the dead time).
-    pub orders: Vec<(&'static str, f64)>,
+    pub orders: Vec<(&'static str, OrderValue)>,
     /// The model.
     pub fit: LinearFit,
     /// One-step F_PV on the identification window, %.

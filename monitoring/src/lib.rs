@@ -35,7 +35,7 @@ pub use record::{
 pub use registration::{
     Evidence, ExplainFit, FitEvidence, Integrating, Registration, RegistrationError, TimeSource,
 };
-pub use settings::{parse_orders, DelayArg, Orders, SearchArgs, Settings};
+pub use settings::{identifier_for, parse_orders, DelayArg, Orders, SearchArgs, Settings};
 pub use stats::{median, roc, theil_sen, Roc};
 pub use trend::{maintenance, trend, with_detection, Flag, Maintenance, Point, Trend};
 

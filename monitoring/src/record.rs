@@ -7,6 +7,7 @@
 use std::collections::BTreeMap;
 
 use grid_search::{Criterion, GridPlan};
+use linear_id::OrderValue;
 use serde::{Deserialize, Deserializer, Serialize};
 use stiction_models::Initialization;
 
@@ -126,8 +127,8 @@ pub struct QuantifyRecord {
     pub delay: usize,
     /// The dead-time scan, when the dead time was estimated.
     pub delay_scan: Option<Vec<DelayScore>>,
-    /// The identifier's orders (with the dead time).
-    pub orders: BTreeMap<String, f64>,
+    /// The identifier's orders (with the dead time), each of its type (`2`, `true`, `0.8`).
+    pub orders: BTreeMap<String, OrderValue>,
     /// The likelihood-ratio region.
     pub interval: IntervalRecord,
     /// The grid.
