@@ -320,6 +320,27 @@ pub fn build_identifier(
     (linear.build)(&pairs)
 }
 
+/// The search problem of a record: its OP, PV (an error when the record has none) and MV.
+pub fn problem(d: &datasets::LoopData) -> Result<Problem<'_>, datasets::DataError> {
+    Ok(Problem {
+        op: &d.op,
+        pv: d.require_pv()?,
+        mv: d.mv.as_deref(),
+    })
+}
+
+/// The paper's benchmark loop (eq. 10, PI 0.5/0.5, σ = 0.1) with a Kano valve S = 9, J = 3,
+/// 3000 samples, seed 1 (paper §3.2, Tables 1-2): the CLI's `--example paper`.
+pub fn paper_example() -> Result<datasets::LoopData, MonitoringError> {
+    let scenario = datasets::simulate::Scenario {
+        valve: Box::new(stiction_models::Kano::params().s(9.0).j(3.0).check()?),
+        ..datasets::simulate::Scenario::default()
+    };
+    let mut d = scenario.simulate()?.to_loop_data();
+    d.source = "example paper (kano S = 9, J = 3, seed 1)".into();
+    Ok(d)
+}
+
 /// `max - min` of the finite values of `x` (0 when there are none).
 pub fn span_of(x: &[f64]) -> f64 {
     let (lo, hi) = x

@@ -249,6 +249,65 @@ pub struct CompareRecord {
     pub errors: Vec<CompareError>,
 }
 
+impl CompareRecord {
+    /// No combination yet.
+    pub fn new(source: &str) -> Self {
+        CompareRecord {
+            source: source.to_string(),
+            results: Vec::new(),
+            errors: Vec::new(),
+        }
+    }
+
+    /// Add the outcome of `stiction` × `linear`: its quantify object, or its one-line error.
+    pub fn push(&mut self, stiction: &str, linear: &str, outcome: Result<QuantifyRecord, String>) {
+        match outcome {
+            Ok(record) => self.results.push(record),
+            Err(error) => self.errors.push(CompareError {
+                stiction_model: stiction.to_string(),
+                linear_model: linear.to_string(),
+                error,
+            }),
+        }
+    }
+}
+
+/// The `models --json` document: every registered stiction model (`params` with their
+/// meaning, default and largest fraction of the OP span; `constraints` in words) and linear
+/// identifier (`orders` with their `type`, `integer`, `boolean` or `real`, and their default).
+pub fn models_record() -> serde_json::Value {
+    use serde_json::json;
+    let stiction: Vec<serde_json::Value> = stiction_models::registry()
+        .iter()
+        .map(|e| {
+            json!({
+                "name": e.name,
+                "description": e.description,
+                "params": e.params.iter().map(|p| json!({
+                    "name": p.name,
+                    "meaning": p.meaning,
+                    "default": p.default,
+                    "max_span_fraction": p.max_span_fraction,
+                })).collect::<Vec<_>>(),
+                "constraints": e.constraints.iter().map(|c| c.describe()).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let linear: Vec<serde_json::Value> = linear_id::registry()
+        .iter()
+        .map(|e| {
+            json!({
+                "name": e.name,
+                "description": e.description,
+                "orders": e.orders.iter().map(|o| json!({
+                    "name": o.name, "type": o.kind(), "default": o.default, "meaning": o.meaning,
+                })).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    json!({"stiction": stiction, "linear": linear})
+}
+
 /// A combination of a `compare` that failed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CompareError {

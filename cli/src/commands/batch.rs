@@ -9,7 +9,7 @@ use stiction_models::find_model;
 
 use super::load::DataFlags;
 use super::search_flags::SearchFlags;
-use crate::{data, usage, CmdResult, Streams};
+use crate::{usage, CmdResult, Failure, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Loops run in parallel (each grid search shares the same thread pool). Each file gets one row
@@ -99,46 +99,69 @@ fn with_ext(out: &Path, ext: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
-pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    for name in &args.stiction {
+/// The options of a `batch` or `trend` run (a model name or a setting is bad usage).
+pub(crate) fn options(
+    (stiction, linear): (&[String], &[String]),
+    search: &SearchFlags,
+    data: &DataFlags,
+    integrating: IntegratingFlag,
+    min_fit: f64,
+) -> Result<BatchOptions, Failure> {
+    for name in stiction {
         find_model(name).map_err(usage)?;
     }
-    let opts = BatchOptions {
-        stiction: args.stiction.clone(),
-        linear: args.linear.clone(),
-        settings: args.search.settings(&args.linear)?,
-        read: args.data.read_options(true, batch::MIN_ROWS),
-        integrating: args.integrating.into(),
-        min_fit: args.min_fit,
-    };
-    let labels = match &args.labels {
-        Some(p) => Some(Labels::read(p).map_err(data)?),
-        None => None,
-    };
-    let jsonl = args.out.as_deref().map(|o| with_ext(o, ".jsonl"));
-    let csv_path = args.out.as_deref().map(|o| with_ext(o, ".csv"));
-    let mut exclude: Vec<PathBuf> = args.labels.iter().cloned().collect();
-    exclude.extend(jsonl.iter().cloned());
-    exclude.extend(csv_path.iter().cloned());
-    let (mut files, not_loops) =
-        expand(&args.paths, &exclude, args.data.op_column()).map_err(usage)?;
-    for n in &not_loops {
+    Ok(BatchOptions {
+        stiction: stiction.to_vec(),
+        linear: linear.to_vec(),
+        settings: search.settings(linear)?,
+        read: data.read_options(true, batch::MIN_ROWS),
+        integrating: integrating.into(),
+        min_fit,
+    })
+}
+
+/// `note: skipped FILE: why` for each file of a folder that is not a loop registration.
+pub(crate) fn not_loops(s: &mut Streams<'_>, not_loops: &[monitoring::registration::NotALoop]) {
+    for n in not_loops {
         let _ = writeln!(s.stderr, "note: skipped {}: {n}", n.path.display());
     }
+}
+
+pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
+    let combos = (&args.stiction[..], &args.linear[..]);
+    let opts = options(
+        combos,
+        &args.search,
+        &args.data,
+        args.integrating,
+        args.min_fit,
+    )?;
+    let labels = args.labels.as_deref().map(Labels::read).transpose()?;
+    let jsonl = args.out.as_deref().map(|o| with_ext(o, ".jsonl"));
+    let csv_path = args.out.as_deref().map(|o| with_ext(o, ".csv"));
+    let exclude: Vec<PathBuf> = args
+        .labels
+        .iter()
+        .chain(&jsonl)
+        .chain(&csv_path)
+        .cloned()
+        .collect();
+    let (mut files, skipped) =
+        expand(&args.paths, &exclude, args.data.op_column()).map_err(usage)?;
+    not_loops(s, &skipped);
     if let Some(v) = &args.valve {
         files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
     }
     let bar = crate::progress::Progress::new(s.progress, "batch");
-    let tick = |done: usize, total: usize| bar.update(done, total);
     let run = batch::run(
         &files,
         &opts,
         labels.as_ref(),
         jsonl.as_deref(),
-        Some(&tick),
+        Some(&bar.tick()),
     );
     bar.finish();
-    let run = run.map_err(data)?;
+    let run = run?;
     if let (Some(path), [first, ..]) = (&jsonl, run.torn.as_slice()) {
         let what = match run.torn.len() {
             1 => format!("line {first} is torn (an interrupted run): its registration is"),
@@ -147,68 +170,16 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         let _ = writeln!(s.stderr, "note: {}: {what} computed again", path.display());
     }
     if let Some(path) = &csv_path {
-        batch::write_csv(path, &run.rows).map_err(data)?;
+        batch::write_csv(path, &run.rows)?;
     }
-
-    let out = &mut *s.stdout;
-    let rows = &run.rows;
-    let ok = rows.iter().filter(|r| r.is_ok()).count();
     if args.out.is_none() {
-        write!(out, "{}", report::text::batch_table(rows)).map_err(data)?;
+        s.text(report::text::batch_table(&run.rows))?;
     }
-    writeln!(
-        out,
-        "{} file(s): {} row(s) ok, {} error row(s); {} file(s) computed, {} skipped (already in {})",
+    let labelled = labels.map(|_| (args.stiction[0].as_str(), args.linear[0].as_str()));
+    s.text(report::text::batch_summary(
         files.len(),
-        ok,
-        rows.len() - ok,
-        run.computed,
-        run.skipped,
-        jsonl
-            .as_ref()
-            .map_or("-".into(), |p| p.display().to_string())
-    )
-    .map_err(data)?;
-    if labels.is_some() {
-        let (st, li) = (&args.stiction[0], &args.linear[0]);
-        let sum = batch::label_summary(rows, st, li);
-        let (n, npos) = (sum.rows, sum.stiction);
-        match sum.roc {
-            Some(monitoring::Roc {
-                auc,
-                threshold: thr,
-                tpr,
-                fpr,
-            }) => writeln!(
-                out,
-                "labels ({st} + {li}, {n} labelled rows: {npos} stiction, {} no-stiction): ROC AUC of S = {auc:.3}; best threshold S >= {thr:.2} % (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
-                n - npos
-            ),
-            None => writeln!(
-                out,
-                "labels: ROC needs ok rows of both labels ({n} labelled ok rows, {npos} stiction)"
-            ),
-        }
-        .map_err(data)?;
-        let det = batch::detect_label_summary(rows, st, li);
-        let (n, npos) = (det.rows, det.stiction);
-        match det.roc {
-            Some(monitoring::Roc {
-                auc,
-                threshold: thr,
-                tpr,
-                fpr,
-            }) => writeln!(
-                out,
-                "labels (detector, same rows, {n} with a score: {npos} stiction, {} no-stiction): ROC AUC of detect_score = {auc:.3}; best threshold score >= {thr:.2} (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
-                n - npos
-            ),
-            None => writeln!(
-                out,
-                "labels (detector): ROC needs scored ok rows of both labels ({n} labelled scored rows, {npos} stiction)"
-            ),
-        }
-        .map_err(data)?;
-    }
-    Ok(())
+        &run,
+        jsonl.as_deref(),
+        labelled,
+    ))
 }

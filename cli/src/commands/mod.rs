@@ -12,10 +12,13 @@ pub mod simulate;
 pub mod trend;
 pub mod valve;
 
-use anyhow::Context;
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::{anyhow, Context};
 use stiction_models::{find_model, Direction, InitialState, StictionModel};
 
-use crate::{usage, Failure};
+use crate::{usage, CmdResult, Failure};
 
 /// Parse `K=V` (for `--param`).
 pub(crate) fn parse_param(s: &str) -> Result<(String, f64), String> {
@@ -48,6 +51,12 @@ pub(crate) fn initial_state(
     us0: Option<f64>,
     mv0: Option<f64>,
 ) -> Result<InitialState, Failure> {
+    // The flags' names, not the library's fields (`stuck_at`, `position`).
+    for (flag, v) in [("--us0", us0), ("--mv0", mv0)] {
+        if let Some(v) = v.filter(|v| !v.is_finite()) {
+            return Err(usage(anyhow!("{flag} {v}: expected a finite OP value")));
+        }
+    }
     let (direction, stuck) = match start {
         StartFlag::Down => (Direction::Down, true),
         StartFlag::Up => (Direction::Up, true),
@@ -60,14 +69,6 @@ pub(crate) fn initial_state(
         stuck_at: us0,
         position: mv0,
     };
-    // The flags' names, not the library's fields (`stuck_at`, `position`).
-    for (flag, v) in [("--us0", us0), ("--mv0", mv0)] {
-        if let Some(v) = v.filter(|v| !v.is_finite()) {
-            return Err(usage(anyhow::anyhow!(
-                "{flag} {v}: expected a finite OP value"
-            )));
-        }
-    }
     st.validate().map_err(usage)?;
     Ok(st)
 }
@@ -105,25 +106,19 @@ pub(crate) fn parse_clip(s: &str) -> Result<(f64, f64), String> {
 }
 
 /// Open `path` for writing, or stdout for `None`/`-`.
-pub(crate) fn with_output<F>(
-    path: Option<&std::path::Path>,
-    stdout: &mut dyn std::io::Write,
-    f: F,
-) -> Result<(), Failure>
+pub(crate) fn with_output<F>(path: Option<&Path>, stdout: &mut dyn Write, f: F) -> CmdResult
 where
-    F: FnOnce(&mut dyn std::io::Write) -> anyhow::Result<()>,
+    F: FnOnce(&mut dyn Write) -> anyhow::Result<()>,
 {
     match path {
         Some(p) if p.as_os_str() != "-" => {
             let file = std::fs::File::create(p)
-                .with_context(|| format!("cannot create {}", p.display()))
-                .map_err(crate::data)?;
+                .with_context(|| format!("cannot create {}", p.display()))?;
             let mut w = std::io::BufWriter::new(file);
-            f(&mut w).map_err(crate::data)?;
-            std::io::Write::flush(&mut w)
-                .with_context(|| format!("cannot write {}", p.display()))
-                .map_err(crate::data)
+            f(&mut w)?;
+            Ok(w.flush()
+                .with_context(|| format!("cannot write {}", p.display()))?)
         }
-        _ => f(stdout).map_err(crate::data),
+        _ => Ok(f(stdout)?),
     }
 }

@@ -5,16 +5,16 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use stiction_models::find_model;
 
-use super::batch::IntegratingFlag;
-use super::load::DataFlags;
-use super::search_flags::SearchFlags;
-use crate::reporting::{self, ReportFlags};
-use crate::{data, usage, CmdResult, Streams};
 use monitoring::batch::DEFAULT_MIN_FIT;
 use monitoring::registration::expand;
 use monitoring::trend::{self, TrendOptions, DEFAULT_HORIZON, DEFAULT_THRESHOLD};
+
+use super::batch::{not_loops, options, IntegratingFlag};
+use super::load::DataFlags;
+use super::search_flags::SearchFlags;
+use crate::reporting::{self, ReportFlags};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Every registration (file) of one valve is quantified with every stiction x linear
@@ -83,57 +83,40 @@ pub struct Args {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    for name in &args.stiction {
-        find_model(name).map_err(usage)?;
-    }
-    let settings = args.search.settings(&args.linear)?;
+    let combos = (&args.stiction[..], &args.linear[..]);
+    let run = options(
+        combos,
+        &args.search,
+        &args.data,
+        args.integrating,
+        args.min_fit,
+    )?;
     if !(args.threshold.is_finite() && args.threshold >= 0.0) {
         return Err(usage(anyhow!(
             "--threshold {}: expected a non-negative S in % of valve span",
             args.threshold
         )));
     }
-    let (files, not_loops) = expand(&args.paths, &[], args.data.op_column()).map_err(usage)?;
-    for n in &not_loops {
-        let _ = writeln!(s.stderr, "note: skipped {}: {n}", n.path.display());
-    }
+    let (files, skipped) = expand(&args.paths, &[], args.data.op_column()).map_err(usage)?;
+    not_loops(s, &skipped);
     let (valve, files) = trend::select(files, args.valve.as_deref()).map_err(|e| match e {
         monitoring::MonitoringError::SeveralValves(_) => usage(e),
-        other => data(other),
+        other => other.into(),
     })?;
     let options = TrendOptions {
-        run: monitoring::batch::BatchOptions {
-            stiction: args.stiction.clone(),
-            linear: args.linear.clone(),
-            settings,
-            read: args.data.read_options(true, monitoring::batch::MIN_ROWS),
-            integrating: args.integrating.into(),
-            min_fit: args.min_fit,
-        },
+        run,
         threshold: args.threshold,
         horizon: args.horizon,
     };
     let bar = crate::progress::Progress::new(s.progress, &format!("trend {valve}"));
-    let tick = |done: usize, total: usize| bar.update(done, total);
     let diagnoser = discrepancy::registration::RegistrationDiagnosis;
-    let vt = trend::follow(
-        &valve,
-        &files,
-        &options,
-        (!args.no_diagnose).then_some(&diagnoser as _),
-        Some(&tick),
-    );
+    let diagnoser = (!args.no_diagnose).then_some(&diagnoser as _);
+    let vt = trend::follow(&valve, &files, &options, diagnoser, Some(&bar.tick()));
     bar.finish();
     let vt = vt.map_err(usage)?;
-
     reporting::write(&args.report, s, || report::pages::trend_page(&vt))?;
     if args.json {
-        let doc = serde_json::to_value(vt.record()).map_err(data)?;
-        serde_json::to_writer_pretty(&mut *s.stdout, &doc).map_err(data)?;
-        writeln!(s.stdout).map_err(data)?;
-        return Ok(());
+        return s.json(&vt.record());
     }
-
-    let text = report::text::trend(&vt).map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)
+    s.text(report::text::trend(&vt)?)
 }
