@@ -79,44 +79,38 @@ enum Command {
     Batch(commands::batch::Args),
 }
 
-/// A failure with its exit status: 1 bad data or failed computation, 2 bad usage.
+/// A failure and its exit status: 1 bad data or a failed computation, 2 bad usage.
 #[derive(Debug)]
-pub(crate) enum Failure {
-    /// Bad data or a failed computation (exit 1).
-    Data(anyhow::Error),
-    /// Bad usage: invalid flags or parameter values (exit 2).
-    Usage(anyhow::Error),
+pub(crate) struct Failure {
+    error: anyhow::Error,
+    usage: bool,
 }
 
 /// Any error with `?` is bad data (exit 1); bad usage is marked with [`usage`].
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
-        Failure::Data(e.into())
+        Failure {
+            error: e.into(),
+            usage: false,
+        }
     }
 }
 
 impl Failure {
-    fn error(&self) -> &anyhow::Error {
-        match self {
-            Failure::Data(e) | Failure::Usage(e) => e,
-        }
-    }
     /// The error and its causes on one line (`monitoring::error_line`).
     pub(crate) fn line(&self) -> String {
-        monitoring::error_line(self.error().as_ref())
+        monitoring::error_line(self.error.as_ref())
     }
 }
 
 pub(crate) type CmdResult = Result<(), Failure>;
 
-/// Shorthand: wrap any error as bad data (exit 1).
-pub(crate) fn data<E: Into<anyhow::Error>>(e: E) -> Failure {
-    Failure::Data(e.into())
-}
-
 /// Shorthand: wrap any error as bad usage (exit 2).
 pub(crate) fn usage<E: Into<anyhow::Error>>(e: E) -> Failure {
-    Failure::Usage(e.into())
+    Failure {
+        error: e.into(),
+        usage: true,
+    }
 }
 
 /// Run with the process's arguments and standard streams; returns the exit status.
@@ -187,9 +181,9 @@ where
             let _ = streams.stdout.flush();
             0
         }
-        Err(f) if is_broken_pipe(f.error()) => 0,
+        Err(f) if is_broken_pipe(&f.error) => 0,
         Err(f) => {
-            let usage = matches!(f, Failure::Usage(_)) || is_usage_in_disguise(f.error());
+            let usage = f.usage || is_usage_in_disguise(&f.error);
             let _ = streams.stdout.flush();
             let _ = writeln!(streams.stderr, "error: {}", f.line());
             1 + i32::from(usage)
@@ -200,13 +194,14 @@ where
 /// A library error that is the user's choice of options (a grid over the node budget, an
 /// option out of range): bad usage, exit 2, wherever it surfaced.
 fn is_usage_in_disguise(e: &anyhow::Error) -> bool {
-    use grid_search::SearchError;
-    e.chain().any(|c| {
-        c.downcast_ref::<SearchError>()
-            .is_some_and(SearchError::is_usage)
-            || matches!(c.downcast_ref::<monitoring::MonitoringError>(),
-                Some(monitoring::MonitoringError::Search(e)) if e.is_usage())
-    })
+    use monitoring::MonitoringError::Search;
+    e.chain()
+        .any(|c| match c.downcast_ref::<monitoring::MonitoringError>() {
+            Some(Search(e)) => e.is_usage(),
+            _ => c
+                .downcast_ref::<grid_search::SearchError>()
+                .is_some_and(|e| e.is_usage()),
+        })
 }
 
 /// A closed stdout (`stiction ... | head`) ends the run quietly, as other Unix tools do.

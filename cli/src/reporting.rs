@@ -67,7 +67,7 @@ pub(crate) fn refused(
     if let Err(e) = write(flags, s, || {
         Ok(report::pages::refused_page(path, &msg, command))
     }) {
-        let _ = writeln!(s.stderr, "warning: {:#}", e.error());
+        let _ = writeln!(s.stderr, "warning: {:#}", e.error);
     }
     failure
 }

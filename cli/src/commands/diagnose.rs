@@ -8,7 +8,7 @@ use super::load::DataFlags;
 use super::quantify::LoopFlags;
 use super::search_flags::SearchFlags;
 use crate::reporting::{self, ReportFlags};
-use crate::{data, usage, CmdResult, Streams};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Fits the baseline (default kano + arx with the paper's orders), characterises its residuals on
@@ -72,7 +72,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         Err(DiagnoseError::Search(e)) if e.is_usage() => {
             return Err(usage(anyhow::Error::new(e).context(d.source.clone())))
         }
-        Err(other) => return Err(refused(data(anyhow!("{}: {other}", d.source)), s)),
+        Err(other) => return Err(refused(anyhow!("{}: {other}", d.source).into(), s)),
     };
     reporting::write(&args.report, s, || report::pages::diagnose_page(&d, &dg))?;
     let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
@@ -81,10 +81,6 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         v["detection"] = serde_json::json!(det.record());
         return s.json(&v);
     }
-    s.text(report::text::diagnose(&d, &dg)?)?;
-    Ok(writeln!(
-        s.stdout,
-        "{}",
-        report::text::detection_line(&det)
-    )?)
+    let text = report::text::diagnose(&d, &dg)?;
+    s.text(format!("{text}{}\n", report::text::detection_line(&det)))
 }

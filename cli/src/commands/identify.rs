@@ -59,13 +59,9 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let orders = args.orders.as_deref().unwrap_or("");
     let (identifier, _) =
         monitoring::identifier_for(&args.linear, orders, args.delay).map_err(usage)?;
-    let mut flags = args.data.clone();
-    if let Some(col) = &args.input {
-        flags.set_op(col.clone());
-    }
-    if let Some(col) = &args.output {
-        flags.set_pv(col.clone());
-    }
+    let flags = args
+        .data
+        .with_columns(args.input.as_ref(), args.output.as_ref());
     let d = load(&args.file, &flags, true, identifier.min_samples().max(3), s)?;
     let input = monitoring::identify::input_of(&d, args.input.as_deref());
     let output = (d.require_pv()?, args.output.as_deref().unwrap_or("PV"));

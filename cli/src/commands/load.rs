@@ -64,17 +64,18 @@ fn parse_op_range(s: &str) -> Result<(f64, f64), String> {
 }
 
 impl DataFlags {
-    /// Use column `name` as OP.
-    pub(crate) fn set_op(&mut self, name: String) {
-        self.op = Some(name);
-    }
     /// The OP column's name (`OP` unless remapped).
     pub(crate) fn op_column(&self) -> &str {
         self.op.as_deref().unwrap_or("OP")
     }
-    /// Use column `name` as PV.
-    pub(crate) fn set_pv(&mut self, name: String) {
-        self.pv = Some(name);
+
+    /// These flags with OP and PV read from the columns `op` and `pv` when given.
+    pub(crate) fn with_columns(&self, op: Option<&String>, pv: Option<&String>) -> DataFlags {
+        DataFlags {
+            op: op.or(self.op.as_ref()).cloned(),
+            pv: pv.or(self.pv.as_ref()).cloned(),
+            ..self.clone()
+        }
     }
 
     /// The reader's options for these flags.

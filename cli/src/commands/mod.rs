@@ -16,7 +16,7 @@ use std::io::Write;
 use std::path::Path;
 
 use anyhow::{anyhow, Context};
-use stiction_models::{find_model, Direction, InitialState, StictionModel};
+use stiction_models::{Direction, InitialState};
 
 use crate::{usage, CmdResult, Failure};
 
@@ -34,15 +34,6 @@ pub(crate) fn parse_param(s: &str) -> Result<(String, f64), String> {
         .parse()
         .map_err(|_| format!("parameter {k}: {:?} is not a number", v.trim()))?;
     Ok((k.to_string(), value))
-}
-
-/// Build a registered stiction model from its name and `K=V` pairs (bad usage on failure).
-pub(crate) fn build_model(
-    name: &str,
-    params: &[(String, f64)],
-) -> Result<Box<dyn StictionModel>, Failure> {
-    let entry = find_model(name).map_err(usage)?;
-    entry.build_named(params).map_err(usage)
 }
 
 /// The initial valve state from the `--start`, `--us0`, `--mv0` flags.
@@ -88,17 +79,14 @@ pub(crate) enum StartFlag {
 
 /// Parse `LO,HI` (for `--clip`).
 pub(crate) fn parse_clip(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s
-        .split_once(',')
-        .ok_or_else(|| format!("expected LO,HI (e.g. 0,100), got {s:?}"))?;
-    let lo: f64 = a
-        .trim()
-        .parse()
-        .map_err(|_| format!("{a:?} is not a number"))?;
-    let hi: f64 = b
-        .trim()
-        .parse()
-        .map_err(|_| format!("{b:?} is not a number"))?;
+    let (a, b) =
+        (s.split_once(',')).ok_or_else(|| format!("expected LO,HI (e.g. 0,100), got {s:?}"))?;
+    let number = |t: &str| {
+        t.trim()
+            .parse()
+            .map_err(|_| format!("{t:?} is not a number"))
+    };
+    let (lo, hi): (f64, f64) = (number(a)?, number(b)?);
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
         return Err(format!("expected finite LO < HI, got {lo},{hi}"));
     }

@@ -165,16 +165,8 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         v["detection"] = json!(det.record());
         return s.json(&v);
     }
-    s.text(report::text::quantify(
-        &d.source,
-        &r,
-        args.search.init.label(),
-    )?)?;
-    Ok(writeln!(
-        s.stdout,
-        "{}",
-        report::text::detection_line(&det)
-    )?)
+    let text = report::text::quantify(&d.source, &r, args.search.init.label())?;
+    s.text(format!("{text}{}\n", report::text::detection_line(&det)))
 }
 
 pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
@@ -212,12 +204,7 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         }
         return s.json(&doc);
     }
-    let o = args.search.options(1.0)?;
-    s.text(report::text::compare(
-        &d,
-        o.split,
-        o.init.label(),
-        o.criterion,
-        &view,
-    )?)
+    let o = args.search.settings(&[])?.options(1.0);
+    let text = report::text::compare(&d, o.split, o.init.label(), o.criterion, &view)?;
+    s.text(text)
 }

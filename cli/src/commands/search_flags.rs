@@ -1,35 +1,23 @@
 //! Flags shared by `quantify`, `compare`, `diagnose`, `trend` and `batch`: the linear model's
 //! orders, the dead time, the grid and the search.
 
-use grid_search::{Criterion, SearchOptions};
+use grid_search::Criterion;
 use monitoring::{Combination, DelayArg, SearchArgs, Settings};
 use stiction_models::Initialization;
 
 use super::valve::parse_init;
 use crate::{usage, Failure};
 
+/// `--split`: a decimal or a fraction `A/B`, strictly between 0 and 1.
 pub(crate) fn parse_split(s: &str) -> Result<f64, String> {
-    let v = match s.split_once('/') {
-        Some((a, b)) => {
-            let a: f64 = a
-                .trim()
-                .parse()
-                .map_err(|_| format!("{s:?} is not a fraction"))?;
-            let b: f64 = b
-                .trim()
-                .parse()
-                .map_err(|_| format!("{s:?} is not a fraction"))?;
-            a / b
-        }
-        None => s
-            .trim()
-            .parse::<f64>()
-            .map_err(|_| format!("{s:?} is not a number"))?,
+    let number = |t: &str| t.trim().parse::<f64>().ok();
+    let (v, what) = match s.split_once('/') {
+        Some((a, b)) => (number(a).zip(number(b)).map(|(a, b)| a / b), "a fraction"),
+        None => (number(s), "a number"),
     };
-    if v.is_finite() && v > 0.0 && v < 1.0 {
-        Ok(v)
-    } else {
-        Err(format!("{s}: expected a fraction strictly between 0 and 1"))
+    match v.ok_or_else(|| format!("{s:?} is not {what}"))? {
+        v if v.is_finite() && v > 0.0 && v < 1.0 => Ok(v),
+        _ => Err(format!("{s}: expected a fraction strictly between 0 and 1")),
     }
 }
 
@@ -83,11 +71,6 @@ impl From<CriterionFlag> for Criterion {
 }
 
 impl SearchFlags {
-    /// Search options for a record with OP span `span`.
-    pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
-        Ok(self.settings(&[])?.options(span))
-    }
-
     /// The flags as the library's [`SearchArgs`].
     pub(crate) fn args(&self) -> SearchArgs {
         SearchArgs {

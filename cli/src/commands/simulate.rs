@@ -6,7 +6,7 @@ use anyhow::Context;
 use datasets::simulate::{Overrides, Scenario};
 
 use super::{parse_param, with_output};
-use crate::{data, usage, CmdResult, Failure, Streams};
+use crate::{usage, CmdResult, Failure, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Defaults are the paper's benchmark (eqs. 10-12): ARMAX(3,3,3) plant, PI Kc = KI = 0.5,
@@ -97,10 +97,11 @@ fn scenario(args: &Args, s: &mut Streams<'_>) -> Result<Scenario, Failure> {
         seed: args.seed,
     })
     .map_err(usage)?;
-    // Flags are usage: a bad value given on the command line exits 2.
-    let class = if args.config.is_some() { data } else { usage };
-    sc.validate().map_err(class)?;
-    Ok(sc)
+    match sc.validate() {
+        // Flags are usage: a bad value given on the command line exits 2.
+        Err(e) if args.config.is_none() => Err(usage(e)),
+        result => Ok(result.map(|()| sc)?),
+    }
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {

@@ -7,12 +7,9 @@ use std::path::PathBuf;
 use anyhow::anyhow;
 
 use monitoring::batch::DEFAULT_MIN_FIT;
-use monitoring::registration::expand;
 use monitoring::trend::{self, TrendOptions, DEFAULT_HORIZON, DEFAULT_THRESHOLD};
 
-use super::batch::{not_loops, options, IntegratingFlag};
-use super::load::DataFlags;
-use super::search_flags::SearchFlags;
+use super::batch::{Combos, RunFlags};
 use crate::reporting::{self, ReportFlags};
 use crate::{usage, CmdResult, Streams};
 
@@ -44,17 +41,8 @@ pub struct Args {
     /// The valve to follow (file-name prefix before `_`); required when the files hold several.
     #[arg(long, value_name = "TAG")]
     valve: Option<String>,
-    /// Stiction models, comma-separated.
-    #[arg(
-        long,
-        value_name = "A,B",
-        value_delimiter = ',',
-        default_value = "kano"
-    )]
-    stiction: Vec<String>,
-    /// Linear identifiers, comma-separated.
-    #[arg(long, value_name = "X,Y", value_delimiter = ',', default_value = "arx")]
-    linear: Vec<String>,
+    #[command(flatten)]
+    combos: Combos,
     /// Maintenance threshold on S, % of valve span.
     #[arg(long, value_name = "S%", default_value_t = DEFAULT_THRESHOLD)]
     threshold: f64,
@@ -64,13 +52,8 @@ pub struct Args {
     /// How far ahead (days) the trend is projected for the `watch` verdict.
     #[arg(long, value_name = "DAYS", default_value_t = DEFAULT_HORIZON)]
     horizon: f64,
-    /// Integrating loops are identified from MV to ΔPV; `auto` = level loops (tag letter L).
-    #[arg(long, value_enum, default_value = "auto")]
-    integrating: IntegratingFlag,
     #[command(flatten)]
-    search: SearchFlags,
-    #[command(flatten)]
-    data: DataFlags,
+    run: RunFlags,
     /// Do not diagnose the weak and outlying registrations (faster; `why` then lists only the
     /// evidence from the quantification itself).
     #[arg(long)]
@@ -83,30 +66,23 @@ pub struct Args {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    let combos = (&args.stiction[..], &args.linear[..]);
-    let run = options(
-        combos,
-        &args.search,
-        &args.data,
-        args.integrating,
-        args.min_fit,
-    )?;
+    let run = args.run.options(&args.combos, args.min_fit)?;
     if !(args.threshold.is_finite() && args.threshold >= 0.0) {
         return Err(usage(anyhow!(
             "--threshold {}: expected a non-negative S in % of valve span",
             args.threshold
         )));
     }
-    let (files, skipped) = expand(&args.paths, &[], args.data.op_column()).map_err(usage)?;
-    not_loops(s, &skipped);
+    let files = args.run.files(&args.paths, &[], s)?;
     let (valve, files) = trend::select(files, args.valve.as_deref()).map_err(|e| match e {
         monitoring::MonitoringError::SeveralValves(_) => usage(e),
         other => other.into(),
     })?;
+    let (threshold, horizon) = (args.threshold, args.horizon);
     let options = TrendOptions {
         run,
-        threshold: args.threshold,
-        horizon: args.horizon,
+        threshold,
+        horizon,
     };
     let bar = crate::progress::Progress::new(s.progress, &format!("trend {valve}"));
     let diagnoser = discrepancy::registration::RegistrationDiagnosis;

@@ -3,11 +3,11 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use stiction_models::{clip, run_valve, Initialization};
+use stiction_models::{clip, find_model, run_valve, Initialization};
 
-use super::{build_model, initial_state, parse_clip, parse_param, with_output, StartFlag};
+use super::{initial_state, parse_clip, parse_param, with_output, StartFlag};
 use crate::commands::load::{load, DataFlags};
-use crate::{CmdResult, Streams};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 The default initialization is In.1 with the valve at rest at OP(0) after moving down
@@ -59,7 +59,8 @@ pub(crate) fn parse_init(s: &str) -> Result<Initialization, String> {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    let model = build_model(&args.model, &args.params)?;
+    let entry = find_model(&args.model).map_err(usage)?;
+    let model = entry.build_named(&args.params).map_err(usage)?;
     let init = match args.init {
         Initialization::In1(_) => {
             Initialization::In1(initial_state(args.start, args.us0, args.mv0)?)
