@@ -717,3 +717,31 @@ fn summary(
         roc: roc(&scores),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_paths_and_the_torn_lines_note() {
+        let (jsonl, csv) = out_paths(Path::new("runs/plant.v2"));
+        assert_eq!(jsonl, Path::new("runs/plant.v2.jsonl"));
+        assert_eq!(csv, Path::new("runs/plant.v2.csv"));
+        let mut run = BatchRun {
+            rows: Vec::new(),
+            computed: 0,
+            skipped: 0,
+            torn: Vec::new(),
+        };
+        assert_eq!(run.torn_note(), None);
+        run.torn = vec![7];
+        assert_eq!(
+            run.torn_note().as_deref(),
+            Some("line 7 is torn (an interrupted run): its registration is computed again")
+        );
+        run.torn = vec![3, 9];
+        assert!(run
+            .torn_note()
+            .is_some_and(|n| n.starts_with("2 unreadable lines (first: line 3)")));
+    }
+}

@@ -355,3 +355,24 @@ pub fn span_of(x: &[f64]) -> f64 {
         0.0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_example_is_a_searchable_problem() -> Result<(), MonitoringError> {
+        let d = paper_example()?;
+        assert_eq!(d.len(), 3000);
+        assert!(d.source.starts_with("example paper"));
+        let p = problem(&d)?;
+        assert_eq!((p.op.len(), p.pv.len()), (3000, 3000));
+        assert!(p.mv.is_some());
+        assert_eq!(crate::identify::input_of(&d, None).1, "MV");
+        assert_eq!(crate::identify::input_of(&d, Some("u")).1, "u");
+        let mut no_pv = d.clone();
+        no_pv.pv = None;
+        assert!(problem(&no_pv).is_err());
+        Ok(())
+    }
+}

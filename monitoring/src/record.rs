@@ -225,18 +225,6 @@ impl Fitted {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn on_grid_removes_float_noise_only() {
-        assert_eq!(on_grid(0.30000000000000004, 0.1), 0.3);
-        assert_eq!(on_grid(1.234_56, 0.5), 1.2346);
-        assert!(on_grid(f64::NAN, 0.1).is_nan());
-    }
-}
-
 /// The `compare --json` document: every combination's quantify object, and the combinations
 /// that failed with their one-line errors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -317,4 +305,48 @@ pub struct CompareError {
     pub linear_model: String,
     /// The one-line error.
     pub error: String,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn on_grid_removes_float_noise_only() {
+        assert_eq!(on_grid(0.30000000000000004, 0.1), 0.3);
+        assert_eq!(on_grid(1.234_56, 0.5), 1.2346);
+        assert!(on_grid(f64::NAN, 0.1).is_nan());
+    }
+
+    #[test]
+    fn compare_errors_keep_their_combination() {
+        let mut doc = CompareRecord::new("loop.csv");
+        doc.push("kano", "ss", Err("too few samples".into()));
+        assert!(doc.results.is_empty());
+        assert_eq!(doc.errors[0].linear_model, "ss");
+        assert_eq!(doc.errors[0].error, "too few samples");
+    }
+
+    #[test]
+    fn models_record_types_every_order() {
+        let doc = models_record();
+        let ss = doc["linear"]
+            .as_array()
+            .and_then(|l| l.iter().find(|e| e["name"] == "ss"))
+            .cloned()
+            .unwrap_or_default();
+        let order = |name: &str| {
+            ss["orders"]
+                .as_array()
+                .and_then(|o| o.iter().find(|o| o["name"] == name))
+                .cloned()
+                .unwrap_or_default()
+        };
+        assert_eq!(order("n")["type"], "integer");
+        assert_eq!(order("n")["default"], 2);
+        assert_eq!(order("center")["type"], "boolean");
+        assert_eq!(order("center")["default"], true);
+        assert_eq!(order("threshold")["type"], "real");
+        assert!(doc["stiction"].as_array().is_some_and(|s| !s.is_empty()));
+    }
 }

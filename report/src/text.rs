@@ -580,3 +580,22 @@ pub fn batch_table(rows: &[Row]) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn models_lists_every_order_with_its_typed_default() {
+        let t = super::models();
+        assert!(t.starts_with("Stiction models (OP -> MV)"), "{t}");
+        assert!(
+            t.contains(
+                "  ss          n=2, f=10, p=10, threshold=0.1, max_order=0, d_required=false, center=true\n"
+            ),
+            "{t}"
+        );
+        assert!(
+            t.contains("  earx        n=2, m=2, delay=0, lambda_beta=0.8\n"),
+            "{t}"
+        );
+    }
+}
