@@ -13,3 +13,17 @@ pub struct Streams<'a> {
     /// Show progress bars on the real standard error (only when it is a terminal).
     pub progress: bool,
 }
+
+impl Streams<'_> {
+    /// Print one JSON document (through a `Value`: keys sorted), pretty, and a newline.
+    pub(crate) fn json(&mut self, doc: &impl serde::Serialize) -> crate::CmdResult {
+        let doc = serde_json::to_value(doc)?;
+        serde_json::to_writer_pretty(&mut *self.stdout, &doc)?;
+        Ok(writeln!(self.stdout)?)
+    }
+
+    /// Print `text` as it is.
+    pub(crate) fn text(&mut self, text: impl std::fmt::Display) -> crate::CmdResult {
+        Ok(write!(self.stdout, "{text}")?)
+    }
+}

@@ -9,7 +9,7 @@
 //! 1 bad data or a failed computation; 2 bad usage (see the CLI contract).
 
 use std::ffi::OsString;
-use std::io::{Read, Write};
+use std::io::Read;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -79,39 +79,38 @@ enum Command {
     Batch(commands::batch::Args),
 }
 
-/// A failure with its exit status: 1 bad data or failed computation, 2 bad usage.
+/// A failure and its exit status: 1 bad data or a failed computation, 2 bad usage.
 #[derive(Debug)]
-pub(crate) enum Failure {
-    /// Bad data or a failed computation (exit 1).
-    Data(anyhow::Error),
-    /// Bad usage: invalid flags or parameter values (exit 2).
-    Usage(anyhow::Error),
+pub(crate) struct Failure {
+    error: anyhow::Error,
+    usage: bool,
+}
+
+/// Any error with `?` is bad data (exit 1); bad usage is marked with [`usage`].
+impl<E: Into<anyhow::Error>> From<E> for Failure {
+    fn from(e: E) -> Self {
+        Failure {
+            error: e.into(),
+            usage: false,
+        }
+    }
 }
 
 impl Failure {
-    fn code(&self) -> i32 {
-        match self {
-            Failure::Data(_) => 1,
-            Failure::Usage(_) => 2,
-        }
-    }
-    fn error(&self) -> &anyhow::Error {
-        match self {
-            Failure::Data(e) | Failure::Usage(e) => e,
-        }
+    /// The error and its causes on one line (`monitoring::error_line`).
+    pub(crate) fn line(&self) -> String {
+        monitoring::error_line(self.error.as_ref())
     }
 }
 
 pub(crate) type CmdResult = Result<(), Failure>;
 
-/// Shorthand: wrap any error as bad data (exit 1).
-pub(crate) fn data<E: Into<anyhow::Error>>(e: E) -> Failure {
-    Failure::Data(e.into())
-}
-
 /// Shorthand: wrap any error as bad usage (exit 2).
 pub(crate) fn usage<E: Into<anyhow::Error>>(e: E) -> Failure {
-    Failure::Usage(e.into())
+    Failure {
+        error: e.into(),
+        usage: true,
+    }
 }
 
 /// Run with the process's arguments and standard streams; returns the exit status.
@@ -148,26 +147,21 @@ where
         .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m));
     let cli = match parsed {
         Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            let _ = write!(streams.stdout, "{}", e.render());
+            return 0;
+        }
         Err(e) => {
-            let code = if e.use_stderr() { 2 } else { 0 };
-            let mut rendered = e.render().to_string();
-            if code != 0 {
-                // One line: clap's message up to its first blank line (the usage and the
-                // `--help` hint follow it).
-                let head: Vec<&str> = rendered
-                    .lines()
-                    .take_while(|l| !l.trim().is_empty())
-                    .map(str::trim)
-                    .collect();
-                rendered = format!("{} (see --help)\n", head.join(" "));
-            }
-            let sink: &mut dyn Write = if code == 0 {
-                streams.stdout
-            } else {
-                streams.stderr
-            };
-            let _ = write!(sink, "{rendered}");
-            return code;
+            // One line: clap's message up to its first blank line (the usage and the `--help`
+            // hint follow it).
+            let rendered = e.render().to_string();
+            let head: Vec<&str> = rendered
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let _ = writeln!(streams.stderr, "{} (see --help)", head.join(" "));
+            return 2;
         }
     };
     let result = match cli.command {
@@ -187,57 +181,27 @@ where
             let _ = streams.stdout.flush();
             0
         }
-        Err(f) if is_broken_pipe(f.error()) => 0,
+        Err(f) if is_broken_pipe(&f.error) => 0,
         Err(f) => {
-            let code = if is_usage_in_disguise(f.error()) {
-                2
-            } else {
-                f.code()
-            };
+            let usage = f.usage || is_usage_in_disguise(&f.error);
             let _ = streams.stdout.flush();
-            let msg = one_line(f.error());
-            let _ = writeln!(streams.stderr, "error: {msg}");
-            code
+            let _ = writeln!(streams.stderr, "error: {}", f.line());
+            1 + i32::from(usage)
         }
     }
-}
-
-/// One line: the chain of causes joined with ": ", leaving out a cause whose text the line
-/// already says (an IO error wrapped with its own message would otherwise read "No such file
-/// or directory (os error 2): No such file or directory (os error 2)").
-pub(crate) fn one_line(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string().replace('\n', " ");
-        if text.is_empty() || msg.contains(&text) {
-            continue;
-        }
-        if !msg.is_empty() {
-            msg.push_str(": ");
-        }
-        msg.push_str(&text);
-    }
-    msg
 }
 
 /// A library error that is the user's choice of options (a grid over the node budget, an
 /// option out of range): bad usage, exit 2, wherever it surfaced.
 fn is_usage_in_disguise(e: &anyhow::Error) -> bool {
-    e.chain().any(|c| {
-        matches!(
-            c.downcast_ref::<grid_search::SearchError>(),
-            Some(
-                grid_search::SearchError::Budget { .. }
-                    | grid_search::SearchError::InvalidOption { .. }
-            )
-        ) || matches!(
-            c.downcast_ref::<monitoring::MonitoringError>(),
-            Some(monitoring::MonitoringError::Search(
-                grid_search::SearchError::Budget { .. }
-                    | grid_search::SearchError::InvalidOption { .. }
-            ))
-        )
-    })
+    use monitoring::MonitoringError::Search;
+    e.chain()
+        .any(|c| match c.downcast_ref::<monitoring::MonitoringError>() {
+            Some(Search(e)) => e.is_usage(),
+            _ => c
+                .downcast_ref::<grid_search::SearchError>()
+                .is_some_and(|e| e.is_usage()),
+        })
 }
 
 /// A closed stdout (`stiction ... | head`) ends the run quietly, as other Unix tools do.

@@ -64,6 +64,11 @@ impl Progress {
         bar.set_position(done as u64);
     }
 
+    /// [`Progress::update`] as the libraries' progress callback.
+    pub(crate) fn tick(&self) -> impl Fn(usize, usize) + Sync + '_ {
+        move |done, total| self.update(done, total)
+    }
+
     /// Remove the bar.
     pub(crate) fn finish(&self) {
         if let Ok(mut guard) = self.bar.lock() {

@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::anyhow;
 use report::{Report, ReportError, WriteOptions};
 
-use crate::{data, Failure, Streams};
+use crate::{CmdResult, Failure, Streams};
 
 /// The report flags.
 #[derive(Debug, Clone, clap::Args)]
@@ -22,25 +22,20 @@ pub struct ReportFlags {
     pub png: bool,
 }
 
-/// A report error as bad data.
-pub(crate) fn failed(e: ReportError) -> Failure {
-    data(anyhow!("report: {e}"))
-}
-
 /// Build the page with `page` and write it to the flags' directory (nothing without
 /// `--report`), saying so on stderr.
 pub(crate) fn write(
     flags: &ReportFlags,
     s: &mut Streams<'_>,
     page: impl FnOnce() -> Result<Report, ReportError>,
-) -> Result<(), Failure> {
+) -> CmdResult {
     let Some(dir) = &flags.report else {
         return Ok(());
     };
     let started = Instant::now();
     let w = page()
         .and_then(|rep| rep.write(dir, WriteOptions { png: flags.png }))
-        .map_err(failed)?;
+        .map_err(|e| anyhow!("report: {e}"))?;
     let _ = writeln!(
         s.stderr,
         "report: {} ({} figure files, {:.0} kB, {:.0} ms)",
@@ -68,10 +63,11 @@ pub(crate) fn refused(
     if path.as_os_str() != "-" && !path.is_file() {
         return failure;
     }
-    let msg = crate::one_line(failure.error());
-    let page = || Ok(report::pages::refused_page(path, &msg, command));
-    if let Err(e) = write(flags, s, page) {
-        let _ = writeln!(s.stderr, "warning: {:#}", e.error());
+    let msg = failure.line();
+    if let Err(e) = write(flags, s, || {
+        Ok(report::pages::refused_page(path, &msg, command))
+    }) {
+        let _ = writeln!(s.stderr, "warning: {:#}", e.error);
     }
     failure
 }

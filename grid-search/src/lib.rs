@@ -119,6 +119,17 @@ pub enum SearchError {
     },
 }
 
+impl SearchError {
+    /// Whether the error is the user's choice of options, not the data: a grid over the node
+    /// budget or an option out of range (a command line calls it bad usage).
+    pub fn is_usage(&self) -> bool {
+        matches!(
+            self,
+            SearchError::Budget { .. } | SearchError::InvalidOption { .. }
+        )
+    }
+}
+
 mod delay;
 pub use delay::{estimate_delay, DelayScan};
 

@@ -47,6 +47,14 @@ impl Criterion {
             Criterion::Simulation => "simulation",
         }
     }
+
+    /// `one-step prediction` or `free-run simulation`.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Criterion::Prediction => "one-step prediction",
+            Criterion::Simulation => "free-run simulation",
+        }
+    }
 }
 
 /// How the grid is laid out.

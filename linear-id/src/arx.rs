@@ -4,10 +4,10 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{check_data, check_order};
-use crate::registry::{as_order, resolve};
+use crate::registry::resolve;
 use crate::{
-    la, mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, PreparedOutput,
-    Structure,
+    la, mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue,
+    PreparedOutput, Structure,
 };
 
 /// Largest accepted polynomial order.
@@ -260,11 +260,11 @@ impl LinearIdentifier for Arx {
     fn name(&self) -> &'static str {
         "arx"
     }
-    fn orders(&self) -> Vec<(&'static str, f64)> {
+    fn orders(&self) -> Vec<(&'static str, OrderValue)> {
         vec![
-            ("n", self.n as f64),
-            ("m", self.m as f64),
-            ("delay", self.delay as f64),
+            ("n", OrderValue::Int(self.n)),
+            ("m", OrderValue::Int(self.m)),
+            ("delay", OrderValue::Int(self.delay)),
         ]
     }
     fn min_samples(&self) -> usize {
@@ -311,28 +311,28 @@ impl LinearIdentifier for Arx {
 const ARX_ORDERS: [OrderSpec; 3] = [
     OrderSpec {
         name: "n",
-        default: 2.0,
+        default: OrderValue::Int(2),
         meaning: "order of A(q) (auto-regressive part)",
     },
     OrderSpec {
         name: "m",
-        default: 2.0,
+        default: OrderValue::Int(2),
         meaning: "order of B(q) (exogenous part, b1 q^-1 .. bm q^-m)",
     },
     OrderSpec {
         name: "delay",
-        default: 0.0,
+        default: OrderValue::Int(0),
         meaning: "dead time t_d in samples (first input lag is 1 + delay)",
     },
 ];
 
-fn build_arx(pairs: &[(String, f64)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let v = resolve("arx", &ARX_ORDERS, pairs)?;
+fn build_arx(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut v = resolve("arx", &ARX_ORDERS, pairs)?;
     Ok(Box::new(
         Arx::params()
-            .n(as_order("arx", "n", v[0])?)
-            .m(as_order("arx", "m", v[1])?)
-            .delay(as_order("arx", "delay", v[2])?)
+            .n(v.int()?)
+            .m(v.int()?)
+            .delay(v.int()?)
             .check()?,
     ))
 }

@@ -13,7 +13,7 @@ pub enum IdError {
         /// Order / option name.
         name: String,
         /// The rejected value.
-        value: f64,
+        value: crate::OrderValue,
         /// The valid range, in words.
         expected: String,
     },
@@ -199,7 +199,7 @@ pub(crate) fn check_order(
         return Err(IdError::InvalidOrder {
             identifier,
             name: name.to_string(),
-            value: value as f64,
+            value: crate::OrderValue::Int(value),
             expected: format!("an integer in [{lo}, {hi}]"),
         });
     }
@@ -218,7 +218,7 @@ pub(crate) fn check_real(
         return Err(IdError::InvalidOrder {
             identifier,
             name: name.to_string(),
-            value,
+            value: crate::OrderValue::Real(value),
             expected: format!("a finite number in [{lo}, {hi}]"),
         });
     }

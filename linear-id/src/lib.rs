@@ -143,6 +143,7 @@ mod error;
 mod fit;
 mod la;
 mod model;
+mod order;
 mod parsim;
 mod recursive;
 mod registry;
@@ -155,12 +156,13 @@ pub use fit::{
     E_G_GRID_POINTS,
 };
 pub use model::{BiasTracking, FitInfo, LinearFit, Structure, STABILITY_MARGIN};
+pub use order::{OrderKind, OrderParseError, OrderValue};
 pub use parsim::{ParsimK, ParsimKParams};
 pub use recursive::{
     armax_batch, Armax, ArmaxParams, Earmax, EarmaxParams, Earx, EarxParams, RecursiveOptions,
 };
 pub use registry::{
-    as_order, find_identifier, registry, resolve, BuildFn, IdentifierEntry, OrderSpec,
+    find_identifier, registry, resolve, BuildFn, IdentifierEntry, OrderSpec, ResolvedOrders,
 };
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.
@@ -180,8 +182,9 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
     /// Registered name (equal to the typetag tag).
     fn name(&self) -> &'static str;
 
-    /// The identifier's orders and options, in the order of its [`IdentifierEntry::orders`].
-    fn orders(&self) -> Vec<(&'static str, f64)>;
+    /// The identifier's orders and options, in the order of its [`IdentifierEntry::orders`],
+    /// each of its spec's type ([`OrderSpec::kind`]).
+    fn orders(&self) -> Vec<(&'static str, OrderValue)>;
 
     /// Minimum number of samples `identify` accepts with these orders.
     fn min_samples(&self) -> usize;

@@ -11,9 +11,10 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{check_data, check_order, check_real};
-use crate::registry::{as_order, resolve};
+use crate::registry::resolve;
 use crate::{
-    la, mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, Structure,
+    la, mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue,
+    Structure,
 };
 
 /// PARSIM-K state-space identification, eq. (6) in innovation form.
@@ -120,7 +121,7 @@ impl ParsimKParams {
             return Err(IdError::InvalidOrder {
                 identifier: "ss",
                 name: "threshold".into(),
-                value: self.threshold,
+                value: OrderValue::Real(self.threshold),
                 expected: "a finite number in [0, 1)".into(),
             });
         }
@@ -505,15 +506,15 @@ impl LinearIdentifier for ParsimK {
     fn name(&self) -> &'static str {
         "ss"
     }
-    fn orders(&self) -> Vec<(&'static str, f64)> {
+    fn orders(&self) -> Vec<(&'static str, OrderValue)> {
         vec![
-            ("n", self.p.n as f64),
-            ("f", self.p.f as f64),
-            ("p", self.p.p as f64),
-            ("threshold", self.p.threshold),
-            ("max_order", self.p.max_order as f64),
-            ("d_required", f64::from(u8::from(self.p.d_required))),
-            ("center", f64::from(u8::from(self.p.center))),
+            ("n", OrderValue::Int(self.p.n)),
+            ("f", OrderValue::Int(self.p.f)),
+            ("p", OrderValue::Int(self.p.p)),
+            ("threshold", OrderValue::Real(self.p.threshold)),
+            ("max_order", OrderValue::Int(self.p.max_order)),
+            ("d_required", OrderValue::Bool(self.p.d_required)),
+            ("center", OrderValue::Bool(self.p.center)),
         ]
     }
     fn min_samples(&self) -> usize {
@@ -533,70 +534,52 @@ impl LinearIdentifier for ParsimK {
 const SS_ORDERS: [OrderSpec; 7] = [
     OrderSpec {
         name: "n",
-        default: 2.0,
+        default: OrderValue::Int(2),
         meaning: "state dimension (0 = choose by the singular-value threshold)",
     },
     OrderSpec {
         name: "f",
-        default: 10.0,
+        default: OrderValue::Int(10),
         meaning: "future horizon",
     },
     OrderSpec {
         name: "p",
-        default: 10.0,
+        default: OrderValue::Int(10),
         meaning: "past horizon",
     },
     OrderSpec {
         name: "threshold",
-        default: 0.1,
+        default: OrderValue::Real(0.1),
         meaning: "keep singular values >= threshold * largest (when n = 0)",
     },
     OrderSpec {
         name: "max_order",
-        default: 0.0,
+        default: OrderValue::Int(0),
         meaning: "cap of the threshold rule (0 = f)",
     },
     OrderSpec {
         name: "d_required",
-        default: 0.0,
-        meaning: "1 = estimate a feedthrough D, 0 = D fixed to 0 (eq. 6)",
+        default: OrderValue::Bool(false),
+        meaning: "true = estimate a feedthrough D, false = D fixed to 0 (eq. 6)",
     },
     OrderSpec {
         name: "center",
-        default: 1.0,
-        meaning: "1 = subtract the means of u and y first, 0 = do not (SIPPY's default)",
+        default: OrderValue::Bool(true),
+        meaning: "true = subtract the means of u and y first, false = do not (SIPPY's default)",
     },
 ];
 
-fn build_ss(pairs: &[(String, f64)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let v = resolve("ss", &SS_ORDERS, pairs)?;
-    let d_req = as_order("ss", "d_required", v[5])?;
-    if d_req > 1 {
-        return Err(IdError::InvalidOrder {
-            identifier: "ss",
-            name: "d_required".into(),
-            value: v[5],
-            expected: "0 or 1".into(),
-        });
-    }
-    let center = as_order("ss", "center", v[6])?;
-    if center > 1 {
-        return Err(IdError::InvalidOrder {
-            identifier: "ss",
-            name: "center".into(),
-            value: v[6],
-            expected: "0 or 1".into(),
-        });
-    }
+fn build_ss(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut v = resolve("ss", &SS_ORDERS, pairs)?;
     Ok(Box::new(
         ParsimK::params()
-            .center(center == 1)
-            .n(as_order("ss", "n", v[0])?)
-            .f(as_order("ss", "f", v[1])?)
-            .p(as_order("ss", "p", v[2])?)
-            .threshold(v[3])
-            .max_order(as_order("ss", "max_order", v[4])?)
-            .d_required(d_req == 1)
+            .n(v.int()?)
+            .f(v.int()?)
+            .p(v.int()?)
+            .threshold(v.real()?)
+            .max_order(v.int()?)
+            .d_required(v.bool()?)
+            .center(v.bool()?)
             .check()?,
     ))
 }

@@ -18,10 +18,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::arx::{MAX_DELAY, MAX_ORDER};
 use crate::error::{check_data, check_order, check_real};
-use crate::registry::{as_order, resolve};
+use crate::registry::resolve;
 use crate::{
     la, mean, BiasTracking, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec,
-    Structure,
+    OrderValue, Structure,
 };
 
 /// Tuning of the recursive estimator (shared by armax, earx, earmax).
@@ -382,7 +382,7 @@ macro_rules! recursive_identifier {
                     return Err(IdError::InvalidOrder {
                         identifier: $tag,
                         name: "p".into(),
-                        value: self.p as f64,
+                        value: OrderValue::Int(self.p),
                         expected: "0 (earx has no C(q); use earmax)".into(),
                     });
                 }
@@ -431,15 +431,15 @@ macro_rules! recursive_identifier {
             fn name(&self) -> &'static str {
                 $tag
             }
-            fn orders(&self) -> Vec<(&'static str, f64)> {
+            fn orders(&self) -> Vec<(&'static str, OrderValue)> {
                 let r = &self.inner;
-                let mut v = vec![("n", r.na as f64), ("m", r.nb as f64)];
+                let mut v = vec![("n", OrderValue::Int(r.na)), ("m", OrderValue::Int(r.nb))];
                 if $has_p {
-                    v.push(("p", r.nc as f64));
+                    v.push(("p", OrderValue::Int(r.nc)));
                 }
-                v.push(("delay", r.delay as f64));
+                v.push(("delay", OrderValue::Int(r.delay)));
                 if $bias {
-                    v.push(("lambda_beta", r.tuning.lambda_beta));
+                    v.push(("lambda_beta", OrderValue::Real(r.tuning.lambda_beta)));
                 }
                 v
             }
@@ -487,27 +487,27 @@ recursive_identifier!(
 
 const N_SPEC: OrderSpec = OrderSpec {
     name: "n",
-    default: 2.0,
+    default: OrderValue::Int(2),
     meaning: "order of A(q)",
 };
 const M_SPEC: OrderSpec = OrderSpec {
     name: "m",
-    default: 2.0,
+    default: OrderValue::Int(2),
     meaning: "order of B(q) (b1 q^-1 .. bm q^-m)",
 };
 const P_SPEC: OrderSpec = OrderSpec {
     name: "p",
-    default: 2.0,
+    default: OrderValue::Int(2),
     meaning: "order of C(q) (moving average)",
 };
 const DELAY_SPEC: OrderSpec = OrderSpec {
     name: "delay",
-    default: 0.0,
+    default: OrderValue::Int(0),
     meaning: "dead time t_d in samples (first input lag is 1 + delay)",
 };
 const LAMBDA_BETA_SPEC: OrderSpec = OrderSpec {
     name: "lambda_beta",
-    default: 0.8,
+    default: OrderValue::Real(0.8),
     meaning: "forgetting factor of the time-varying bias (smaller tracks faster)",
 };
 
@@ -515,39 +515,39 @@ const ARMAX_ORDERS: [OrderSpec; 4] = [N_SPEC, M_SPEC, P_SPEC, DELAY_SPEC];
 const EARX_ORDERS: [OrderSpec; 4] = [N_SPEC, M_SPEC, DELAY_SPEC, LAMBDA_BETA_SPEC];
 const EARMAX_ORDERS: [OrderSpec; 5] = [N_SPEC, M_SPEC, P_SPEC, DELAY_SPEC, LAMBDA_BETA_SPEC];
 
-fn build_armax(pairs: &[(String, f64)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let v = resolve("armax", &ARMAX_ORDERS, pairs)?;
+fn build_armax(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut v = resolve("armax", &ARMAX_ORDERS, pairs)?;
     Ok(Box::new(
         Armax::params()
-            .n(as_order("armax", "n", v[0])?)
-            .m(as_order("armax", "m", v[1])?)
-            .p(as_order("armax", "p", v[2])?)
-            .delay(as_order("armax", "delay", v[3])?)
+            .n(v.int()?)
+            .m(v.int()?)
+            .p(v.int()?)
+            .delay(v.int()?)
             .check()?,
     ))
 }
 
-fn build_earx(pairs: &[(String, f64)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let v = resolve("earx", &EARX_ORDERS, pairs)?;
+fn build_earx(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut v = resolve("earx", &EARX_ORDERS, pairs)?;
     Ok(Box::new(
         Earx::params()
-            .n(as_order("earx", "n", v[0])?)
-            .m(as_order("earx", "m", v[1])?)
-            .delay(as_order("earx", "delay", v[2])?)
-            .lambda_beta(v[3])
+            .n(v.int()?)
+            .m(v.int()?)
+            .delay(v.int()?)
+            .lambda_beta(v.real()?)
             .check()?,
     ))
 }
 
-fn build_earmax(pairs: &[(String, f64)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let v = resolve("earmax", &EARMAX_ORDERS, pairs)?;
+fn build_earmax(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut v = resolve("earmax", &EARMAX_ORDERS, pairs)?;
     Ok(Box::new(
         Earmax::params()
-            .n(as_order("earmax", "n", v[0])?)
-            .m(as_order("earmax", "m", v[1])?)
-            .p(as_order("earmax", "p", v[2])?)
-            .delay(as_order("earmax", "delay", v[3])?)
-            .lambda_beta(v[4])
+            .n(v.int()?)
+            .m(v.int()?)
+            .p(v.int()?)
+            .delay(v.int()?)
+            .lambda_beta(v.real()?)
             .check()?,
     ))
 }

@@ -1,20 +1,44 @@
 //! The registry of linear identifiers, filled by `inventory::submit!` next to each identifier.
 
-use crate::{IdError, LinearIdentifier};
+use crate::{IdError, LinearIdentifier, OrderKind, OrderValue};
 
 /// One order / option of a registered identifier.
 #[derive(Debug, Clone, Copy)]
 pub struct OrderSpec {
     /// Name as used in JSON configs and `NAME=value` pairs.
     pub name: &'static str,
-    /// Value when not given.
-    pub default: f64,
+    /// Value when not given; its variant is the option's type ([`OrderSpec::kind`]).
+    pub default: OrderValue,
     /// One-line meaning.
     pub meaning: &'static str,
 }
 
+impl OrderSpec {
+    /// The option's type: the kind of its default.
+    pub fn kind(&self) -> OrderKind {
+        self.default.kind()
+    }
+
+    /// `value` as this option's type ([`OrderValue::to_kind`]), or
+    /// [`IdError::InvalidOrder`] naming `identifier`.
+    pub fn accept(
+        &self,
+        identifier: &'static str,
+        value: OrderValue,
+    ) -> Result<OrderValue, IdError> {
+        value
+            .to_kind(self.kind())
+            .ok_or_else(|| IdError::InvalidOrder {
+                identifier,
+                name: self.name.to_string(),
+                value,
+                expected: self.kind().expected().into(),
+            })
+    }
+}
+
 /// Builds a checked identifier from `NAME=value` pairs.
-pub type BuildFn = fn(&[(String, f64)]) -> Result<Box<dyn LinearIdentifier>, IdError>;
+pub type BuildFn = fn(&[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError>;
 
 /// A registered identifier: what `stiction identifiers` lists and what a grid search builds.
 #[derive(Debug)]
@@ -43,8 +67,9 @@ impl IdentifierEntry {
     }
 
     /// Resolve `NAME=value` pairs (exact names first, then case-insensitive) against the
-    /// entry's orders: the values in the order of [`IdentifierEntry::orders`], defaults filled in.
-    pub fn resolve(&self, pairs: &[(String, f64)]) -> Result<Vec<f64>, IdError> {
+    /// entry's orders: the values in the order of [`IdentifierEntry::orders`], each of its
+    /// order's type ([`OrderSpec::accept`]), defaults filled in.
+    pub fn resolve(&self, pairs: &[(String, OrderValue)]) -> Result<ResolvedOrders, IdError> {
         resolve(self.name, self.orders, pairs)
     }
 }
@@ -53,9 +78,9 @@ impl IdentifierEntry {
 pub fn resolve(
     identifier: &'static str,
     orders: &'static [OrderSpec],
-    pairs: &[(String, f64)],
-) -> Result<Vec<f64>, IdError> {
-    let mut values: Vec<f64> = orders.iter().map(|o| o.default).collect();
+    pairs: &[(String, OrderValue)],
+) -> Result<ResolvedOrders, IdError> {
+    let mut values: Vec<OrderValue> = orders.iter().map(|o| o.default).collect();
     for (name, value) in pairs {
         let idx = orders
             .iter()
@@ -70,22 +95,78 @@ pub fn resolve(
                 name: name.clone(),
                 known: orders.iter().map(|o| o.name).collect::<Vec<_>>().join(", "),
             })?;
-        values[idx] = *value;
+        values[idx] = orders[idx].accept(identifier, *value)?;
     }
-    Ok(values)
+    Ok(ResolvedOrders {
+        identifier,
+        specs: orders,
+        values,
+        next: 0,
+    })
 }
 
-/// Convert a registry value to a non-negative integer order.
-pub fn as_order(identifier: &'static str, name: &str, value: f64) -> Result<usize, IdError> {
-    if value.is_finite() && value >= 0.0 && value.fract() == 0.0 && value <= 1e6 {
-        Ok(value as usize)
-    } else {
-        Err(IdError::InvalidOrder {
-            identifier,
-            name: name.to_string(),
-            value,
-            expected: "a non-negative integer".into(),
-        })
+/// The values of [`resolve`]: one per order of the identifier, in the order of its specs, each
+/// of its order's type. A `build` function takes them out in turn with [`ResolvedOrders::int`],
+/// [`ResolvedOrders::bool`] and [`ResolvedOrders::real`].
+///
+/// ```
+/// use linear_id::{resolve, OrderSpec, OrderValue};
+/// const SPECS: [OrderSpec; 2] = [
+///     OrderSpec { name: "n", default: OrderValue::Int(2), meaning: "order" },
+///     OrderSpec { name: "center", default: OrderValue::Bool(true), meaning: "center first" },
+/// ];
+/// let mut v = resolve("mine", &SPECS, &[("center".into(), OrderValue::Int(0))])?;
+/// assert_eq!((v.int()?, v.bool()?), (2, false));
+/// # Ok::<(), linear_id::IdError>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct ResolvedOrders {
+    identifier: &'static str,
+    specs: &'static [OrderSpec],
+    values: Vec<OrderValue>,
+    next: usize,
+}
+
+impl ResolvedOrders {
+    /// Every value, in the order of the specs.
+    pub fn values(&self) -> &[OrderValue] {
+        &self.values
+    }
+
+    /// The next value as `kind`: an error when the build function asks for another type than
+    /// its spec's, or for more values than there are specs.
+    fn take(&mut self, kind: OrderKind) -> Result<OrderValue, IdError> {
+        let i = self.next;
+        self.next += 1;
+        let name = self.specs.get(i).map_or("(none)", |s| s.name);
+        let value = self.values.get(i).copied().unwrap_or(OrderValue::Int(0));
+        value
+            .to_kind(kind)
+            .filter(|_| i < self.values.len())
+            .ok_or_else(|| IdError::InvalidOrder {
+                identifier: self.identifier,
+                name: name.to_string(),
+                value,
+                expected: format!(
+                    "{} (the build function reads order {i} as {kind})",
+                    kind.expected()
+                ),
+            })
+    }
+
+    /// The next value, an integer.
+    pub fn int(&mut self) -> Result<usize, IdError> {
+        Ok(self.take(OrderKind::Integer)?.as_int().unwrap_or_default())
+    }
+
+    /// The next value, a switch.
+    pub fn bool(&mut self) -> Result<bool, IdError> {
+        Ok(self.take(OrderKind::Boolean)?.as_bool().unwrap_or_default())
+    }
+
+    /// The next value, a real number.
+    pub fn real(&mut self) -> Result<f64, IdError> {
+        Ok(self.take(OrderKind::Real)?.as_real().unwrap_or_default())
     }
 }
 

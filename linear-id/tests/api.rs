@@ -4,7 +4,8 @@ mod common;
 
 use common::*;
 use linear_id::{
-    find_identifier, registry, Arx, Earx, IdError, LinearIdentifier, ParsimK, Structure,
+    find_identifier, registry, Arx, Earx, IdError, LinearIdentifier, OrderKind, OrderValue,
+    ParsimK, Structure,
 };
 
 const NAMES: [&str; 5] = ["armax", "arx", "earmax", "earx", "ss"];
@@ -19,14 +20,18 @@ fn builtins_are_registered_with_defaults_of_the_paper() {
         assert_eq!(id.name(), n);
         let orders = id.orders();
         let get = |k: &str| orders.iter().find(|(name, _)| *name == k).map(|(_, v)| *v);
-        assert_eq!(get("n"), Some(2.0), "{n}");
+        assert_eq!(get("n"), Some(OrderValue::Int(2)), "{n}");
         if n != "ss" {
-            assert_eq!(get("m"), Some(2.0));
-            assert_eq!(get("delay"), Some(0.0));
+            assert_eq!(get("m"), Some(OrderValue::Int(2)));
+            assert_eq!(get("delay"), Some(OrderValue::Int(0)));
         }
         if n == "armax" || n == "earmax" {
-            assert_eq!(get("p"), Some(2.0));
+            assert_eq!(get("p"), Some(OrderValue::Int(2)));
         }
+        // every value has its spec's type, in the spec's order
+        let kinds: Vec<(&str, OrderKind)> = orders.iter().map(|(k, v)| (*k, v.kind())).collect();
+        let specs: Vec<(&str, OrderKind)> = e.orders.iter().map(|o| (o.name, o.kind())).collect();
+        assert_eq!(kinds, specs, "{n}");
     }
     assert!(matches!(
         find_identifier("nope"),
@@ -34,15 +39,48 @@ fn builtins_are_registered_with_defaults_of_the_paper() {
     ));
     let e = find_identifier("arx").unwrap();
     assert!(matches!(
-        (e.build)(&[("q".into(), 1.0)]),
+        (e.build)(&[("q".into(), OrderValue::Int(1))]),
         Err(IdError::UnknownOrder { .. })
     ));
     assert!(matches!(
-        (e.build)(&[("n".into(), 1.5)]),
+        (e.build)(&[("n".into(), OrderValue::Real(1.5))]),
         Err(IdError::InvalidOrder { .. })
     ));
-    let id = (e.build)(&[("n".into(), 3.0), ("delay".into(), 2.0)]).unwrap();
-    assert_eq!(id.orders(), vec![("n", 3.0), ("m", 2.0), ("delay", 2.0)]);
+    // an order is an integer: neither 2.0 nor true
+    for bad in [OrderValue::Real(2.0), OrderValue::Bool(true)] {
+        assert!(matches!(
+            (e.build)(&[("n".into(), bad)]),
+            Err(IdError::InvalidOrder { .. })
+        ));
+    }
+    let id = (e.build)(&[
+        ("n".into(), OrderValue::Int(3)),
+        ("delay".into(), OrderValue::Int(2)),
+    ])
+    .unwrap();
+    let int = OrderValue::Int;
+    assert_eq!(
+        id.orders(),
+        vec![("n", int(3)), ("m", int(2)), ("delay", int(2))]
+    );
+    // a switch takes true/false or 1/0, a real option an integer too
+    let ss = find_identifier("ss").unwrap();
+    let id = (ss.build)(&[
+        ("center".into(), OrderValue::Int(0)),
+        ("d_required".into(), OrderValue::Bool(true)),
+        ("threshold".into(), OrderValue::Real(0.2)),
+    ])
+    .unwrap();
+    let orders = id.orders();
+    assert!(orders.contains(&("center", OrderValue::Bool(false))));
+    assert!(orders.contains(&("d_required", OrderValue::Bool(true))));
+    assert!(orders.contains(&("threshold", OrderValue::Real(0.2))));
+    assert!((ss.build)(&[("center".into(), OrderValue::Int(2))]).is_err());
+    let earx = find_identifier("earx").unwrap();
+    let id = (earx.build)(&[("lambda_beta".into(), OrderValue::Int(1))]).unwrap();
+    assert!(id
+        .orders()
+        .contains(&("lambda_beta", OrderValue::Real(1.0))));
 }
 
 #[test]
@@ -59,7 +97,9 @@ fn configs_round_trip_through_typetag_json() {
     }
     let earx: Box<dyn LinearIdentifier> =
         serde_json::from_str(r#"{"kind":"earx","tuning":{"lambda_beta":0.7}}"#).unwrap();
-    assert!(earx.orders().contains(&("lambda_beta", 0.7)));
+    assert!(earx
+        .orders()
+        .contains(&("lambda_beta", OrderValue::Real(0.7))));
     // unchecked values are rejected at deserialisation
     assert!(serde_json::from_str::<Box<dyn LinearIdentifier>>(r#"{"kind":"arx","m":0}"#).is_err());
     assert!(serde_json::from_str::<Box<dyn LinearIdentifier>>(r#"{"kind":"earx","p":2}"#).is_err());

@@ -493,6 +493,29 @@ pub struct BatchRun {
     pub torn: Vec<usize>,
 }
 
+impl BatchRun {
+    /// What happened to the JSONL's torn lines (`None` when there were none): their
+    /// registrations were computed again.
+    pub fn torn_note(&self) -> Option<String> {
+        let first = self.torn.first()?;
+        Some(match self.torn.len() {
+            1 => format!("line {first} is torn (an interrupted run): its registration is computed again"),
+            n => format!("{n} unreadable lines (first: line {first}): their registrations are computed again"),
+        })
+    }
+}
+
+/// The files of a run with the output prefix `out`: `OUT.jsonl` (each row as its loop
+/// finishes; what a resumed run reads) and `OUT.csv` (the sorted table, written at the end).
+pub fn out_paths(out: &Path) -> (PathBuf, PathBuf) {
+    let with = |ext: &str| {
+        let mut s = out.as_os_str().to_owned();
+        s.push(ext);
+        PathBuf::from(s)
+    };
+    (with(".jsonl"), with(".csv"))
+}
+
 /// The resume step of a batch ([`resume`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Resume {
@@ -692,5 +715,33 @@ fn summary(
         rows: scores.len(),
         stiction: scores.iter().filter(|x| x.1).count(),
         roc: roc(&scores),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_paths_and_the_torn_lines_note() {
+        let (jsonl, csv) = out_paths(Path::new("runs/plant.v2"));
+        assert_eq!(jsonl, Path::new("runs/plant.v2.jsonl"));
+        assert_eq!(csv, Path::new("runs/plant.v2.csv"));
+        let mut run = BatchRun {
+            rows: Vec::new(),
+            computed: 0,
+            skipped: 0,
+            torn: Vec::new(),
+        };
+        assert_eq!(run.torn_note(), None);
+        run.torn = vec![7];
+        assert_eq!(
+            run.torn_note().as_deref(),
+            Some("line 7 is torn (an interrupted run): its registration is computed again")
+        );
+        run.torn = vec![3, 9];
+        assert!(run
+            .torn_note()
+            .is_some_and(|n| n.starts_with("2 unreadable lines (first: line 3)")));
     }
 }

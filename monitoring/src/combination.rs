@@ -8,7 +8,7 @@ use std::time::Instant;
 use grid_search::{
     estimate_delay, quantify, DelayScan, GridPlan, Problem, Quantification, SearchOptions,
 };
-use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier};
+use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier, OrderValue};
 use serde::{Deserialize, Serialize};
 use stiction_models::{find_model, ModelEntry};
 
@@ -47,7 +47,7 @@ pub struct Combination {
     pub linear: &'static IdentifierEntry,
     /// Orders as `NAME=value` pairs without the dead time (missing ones take the identifier's
     /// defaults).
-    pub orders: Vec<(String, f64)>,
+    pub orders: Vec<(String, OrderValue)>,
     /// Dead time.
     pub delay: Delay,
     /// Grid plan; `None` = the default grid for the OP span.
@@ -104,7 +104,7 @@ impl Combination {
     /// The identifier with this combination's orders and dead time `delay`.
     pub fn identifier(&self, delay: usize) -> Result<Box<dyn LinearIdentifier>, IdError> {
         let linear = self.linear;
-        let known: Vec<(String, f64)> = self
+        let known: Vec<(String, OrderValue)> = self
             .orders
             .iter()
             .filter(|(k, _)| linear.orders.iter().any(|o| o.name == k))
@@ -308,25 +308,46 @@ pub struct FitSummary {
 /// identifier has no dead-time option and `delay` is not 0.
 pub fn build_identifier(
     linear: &IdentifierEntry,
-    orders: &[(String, f64)],
+    orders: &[(String, OrderValue)],
     delay: usize,
 ) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut pairs: Vec<(String, f64)> = orders
+    let mut pairs: Vec<(String, OrderValue)> = orders
         .iter()
         .filter(|(k, _)| k != "delay")
         .cloned()
         .collect();
     if linear.orders.iter().any(|o| o.name == "delay") {
-        pairs.push(("delay".into(), delay as f64));
+        pairs.push(("delay".into(), OrderValue::Int(delay)));
     } else if delay != 0 {
         return Err(IdError::InvalidOrder {
             identifier: linear.name,
             name: "delay".into(),
-            value: delay as f64,
+            value: OrderValue::Int(delay),
             expected: "0 (this identifier has no dead-time option)".into(),
         });
     }
     (linear.build)(&pairs)
+}
+
+/// The search problem of a record: its OP, PV (an error when the record has none) and MV.
+pub fn problem(d: &datasets::LoopData) -> Result<Problem<'_>, datasets::DataError> {
+    Ok(Problem {
+        op: &d.op,
+        pv: d.require_pv()?,
+        mv: d.mv.as_deref(),
+    })
+}
+
+/// The paper's benchmark loop (eq. 10, PI 0.5/0.5, σ = 0.1) with a Kano valve S = 9, J = 3,
+/// 3000 samples, seed 1 (paper §3.2, Tables 1-2): the CLI's `--example paper`.
+pub fn paper_example() -> Result<datasets::LoopData, MonitoringError> {
+    let scenario = datasets::simulate::Scenario {
+        valve: Box::new(stiction_models::Kano::params().s(9.0).j(3.0).check()?),
+        ..datasets::simulate::Scenario::default()
+    };
+    let mut d = scenario.simulate()?.to_loop_data();
+    d.source = "example paper (kano S = 9, J = 3, seed 1)".into();
+    Ok(d)
 }
 
 /// `max - min` of the finite values of `x` (0 when there are none).
@@ -341,5 +362,26 @@ pub fn span_of(x: &[f64]) -> f64 {
         hi - lo
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_example_is_a_searchable_problem() -> Result<(), MonitoringError> {
+        let d = paper_example()?;
+        assert_eq!(d.len(), 3000);
+        assert!(d.source.starts_with("example paper"));
+        let p = problem(&d)?;
+        assert_eq!((p.op.len(), p.pv.len()), (3000, 3000));
+        assert!(p.mv.is_some());
+        assert_eq!(crate::identify::input_of(&d, None).1, "MV");
+        assert_eq!(crate::identify::input_of(&d, Some("u")).1, "u");
+        let mut no_pv = d.clone();
+        no_pv.pv = None;
+        assert!(problem(&no_pv).is_err());
+        Ok(())
     }
 }

@@ -1,7 +1,7 @@
 //! A linear model from an input series to PV (`stiction identify`): identified on the first
 //! part of the record, its one-step prediction and free-run simulation scored on the rest.
 
-use linear_id::{fit_pv, IdError, LinearFit, LinearIdentifier, Structure};
+use linear_id::{fit_pv, IdError, LinearFit, LinearIdentifier, OrderValue, Structure};
 use serde_json::{json, Value};
 
 /// Why an identification gave no model.
@@ -66,7 +66,7 @@ pub struct Identification {
     /// The input column.
     pub input: String,
     /// The identifier's orders (with the dead time).
-    pub orders: Vec<(&'static str, f64)>,
+    pub orders: Vec<(&'static str, OrderValue)>,
     /// The model.
     pub fit: LinearFit,
     /// One-step F_PV on the identification window, %.
@@ -79,16 +79,26 @@ pub struct Identification {
     pub samples: [usize; 2],
 }
 
-/// Identify `identifier` (registered as `linear`) from `u` (column `input`) to `y` (column
+/// The identification input of a record read with the column `column` as its OP, and its
+/// name: that column; without one, the measured MV when the record has it, else OP.
+pub fn input_of<'a>(d: &'a datasets::LoopData, column: Option<&'a str>) -> (&'a [f64], &'a str) {
+    match (column, &d.mv) {
+        (Some(col), _) => (&d.op, col),
+        (None, Some(mv)) => (mv, "MV"),
+        (None, None) => (&d.op, "OP"),
+    }
+}
+
+/// Identify `identifier` from `u` (column `input`) to `y` (column
 /// `output`) on the first `split` of the record of `source`, and score it on the rest.
 pub fn identify(
     identifier: &dyn LinearIdentifier,
-    linear: &'static str,
     source: &str,
     (u, input): (&[f64], &str),
     (y, output): (&[f64], &str),
     split: f64,
 ) -> Result<Identification, IdentifyError> {
+    let linear = identifier.name();
     let n = y.len();
     let ni = (n as f64 * split).floor() as usize;
     if ni < identifier.min_samples() || n - ni < 2 {

@@ -23,19 +23,20 @@ pub mod trend;
 use std::path::PathBuf;
 
 pub use combination::{
-    build_identifier, span_of, Combination, Delay, FitSummary, Fitted, MAX_AUTO_DELAY,
+    build_identifier, paper_example, problem, span_of, Combination, Delay, FitSummary, Fitted,
+    MAX_AUTO_DELAY,
 };
 pub use detect::{
     detect_document, detect_file, detect_loop, sample_time, DetectError, Detected, DetectionRecord,
 };
 pub use record::{
-    on_grid, CompareError, CompareRecord, DelayScore, GridRecord, IntervalRecord, OtherFit,
-    QuantifyRecord,
+    models_record, on_grid, CompareError, CompareRecord, DelayScore, GridRecord, IntervalRecord,
+    OtherFit, QuantifyRecord,
 };
 pub use registration::{
     Evidence, ExplainFit, FitEvidence, Integrating, Registration, RegistrationError, TimeSource,
 };
-pub use settings::{parse_orders, DelayArg, Orders, SearchArgs, Settings};
+pub use settings::{identifier_for, parse_orders, DelayArg, Orders, SearchArgs, Settings};
 pub use stats::{median, roc, theil_sen, Roc};
 pub use trend::{maintenance, trend, with_detection, Flag, Maintenance, Point, Trend};
 

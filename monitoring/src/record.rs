@@ -7,6 +7,7 @@
 use std::collections::BTreeMap;
 
 use grid_search::{Criterion, GridPlan};
+use linear_id::OrderValue;
 use serde::{Deserialize, Deserializer, Serialize};
 use stiction_models::Initialization;
 
@@ -126,8 +127,8 @@ pub struct QuantifyRecord {
     pub delay: usize,
     /// The dead-time scan, when the dead time was estimated.
     pub delay_scan: Option<Vec<DelayScore>>,
-    /// The identifier's orders (with the dead time).
-    pub orders: BTreeMap<String, f64>,
+    /// The identifier's orders (with the dead time), each of its type (`2`, `true`, `0.8`).
+    pub orders: BTreeMap<String, OrderValue>,
     /// The likelihood-ratio region.
     pub interval: IntervalRecord,
     /// The grid.
@@ -224,18 +225,6 @@ impl Fitted {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn on_grid_removes_float_noise_only() {
-        assert_eq!(on_grid(0.30000000000000004, 0.1), 0.3);
-        assert_eq!(on_grid(1.234_56, 0.5), 1.2346);
-        assert!(on_grid(f64::NAN, 0.1).is_nan());
-    }
-}
-
 /// The `compare --json` document: every combination's quantify object, and the combinations
 /// that failed with their one-line errors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -248,6 +237,65 @@ pub struct CompareRecord {
     pub errors: Vec<CompareError>,
 }
 
+impl CompareRecord {
+    /// No combination yet.
+    pub fn new(source: &str) -> Self {
+        CompareRecord {
+            source: source.to_string(),
+            results: Vec::new(),
+            errors: Vec::new(),
+        }
+    }
+
+    /// Add the outcome of `stiction` × `linear`: its quantify object, or its one-line error.
+    pub fn push(&mut self, stiction: &str, linear: &str, outcome: Result<QuantifyRecord, String>) {
+        match outcome {
+            Ok(record) => self.results.push(record),
+            Err(error) => self.errors.push(CompareError {
+                stiction_model: stiction.to_string(),
+                linear_model: linear.to_string(),
+                error,
+            }),
+        }
+    }
+}
+
+/// The `models --json` document: every registered stiction model (`params` with their
+/// meaning, default and largest fraction of the OP span; `constraints` in words) and linear
+/// identifier (`orders` with their `type`, `integer`, `boolean` or `real`, and their default).
+pub fn models_record() -> serde_json::Value {
+    use serde_json::json;
+    let stiction: Vec<serde_json::Value> = stiction_models::registry()
+        .iter()
+        .map(|e| {
+            json!({
+                "name": e.name,
+                "description": e.description,
+                "params": e.params.iter().map(|p| json!({
+                    "name": p.name,
+                    "meaning": p.meaning,
+                    "default": p.default,
+                    "max_span_fraction": p.max_span_fraction,
+                })).collect::<Vec<_>>(),
+                "constraints": e.constraints.iter().map(|c| c.describe()).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let linear: Vec<serde_json::Value> = linear_id::registry()
+        .iter()
+        .map(|e| {
+            json!({
+                "name": e.name,
+                "description": e.description,
+                "orders": e.orders.iter().map(|o| json!({
+                    "name": o.name, "type": o.kind(), "default": o.default, "meaning": o.meaning,
+                })).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    json!({"stiction": stiction, "linear": linear})
+}
+
 /// A combination of a `compare` that failed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CompareError {
@@ -257,4 +305,48 @@ pub struct CompareError {
     pub linear_model: String,
     /// The one-line error.
     pub error: String,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn on_grid_removes_float_noise_only() {
+        assert_eq!(on_grid(0.30000000000000004, 0.1), 0.3);
+        assert_eq!(on_grid(1.234_56, 0.5), 1.2346);
+        assert!(on_grid(f64::NAN, 0.1).is_nan());
+    }
+
+    #[test]
+    fn compare_errors_keep_their_combination() {
+        let mut doc = CompareRecord::new("loop.csv");
+        doc.push("kano", "ss", Err("too few samples".into()));
+        assert!(doc.results.is_empty());
+        assert_eq!(doc.errors[0].linear_model, "ss");
+        assert_eq!(doc.errors[0].error, "too few samples");
+    }
+
+    #[test]
+    fn models_record_types_every_order() {
+        let doc = models_record();
+        let ss = doc["linear"]
+            .as_array()
+            .and_then(|l| l.iter().find(|e| e["name"] == "ss"))
+            .cloned()
+            .unwrap_or_default();
+        let order = |name: &str| {
+            ss["orders"]
+                .as_array()
+                .and_then(|o| o.iter().find(|o| o["name"] == name))
+                .cloned()
+                .unwrap_or_default()
+        };
+        assert_eq!(order("n")["type"], "integer");
+        assert_eq!(order("n")["default"], 2);
+        assert_eq!(order("center")["type"], "boolean");
+        assert_eq!(order("center")["default"], true);
+        assert_eq!(order("threshold")["type"], "real");
+        assert!(doc["stiction"].as_array().is_some_and(|s| !s.is_empty()));
+    }
 }

@@ -4,7 +4,7 @@
 //! serves every combination of a `compare`, a `trend` or a `batch`.
 
 use grid_search::{GridPlan, SearchOptions};
-use linear_id::{find_identifier, IdentifierEntry};
+use linear_id::{find_identifier, IdentifierEntry, LinearIdentifier, OrderSpec, OrderValue};
 use serde::{Deserialize, Serialize};
 use stiction_models::find_model;
 
@@ -13,13 +13,14 @@ use crate::{Combination, Delay, MonitoringError};
 /// The orders of a linear identifier as given: each value by its name (`n=3`) or by its
 /// position among the identifier's orders without the dead time (`3,2` is `n=3, m=2` for arx,
 /// `n=3, m=2` for armax too). Resolved per identifier by [`Orders::resolve`], so one list
-/// serves several identifiers. Empty: every order at the identifier's default.
+/// serves several identifiers; each value is as written (`3` an integer, `true` a switch, `0.7`
+/// a number) and takes its order's type there. Empty: every order at the identifier's default.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct Orders(pub Vec<(Option<String>, f64)>);
+pub struct Orders(pub Vec<(Option<String>, OrderValue)>);
 
 impl Orders {
     /// Named orders.
-    pub fn named<'a>(pairs: impl IntoIterator<Item = (&'a str, f64)>) -> Orders {
+    pub fn named<'a>(pairs: impl IntoIterator<Item = (&'a str, OrderValue)>) -> Orders {
         Orders(
             pairs
                 .into_iter()
@@ -34,9 +35,14 @@ impl Orders {
     }
 
     /// `NAME=value` pairs for `entry`: positional values take the names of the identifier's
-    /// orders (without `delay`) in turn; a given `delay` is left out (the dead time is the
-    /// combination's [`Delay`]).
-    pub fn resolve(&self, entry: &IdentifierEntry) -> Result<Vec<(String, f64)>, MonitoringError> {
+    /// orders (without `delay`) in turn, each value its order's type (an error when it is not
+    /// one, [`linear_id::OrderSpec::accept`]); a given `delay` is left out (the dead time is the
+    /// combination's [`Delay`]); a name the identifier does not know is kept (the identifier
+    /// refuses it when built).
+    pub fn resolve(
+        &self,
+        entry: &IdentifierEntry,
+    ) -> Result<Vec<(String, OrderValue)>, MonitoringError> {
         let positional: Vec<&'static str> = entry
             .orders
             .iter()
@@ -55,8 +61,10 @@ impl Orders {
                     })?
                     .to_string(),
             };
-            if name != "delay" {
-                out.push((name, *value));
+            match spec(entry, &name) {
+                Some(spec) if spec.name == "delay" => {}
+                Some(spec) => out.push((spec.name.to_string(), spec.accept(entry.name, *value)?)),
+                None => out.push((name, *value)),
             }
         }
         Ok(out)
@@ -66,14 +74,15 @@ impl Orders {
 /// The settings of a search shared by every combination of a run.
 ///
 /// ```
+/// use linear_id::OrderValue::Int;
 /// use monitoring::{Delay, Orders, Settings};
 /// let settings = Settings {
-///     orders: Orders::named([("n", 3.0), ("m", 2.0)]),
+///     orders: Orders::named([("n", Int(3)), ("m", Int(2))]),
 ///     delay: Delay::Fixed(1),
 ///     ..Settings::default()
 /// };
 /// let c = settings.combination("kano", "arx")?;
-/// assert_eq!(c.identifier(1)?.orders(), vec![("n", 3.0), ("m", 2.0), ("delay", 1.0)]);
+/// assert_eq!(c.identifier(1)?.orders(), vec![("n", Int(3)), ("m", Int(2)), ("delay", Int(1))]);
 /// # Ok::<(), monitoring::MonitoringError>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -258,47 +267,95 @@ fn order_items(s: &str) -> impl Iterator<Item = (Option<&str>, &str)> {
         })
 }
 
-/// `--orders` text for the identifier `entry` (`None`: names not checked against one), with
-/// the CLI's messages.
+/// The order of `entry` called `name` (exact name first, then case-insensitive).
+fn spec<'a>(entry: &'a IdentifierEntry, name: &str) -> Option<&'a OrderSpec> {
+    let orders = entry.orders.iter();
+    orders
+        .clone()
+        .find(|o| o.name == name)
+        .or_else(|| orders.clone().find(|o| o.name.eq_ignore_ascii_case(name)))
+}
+
+/// `--orders` text for the identifier `entry` (`None`: names and types not checked against
+/// one), with the CLI's messages. A value is read as written (`2` an integer, `true` a switch,
+/// `0.8` a number); with `entry`, an order of it must be of its type: an integer for an order,
+/// `0`, `1`, `true` or `false` for a switch, a number for a real option.
+///
+/// ```
+/// let ss = linear_id::find_identifier("ss")?;
+/// assert!(monitoring::parse_orders("n=3,center=0", Some(ss)).is_ok());
+/// let e = monitoring::parse_orders("n=2.5", Some(ss)).unwrap_err();
+/// assert_eq!(e.to_string(), r#"--orders: n = "2.5" is not a non-negative integer"#);
+/// # Ok::<(), linear_id::IdError>(())
+/// ```
 pub fn parse_orders(
     text: &str,
     entry: Option<&IdentifierEntry>,
 ) -> Result<Orders, MonitoringError> {
-    let positional: Vec<&str> = entry
-        .map(|e| {
-            e.orders
-                .iter()
-                .map(|o| o.name)
-                .filter(|n| *n != "delay")
-                .collect()
-        })
+    let positional: Vec<&OrderSpec> = entry
+        .map(|e| e.orders.iter().filter(|o| o.name != "delay").collect())
         .unwrap_or_default();
     let mut parsed = Vec::new();
     for (i, (key, value)) in order_items(text).enumerate() {
-        let shown = match (key, entry) {
-            (Some(k), _) => k,
-            (None, Some(e)) => positional.get(i).ok_or_else(|| {
+        let order = match (key, entry) {
+            (Some(k), Some(e)) => spec(e, k),
+            (Some(_), None) | (None, None) => None,
+            (None, Some(e)) => Some(*positional.get(i).ok_or_else(|| {
+                let names: Vec<&str> = positional.iter().map(|o| o.name).collect();
                 setting(
                     "--orders",
                     format!(
                         "--orders {text:?}: {} takes at most {} positional orders ({})",
                         e.name,
-                        positional.len(),
-                        positional.join(", ")
+                        names.len(),
+                        names.join(", ")
                     ),
                 )
-            })?,
-            (None, None) => "order",
+            })?),
         };
-        let value: f64 = value.parse().map_err(|_| {
-            setting(
-                "--orders",
-                format!("--orders: {shown} = {value:?} is not a number"),
-            )
-        })?;
-        parsed.push((key.map(str::to_string), value));
+        let shown = key.or(order.map(|o| o.name)).unwrap_or("order");
+        let expected = order.map_or("a number, true or false", |o| o.kind().expected());
+        let typed = value
+            .parse::<OrderValue>()
+            .ok()
+            .filter(|v| order.is_none_or(|o| v.to_kind(o.kind()).is_some()))
+            .ok_or_else(|| {
+                setting(
+                    "--orders",
+                    format!("--orders: {shown} = {value:?} is not {expected}"),
+                )
+            })?;
+        parsed.push((key.map(str::to_string), typed));
     }
     Ok(Orders(parsed))
+}
+
+/// The registered identifier `linear` with the `--orders` text `orders` and the fixed dead time
+/// `delay`, checked with the flags' messages ([`parse_orders`]; `--delay` when the identifier
+/// has no dead-time option), and the orders as given.
+///
+/// ```
+/// let (arx, _) = monitoring::identifier_for("arx", "3,2", 1)?;
+/// assert_eq!(arx.orders()[0], ("n", linear_id::OrderValue::Int(3)));
+/// assert!(monitoring::identifier_for("ss", "", 1).is_err());
+/// # Ok::<(), monitoring::MonitoringError>(())
+/// ```
+pub fn identifier_for(
+    linear: &str,
+    orders: &str,
+    delay: usize,
+) -> Result<(Box<dyn LinearIdentifier>, Orders), MonitoringError> {
+    let entry = find_identifier(linear)?;
+    let orders = parse_orders(orders, Some(entry))?;
+    if delay != 0 && !entry.orders.iter().any(|o| o.name == "delay") {
+        return Err(setting(
+            "--delay",
+            format!("{}: this identifier has no dead-time option", entry.name),
+        ));
+    }
+    let named = orders.resolve(entry)?;
+    let identifier = crate::build_identifier(entry, &named, delay)?;
+    Ok((identifier, orders))
 }
 
 impl SearchArgs {
@@ -306,19 +363,14 @@ impl SearchArgs {
     /// orders for it, the dead time it can take).
     pub fn settings(&self, linear: &[&str]) -> Result<Settings, MonitoringError> {
         let text = self.orders.as_deref().unwrap_or("");
-        let mut orders = parse_orders(text, None)?;
+        let mut orders = None;
         for name in linear {
-            let entry = find_identifier(name)?;
-            orders = parse_orders(text, Some(entry))?;
-            if self.delay.fixed() != 0 && !entry.orders.iter().any(|o| o.name == "delay") {
-                return Err(setting(
-                    "--delay",
-                    format!("{}: this identifier has no dead-time option", entry.name),
-                ));
-            }
-            let named = orders.resolve(entry)?;
-            crate::build_identifier(entry, &named, self.delay.fixed())?;
+            orders = Some(identifier_for(name, text, self.delay.fixed())?.1);
         }
+        let orders = match orders {
+            Some(orders) => orders,
+            None => parse_orders(text, None)?,
+        };
         let grid = match self.step {
             Some(step) if step.is_finite() && step > 0.0 => Some(GridPlan::Exhaustive { step }),
             Some(step) => {
@@ -375,12 +427,35 @@ mod tests {
 
     #[test]
     fn positional_orders_follow_each_identifier() -> Result<(), MonitoringError> {
-        let orders = Orders(vec![(None, 3.0), (None, 2.0), (Some("delay".into()), 4.0)]);
+        use OrderValue::{Bool, Int, Real};
+        let orders = Orders(vec![
+            (None, Int(3)),
+            (None, Int(2)),
+            (Some("delay".into()), Int(4)),
+        ]);
         let arx = orders.resolve(find_identifier("arx")?)?;
-        assert_eq!(arx, vec![("n".to_string(), 3.0), ("m".to_string(), 2.0)]);
+        assert_eq!(
+            arx,
+            vec![("n".to_string(), Int(3)), ("m".to_string(), Int(2))]
+        );
         let ss = orders.resolve(find_identifier("ss")?)?;
         assert_eq!(ss[0].0, "n");
-        let too_many = Orders(vec![(None, 1.0); 3]).resolve(find_identifier("arx")?);
+        // each value takes its order's type; names are the identifier's
+        let given = Orders::named([("N", Int(1)), ("center", Int(0)), ("threshold", Int(0))]);
+        assert_eq!(
+            given.resolve(find_identifier("ss")?)?,
+            vec![
+                ("n".to_string(), Int(1)),
+                ("center".to_string(), Bool(false)),
+                ("threshold".to_string(), Real(0.0))
+            ]
+        );
+        let wrong = Orders::named([("n", Real(2.0))]).resolve(find_identifier("arx")?);
+        assert!(
+            matches!(wrong, Err(MonitoringError::Identification(_))),
+            "{wrong:?}"
+        );
+        let too_many = Orders(vec![(None, Int(1)); 3]).resolve(find_identifier("arx")?);
         assert!(
             matches!(too_many, Err(MonitoringError::TooManyOrders { .. })),
             "{too_many:?}"
@@ -402,7 +477,10 @@ mod tests {
         assert_eq!(s.grid, Some(GridPlan::Exhaustive { step: 0.5 }));
         assert_eq!(
             s.orders.resolve(find_identifier("arx")?)?,
-            vec![("n".to_string(), 3.0), ("m".to_string(), 2.0)]
+            vec![
+                ("n".to_string(), OrderValue::Int(3)),
+                ("m".to_string(), OrderValue::Int(2))
+            ]
         );
         assert!(serde_json::from_str::<SearchArgs>(r#"{"oders": "2"}"#).is_err());
         let cases = [
@@ -423,6 +501,13 @@ mod tests {
             (
                 SearchArgs {
                     orders: Some("n=x".into()),
+                    ..SearchArgs::default()
+                },
+                "--orders",
+            ),
+            (
+                SearchArgs {
+                    orders: Some("2.5".into()),
                     ..SearchArgs::default()
                 },
                 "--orders",

@@ -20,7 +20,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use datasets::{GapPolicy, LoopData, OpRange, ReadOptions};
-use grid_search::Problem;
 use monitoring::{MonitoringError, SearchArgs, Settings};
 use stiction_models::{find_model, run_valve, Initialization};
 
@@ -235,10 +234,9 @@ fn search_settings(
 
 /// A failed search: bad usage (node budget, invalid option) or refused data, with the source.
 fn search_err(source: &str, e: MonitoringError) -> PyErr {
-    use grid_search::SearchError;
     match &e {
-        MonitoringError::Search(SearchError::Budget { .. } | SearchError::InvalidOption { .. })
-        | MonitoringError::Setting { .. } => usage_err(format!("{source}: {e}")),
+        MonitoringError::Search(s) if s.is_usage() => usage_err(format!("{source}: {e}")),
+        MonitoringError::Setting { .. } => usage_err(format!("{source}: {e}")),
         _ => data_err(format!("{source}: {e}")),
     }
 }
@@ -254,12 +252,7 @@ fn quantify_record(
         .settings
         .combination(stiction, linear)
         .map_err(|e| search_err(&d.source, e))?;
-    let pv = d.require_pv().map_err(data_err)?;
-    let problem = Problem {
-        op: &d.op,
-        pv,
-        mv: d.mv.as_deref(),
-    };
+    let problem = monitoring::problem(d).map_err(data_err)?;
     let fitted = combination
         .run(problem, None)
         .map_err(|e| search_err(&d.source, e))?;
@@ -279,23 +272,15 @@ fn detected(d: &LoopData) -> monitoring::Detected {
 /// The `diagnose --json` document (`discrepancy::baseline`, `options_for`, `diagnose`).
 fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
     use discrepancy::DiagnoseError;
-    use grid_search::SearchError;
     let usage_of = |e: DiagnoseError| usage_err(e.to_string());
     let baseline =
         discrepancy::baseline(&req.args, &req.stiction[0], &req.linear[0]).map_err(usage_of)?;
-    let pv = d.require_pv().map_err(data_err)?;
+    let problem = monitoring::problem(d).map_err(data_err)?;
     let span = monitoring::span_of(&d.op);
     let options = discrepancy::options_for(&req.args, span, &req.without).map_err(usage_of)?;
-    let problem = Problem {
-        op: &d.op,
-        pv,
-        mv: d.mv.as_deref(),
-    };
     let dg = discrepancy::diagnose(problem, &baseline, &options).map_err(|e| match e {
         e @ DiagnoseError::UnknownCause { .. } => usage_err(e.to_string()),
-        DiagnoseError::Search(
-            e @ (SearchError::Budget { .. } | SearchError::InvalidOption { .. }),
-        ) => usage_err(format!("{}: {e}", d.source)),
+        DiagnoseError::Search(e) if e.is_usage() => usage_err(format!("{}: {e}", d.source)),
         other => data_err(format!("{}: {other}", d.source)),
     })?;
     let mut v = dg.record(&d.source, &req.settings.search.init);
@@ -306,25 +291,21 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
 /// The `identify --json` document: the identifier with its orders and dead time, from MV when
 /// the record has it, else from OP, to PV.
 fn identify_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
-    let entry = linear_id::find_identifier(&req.linear[0]).map_err(usage_err)?;
     let delay = match req.args.delay {
         monitoring::DelayArg::Samples(n) => n,
         monitoring::DelayArg::Auto => {
             return Err(usage_err("identify: delay must be a number of samples"))
         }
     };
-    let named = req.settings.orders.resolve(entry).map_err(usage_err)?;
-    let identifier = monitoring::build_identifier(entry, &named, delay).map_err(usage_err)?;
-    let (u, input): (&[f64], &str) = match &d.mv {
-        Some(mv) => (mv, "MV"),
-        None => (&d.op, "OP"),
-    };
+    let orders = req.args.orders.as_deref().unwrap_or("");
+    let (identifier, _) =
+        monitoring::identifier_for(&req.linear[0], orders, delay).map_err(usage_err)?;
+    let input = monitoring::identify::input_of(d, None);
     let y = d.require_pv().map_err(data_err)?;
     let id = monitoring::identify::identify(
         identifier.as_ref(),
-        entry.name,
         &d.source,
-        (u, input),
+        input,
         (y, "PV"),
         req.args.split,
     )
@@ -352,21 +333,12 @@ fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
             }
         }
         "compare" => {
-            let mut doc = monitoring::CompareRecord {
-                source: d.source.clone(),
-                results: Vec::new(),
-                errors: Vec::new(),
-            };
+            let mut doc = monitoring::CompareRecord::new(&d.source);
             for st in &req.stiction {
                 for li in &req.linear {
-                    match quantify_record(d, st, li, req) {
-                        Ok(r) => doc.results.push(r),
-                        Err(e) => doc.errors.push(monitoring::CompareError {
-                            stiction_model: st.clone(),
-                            linear_model: li.clone(),
-                            error: Python::attach(|py| e.value(py).to_string()),
-                        }),
-                    }
+                    let r = quantify_record(d, st, li, req)
+                        .map_err(|e| Python::attach(|py| e.value(py).to_string()));
+                    doc.push(st, li, r);
                 }
             }
             serde_json::to_value(doc).map_err(data_err)?

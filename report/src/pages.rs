@@ -7,7 +7,7 @@ use std::path::Path;
 use datasets::format_epoch;
 use datasets::LoopData;
 use discrepancy::Diagnosis;
-use grid_search::{Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
+use grid_search::{Criterion, Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 use monitoring::registration::{Registration, RegistrationError};
 use monitoring::trend::ValveTrend;
 use monitoring::{median, Fitted, Flag};
@@ -284,7 +284,7 @@ pub fn quantify_page(d: &LoopData, r: &Fitted) -> Result<Report, ReportError> {
 pub fn compare_page(
     d: &LoopData,
     rows: &[(&str, &str, Result<&Fitted, String>)],
-    criterion: &str,
+    criterion: Criterion,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let header = [
@@ -354,7 +354,7 @@ pub fn compare_page(
     overview.push(Block::Paragraph(format!(
         "S and J in % of valve span with their likelihood-ratio ranges; F_PV in % ({}), \
          identification and validation; F_MV when MV is logged.",
-        criterion
+        criterion.describe()
     )));
     overview.push(Block::Table {
         header,

@@ -2,15 +2,17 @@
 //! typed results. Each function returns the text; the CLI prints it.
 
 use std::fmt::{self, Write};
+use std::path::Path;
 
 use datasets::{format_epoch, LoopData};
+use detection::Detection;
 use discrepancy::Diagnosis;
 use grid_search::Criterion;
 use linear_id::Structure;
-use monitoring::batch::{OkRow, Row};
+use monitoring::batch::{self, BatchRun, OkRow, Row};
 use monitoring::identify::Identification;
 use monitoring::trend::ValveTrend;
-use monitoring::{Detected, Evidence, Fitted, Flag, Trend};
+use monitoring::{Detected, Evidence, Fitted, Flag, Roc, Trend};
 
 use crate::pages::{self, opt2};
 
@@ -325,6 +327,131 @@ pub fn detection_line(d: &Detected) -> String {
     )
 }
 
+/// The text of `stiction detect`: the verdict with its score and reason, the loop (oscillation,
+/// integrating or not, samples and sampling time), then one line per test with its statistic,
+/// verdict and evidence.
+pub fn detect(d: &LoopData, det: &Detection) -> Result<String, fmt::Error> {
+    let mut text = String::new();
+    let out = &mut text;
+    let (source, ts) = (&d.source, monitoring::sample_time(d));
+    writeln!(
+        out,
+        "{source}: {} (score {:.2}): {}",
+        det.verdict, det.score, det.reason
+    )?;
+    let oscillation = match det.period_s {
+        Some(p) => format!("oscillating, period {p:.0} s"),
+        None => "no regular oscillation".to_string(),
+    };
+    let kind = if det.integrating {
+        "integrating"
+    } else {
+        "self-regulating"
+    };
+    writeln!(
+        out,
+        "  {oscillation}; {kind} loop; {} samples every {ts} s",
+        d.op.len()
+    )?;
+    writeln!(
+        out,
+        "  {:18} {:>9}  {:12}  evidence",
+        "test", "statistic", "verdict"
+    )?;
+    for t in &det.tests {
+        let stat = t
+            .statistic
+            .filter(|v| v.is_finite())
+            .map_or("-".to_string(), |v| format!("{v:.3}"));
+        let verdict = t.verdict.as_str();
+        writeln!(
+            out,
+            "  {:18} {stat:>9}  {verdict:12}  {}",
+            t.name, t.evidence
+        )?;
+    }
+    Ok(text)
+}
+
+/// The text of `stiction models`: the registered stiction models with their parameters and
+/// constraints, and the linear identifiers with their orders' defaults.
+pub fn models() -> String {
+    let mut out =
+        String::from("Stiction models (OP -> MV); parameters in OP units (% of valve span):\n");
+    for e in stiction_models::registry() {
+        let params: Vec<&str> = e.params.iter().map(|p| p.name).collect();
+        let constraints: Vec<String> = e.constraints.iter().map(|c| c.describe()).collect();
+        let constraints = if constraints.is_empty() {
+            String::new()
+        } else {
+            format!("  [{}]", constraints.join("; "))
+        };
+        let _ = writeln!(out, "  {:<11} {}{constraints}", e.name, params.join(", "));
+        let _ = writeln!(out, "  {:<11} {}", "", e.description);
+    }
+    out.push_str("\nLinear identifiers (MV -> PV); orders with their defaults:\n");
+    for e in linear_id::registry() {
+        let orders: Vec<String> = e
+            .orders
+            .iter()
+            .map(|o| format!("{}={}", o.name, o.default))
+            .collect();
+        let _ = writeln!(out, "  {:<11} {}", e.name, orders.join(", "));
+        let _ = writeln!(out, "  {:<11} {}", "", e.description);
+    }
+    out
+}
+
+/// The lines closing `stiction batch`: files and rows (`jsonl` the run's OUT.jsonl); with
+/// `labelled`, the first combination (stiction model, identifier), how well S and the
+/// detector's score separate the labels (ROC AUC, Youden's threshold).
+pub fn batch_summary(
+    files: usize,
+    run: &BatchRun,
+    jsonl: Option<&Path>,
+    labelled: Option<(&str, &str)>,
+) -> String {
+    let rows = &run.rows;
+    let ok = rows.iter().filter(|r| r.is_ok()).count();
+    let mut out = format!(
+        "{files} file(s): {ok} row(s) ok, {} error row(s); {} file(s) computed, {} skipped (already in {})\n",
+        rows.len() - ok,
+        run.computed,
+        run.skipped,
+        jsonl.map_or("-".into(), |p| p.display().to_string())
+    );
+    let Some((st, li)) = labelled else {
+        return out;
+    };
+    let sum = batch::label_summary(rows, st, li);
+    let (n, npos) = (sum.rows, sum.stiction);
+    let _ = match sum.roc {
+        Some(Roc { auc, threshold: thr, tpr, fpr }) => writeln!(
+            out,
+            "labels ({st} + {li}, {n} labelled rows: {npos} stiction, {} no-stiction): ROC AUC of S = {auc:.3}; best threshold S >= {thr:.2} % (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
+            n - npos
+        ),
+        None => writeln!(
+            out,
+            "labels: ROC needs ok rows of both labels ({n} labelled ok rows, {npos} stiction)"
+        ),
+    };
+    let det = batch::detect_label_summary(rows, st, li);
+    let (n, npos) = (det.rows, det.stiction);
+    let _ = match det.roc {
+        Some(Roc { auc, threshold: thr, tpr, fpr }) => writeln!(
+            out,
+            "labels (detector, same rows, {n} with a score: {npos} stiction, {} no-stiction): ROC AUC of detect_score = {auc:.3}; best threshold score >= {thr:.2} (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
+            n - npos
+        ),
+        None => writeln!(
+            out,
+            "labels (detector): ROC needs scored ok rows of both labels ({n} labelled scored rows, {npos} stiction)"
+        ),
+    };
+    out
+}
+
 /// Evidence joined with `; `.
 pub fn join(evidence: &[Evidence]) -> String {
     let v: Vec<String> = evidence.iter().map(ToString::to_string).collect();
@@ -452,4 +579,23 @@ pub fn batch_table(rows: &[Row]) -> String {
         );
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn models_lists_every_order_with_its_typed_default() {
+        let t = super::models();
+        assert!(t.starts_with("Stiction models (OP -> MV)"), "{t}");
+        assert!(
+            t.contains(
+                "  ss          n=2, f=10, p=10, threshold=0.1, max_order=0, d_required=false, center=true\n"
+            ),
+            "{t}"
+        );
+        assert!(
+            t.contains("  earx        n=2, m=2, delay=0, lambda_beta=0.8\n"),
+            "{t}"
+        );
+    }
 }

@@ -158,6 +158,38 @@ pub struct ValveRun {
     pub fell_back: bool,
 }
 
+impl ValveRun {
+    /// For In.2 and In.3 (`init`), the sentence saying from which sample MV no longer depends
+    /// on the valve's initial state (and when In.3 fell back to In.2); `None` for In.1.
+    ///
+    /// ```
+    /// use stiction_models::{run_valve, Initialization, Kano};
+    /// let valve = Kano::params().s(4.0).j(1.0).check()?;
+    /// let op: Vec<f64> = (0..300).map(|k| 50.0 + 5.0 * (k as f64 * 0.1).sin()).collect();
+    /// let run = run_valve(&valve, &op, &Initialization::In3)?;
+    /// let note = run.start_note(&Initialization::In3).unwrap_or_default();
+    /// assert!(note.starts_with("In.3: MV does not depend on the valve's initial state from sample"));
+    /// let in1 = Initialization::In1(Default::default());
+    /// assert_eq!(run_valve(&valve, &op, &in1)?.start_note(&in1), None);
+    /// # Ok::<(), stiction_models::StictionError>(())
+    /// ```
+    pub fn start_note(&self, init: &Initialization) -> Option<String> {
+        if matches!(init, Initialization::In1(_)) {
+            return None;
+        }
+        let how = if self.fell_back {
+            " the four starts never coincide (fell back to In.2);"
+        } else {
+            ""
+        };
+        Some(format!(
+            "{}:{how} MV does not depend on the valve's initial state from sample {} on (0-based); before it, MV is the average of the four starts",
+            init.label(),
+            self.valid_from
+        ))
+    }
+}
+
 /// Reusable buffers for [`run_valve_with`]: a grid search keeps one per thread so that the
 /// thousands of valve runs it makes allocate nothing.
 #[derive(Debug, Clone, Default)]

@@ -167,7 +167,7 @@ struct Job {
     noise: f64,
     model: String,
     /// Orders of the linear model (`NAME=value` pairs); empty: the paper's (defaults).
-    orders: Vec<(String, f64)>,
+    orders: Vec<(String, linear_id::OrderValue)>,
     seed: u64,
     criterion: Criterion,
 }
@@ -761,7 +761,8 @@ fn recovery(args: &Args) -> Result<String> {
                 orders: if order == 2 {
                     Vec::new()
                 } else {
-                    vec![("n".into(), order as f64), ("m".into(), order as f64)]
+                    let order = linear_id::OrderValue::Int(order);
+                    vec![("n".into(), order), ("m".into(), order)]
                 },
                 ..nominal("arx", s, j, 0.0, seed, Criterion::Prediction)
             });

@@ -1,7 +1,7 @@
 //! `stiction batch`: many loops in parallel, one result row per loop and combination, failures in
 //! their rows, resumable (`monitoring::batch`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use monitoring::batch::{self, BatchOptions, Labels, DEFAULT_MIN_FIT};
 use monitoring::registration::{expand, file_name, Integrating};
@@ -9,7 +9,7 @@ use stiction_models::find_model;
 
 use super::load::DataFlags;
 use super::search_flags::SearchFlags;
-use crate::{data, usage, CmdResult, Streams};
+use crate::{usage, CmdResult, Failure, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Loops run in parallel (each grid search shares the same thread pool). Each file gets one row
@@ -45,6 +45,22 @@ pub struct Args {
     /// Only the registrations of this valve (file-name prefix before `_`).
     #[arg(long, value_name = "TAG")]
     valve: Option<String>,
+    #[command(flatten)]
+    combos: Combos,
+    /// Labels (CSV `file,label`, label `stiction` / `no-stiction`): report ROC AUC of S and of
+    /// the detector's score.
+    #[arg(long, value_name = "FILE")]
+    labels: Option<PathBuf>,
+    /// Minimum validation F_PV (%) below which the evidence says "poor fit".
+    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT)]
+    min_fit: f64,
+    #[command(flatten)]
+    run: RunFlags,
+}
+
+/// The combinations of a `batch` or `trend` run: stiction models × linear identifiers.
+#[derive(Debug, clap::Args)]
+pub(crate) struct Combos {
     /// Stiction models, comma-separated.
     #[arg(
         long,
@@ -56,20 +72,49 @@ pub struct Args {
     /// Linear identifiers, comma-separated.
     #[arg(long, value_name = "X,Y", value_delimiter = ',', default_value = "arx")]
     linear: Vec<String>,
-    /// Labels (CSV `file,label`, label `stiction` / `no-stiction`): report ROC AUC of S and of
-    /// the detector's score.
-    #[arg(long, value_name = "FILE")]
-    labels: Option<PathBuf>,
-    /// Minimum validation F_PV (%) below which the evidence says "poor fit".
-    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT)]
-    min_fit: f64,
+}
+
+/// How every registration of a `batch` or `trend` run is read and searched.
+#[derive(Debug, clap::Args)]
+pub(crate) struct RunFlags {
     /// Integrating loops are identified from MV to ΔPV; `auto` = level loops (tag letter L).
     #[arg(long, value_enum, default_value = "auto")]
     integrating: IntegratingFlag,
     #[command(flatten)]
     search: SearchFlags,
     #[command(flatten)]
-    data: DataFlags,
+    pub data: DataFlags,
+}
+
+impl RunFlags {
+    /// The options of a run over `c` (a model name or a setting is bad usage).
+    pub(crate) fn options(&self, c: &Combos, min_fit: f64) -> Result<BatchOptions, Failure> {
+        for name in &c.stiction {
+            find_model(name).map_err(usage)?;
+        }
+        Ok(BatchOptions {
+            stiction: c.stiction.clone(),
+            linear: c.linear.clone(),
+            settings: self.search.settings(&c.linear)?,
+            read: self.data.read_options(true, batch::MIN_ROWS),
+            integrating: self.integrating.into(),
+            min_fit,
+        })
+    }
+
+    /// The registration files among `paths` (`note: skipped` on stderr for the others).
+    pub(crate) fn files(
+        &self,
+        paths: &[PathBuf],
+        exclude: &[PathBuf],
+        s: &mut Streams<'_>,
+    ) -> Result<Vec<PathBuf>, Failure> {
+        let (files, not_loops) = expand(paths, exclude, self.data.op_column()).map_err(usage)?;
+        for n in &not_loops {
+            let _ = writeln!(s.stderr, "note: skipped {}: {n}", n.path.display());
+        }
+        Ok(files)
+    }
 }
 
 /// `--integrating`.
@@ -93,122 +138,38 @@ impl From<IntegratingFlag> for Integrating {
     }
 }
 
-fn with_ext(out: &Path, ext: &str) -> PathBuf {
-    let mut s = out.as_os_str().to_owned();
-    s.push(ext);
-    PathBuf::from(s)
-}
-
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    for name in &args.stiction {
-        find_model(name).map_err(usage)?;
-    }
-    let opts = BatchOptions {
-        stiction: args.stiction.clone(),
-        linear: args.linear.clone(),
-        settings: args.search.settings(&args.linear)?,
-        read: args.data.read_options(true, batch::MIN_ROWS),
-        integrating: args.integrating.into(),
-        min_fit: args.min_fit,
-    };
-    let labels = match &args.labels {
-        Some(p) => Some(Labels::read(p).map_err(data)?),
-        None => None,
-    };
-    let jsonl = args.out.as_deref().map(|o| with_ext(o, ".jsonl"));
-    let csv_path = args.out.as_deref().map(|o| with_ext(o, ".csv"));
-    let mut exclude: Vec<PathBuf> = args.labels.iter().cloned().collect();
-    exclude.extend(jsonl.iter().cloned());
-    exclude.extend(csv_path.iter().cloned());
-    let (mut files, not_loops) =
-        expand(&args.paths, &exclude, args.data.op_column()).map_err(usage)?;
-    for n in &not_loops {
-        let _ = writeln!(s.stderr, "note: skipped {}: {n}", n.path.display());
-    }
+    let opts = args.run.options(&args.combos, args.min_fit)?;
+    let labels = args.labels.as_deref().map(Labels::read).transpose()?;
+    let out = args.out.as_deref().map(batch::out_paths);
+    let exclude: Vec<PathBuf> = (args.labels.iter().cloned())
+        .chain(
+            out.iter()
+                .flat_map(|(jsonl, csv)| [jsonl.clone(), csv.clone()]),
+        )
+        .collect();
+    let mut files = args.run.files(&args.paths, &exclude, s)?;
     if let Some(v) = &args.valve {
         files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
     }
+    let jsonl = out.as_ref().map(|(jsonl, _)| jsonl.as_path());
     let bar = crate::progress::Progress::new(s.progress, "batch");
-    let tick = |done: usize, total: usize| bar.update(done, total);
-    let run = batch::run(
-        &files,
-        &opts,
-        labels.as_ref(),
-        jsonl.as_deref(),
-        Some(&tick),
-    );
+    let run = batch::run(&files, &opts, labels.as_ref(), jsonl, Some(&bar.tick()));
     bar.finish();
-    let run = run.map_err(data)?;
-    if let (Some(path), [first, ..]) = (&jsonl, run.torn.as_slice()) {
-        let what = match run.torn.len() {
-            1 => format!("line {first} is torn (an interrupted run): its registration is"),
-            n => format!("{n} unreadable lines (first: line {first}): their registrations are"),
-        };
-        let _ = writeln!(s.stderr, "note: {}: {what} computed again", path.display());
+    let run = run?;
+    if let (Some(path), Some(note)) = (jsonl, run.torn_note()) {
+        let _ = writeln!(s.stderr, "note: {}: {note}", path.display());
     }
-    if let Some(path) = &csv_path {
-        batch::write_csv(path, &run.rows).map_err(data)?;
+    match &out {
+        Some((_, csv)) => batch::write_csv(csv, &run.rows)?,
+        None => s.text(report::text::batch_table(&run.rows))?,
     }
-
-    let out = &mut *s.stdout;
-    let rows = &run.rows;
-    let ok = rows.iter().filter(|r| r.is_ok()).count();
-    if args.out.is_none() {
-        write!(out, "{}", report::text::batch_table(rows)).map_err(data)?;
-    }
-    writeln!(
-        out,
-        "{} file(s): {} row(s) ok, {} error row(s); {} file(s) computed, {} skipped (already in {})",
+    let first = (&args.combos.stiction[0], &args.combos.linear[0]);
+    let labelled = labels.map(|_| (first.0.as_str(), first.1.as_str()));
+    s.text(report::text::batch_summary(
         files.len(),
-        ok,
-        rows.len() - ok,
-        run.computed,
-        run.skipped,
-        jsonl
-            .as_ref()
-            .map_or("-".into(), |p| p.display().to_string())
-    )
-    .map_err(data)?;
-    if labels.is_some() {
-        let (st, li) = (&args.stiction[0], &args.linear[0]);
-        let sum = batch::label_summary(rows, st, li);
-        let (n, npos) = (sum.rows, sum.stiction);
-        match sum.roc {
-            Some(monitoring::Roc {
-                auc,
-                threshold: thr,
-                tpr,
-                fpr,
-            }) => writeln!(
-                out,
-                "labels ({st} + {li}, {n} labelled rows: {npos} stiction, {} no-stiction): ROC AUC of S = {auc:.3}; best threshold S >= {thr:.2} % (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
-                n - npos
-            ),
-            None => writeln!(
-                out,
-                "labels: ROC needs ok rows of both labels ({n} labelled ok rows, {npos} stiction)"
-            ),
-        }
-        .map_err(data)?;
-        let det = batch::detect_label_summary(rows, st, li);
-        let (n, npos) = (det.rows, det.stiction);
-        match det.roc {
-            Some(monitoring::Roc {
-                auc,
-                threshold: thr,
-                tpr,
-                fpr,
-            }) => writeln!(
-                out,
-                "labels (detector, same rows, {n} with a score: {npos} stiction, {} no-stiction): ROC AUC of detect_score = {auc:.3}; best threshold score >= {thr:.2} (Youden: TPR {tpr:.2}, FPR {fpr:.2})",
-                n - npos
-            ),
-            None => writeln!(
-                out,
-                "labels (detector): ROC needs scored ok rows of both labels ({n} labelled scored rows, {npos} stiction)"
-            ),
-        }
-        .map_err(data)?;
-    }
-    Ok(())
+        &run,
+        jsonl,
+        labelled,
+    ))
 }

@@ -6,7 +6,7 @@ use anyhow::anyhow;
 
 use super::batch::IntegratingFlag;
 use super::load::{load, DataFlags};
-use crate::{data, usage, CmdResult, Streams};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Runs every registered detection test (oscillation, Horch's cross-correlation or integrating
@@ -48,60 +48,13 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         )));
     }
     let d = load(&args.file, &args.data, true, 30, s)?;
-    d.require_pv().map_err(data)?;
-    let ts = monitoring::sample_time(&d);
-    let integrating = monitoring::Integrating::from(args.integrating);
-    let det = match monitoring::detect_file(&d, Some(&args.file), integrating) {
+    d.require_pv()?;
+    let det = match monitoring::detect_file(&d, Some(&args.file), args.integrating.into()) {
         monitoring::Detected::Ran(det) => det,
-        monitoring::Detected::Failed(e) => return Err(data(anyhow!("{}: {e}", d.source))),
+        monitoring::Detected::Failed(e) => return Err(anyhow!("{}: {e}", d.source).into()),
     };
     if args.json {
-        let doc = monitoring::detect_document(&d, &det);
-        writeln!(s.stdout, "{doc:#}").map_err(data)?;
-        return Ok(());
+        return s.json(&monitoring::detect_document(&d, &det));
     }
-    let out = &mut *s.stdout;
-    writeln!(
-        out,
-        "{}: {} (score {:.2}): {}",
-        d.source, det.verdict, det.score, det.reason
-    )
-    .map_err(data)?;
-    writeln!(
-        out,
-        "  {}; {} loop; {} samples every {ts} s",
-        match det.period_s {
-            Some(p) => format!("oscillating, period {p:.0} s"),
-            None => "no regular oscillation".to_string(),
-        },
-        if det.integrating {
-            "integrating"
-        } else {
-            "self-regulating"
-        },
-        d.op.len()
-    )
-    .map_err(data)?;
-    writeln!(
-        out,
-        "  {:18} {:>9}  {:12}  evidence",
-        "test", "statistic", "verdict"
-    )
-    .map_err(data)?;
-    for t in &det.tests {
-        let stat = t
-            .statistic
-            .filter(|v| v.is_finite())
-            .map_or("-".to_string(), |v| format!("{v:.3}"));
-        writeln!(
-            out,
-            "  {:18} {:>9}  {:12}  {}",
-            t.name,
-            stat,
-            t.verdict.as_str(),
-            t.evidence
-        )
-        .map_err(data)?;
-    }
-    Ok(())
+    s.text(report::text::detect(&d, &det)?)
 }

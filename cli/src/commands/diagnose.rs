@@ -1,17 +1,14 @@
 //! `stiction diagnose`: what the baseline model gets wrong, its cause, the extended model and
 //! its gain (the `discrepancy` crate).
 
-use std::path::PathBuf;
-
 use anyhow::anyhow;
-use discrepancy::diagnose_with_progress;
-use grid_search::Problem;
+use discrepancy::{diagnose_with_progress, DiagnoseError};
 
 use super::load::DataFlags;
-use super::quantify::{loop_data, Example};
+use super::quantify::LoopFlags;
 use super::search_flags::SearchFlags;
 use crate::reporting::{self, ReportFlags};
-use crate::{data, usage, CmdResult, Streams};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Fits the baseline (default kano + arx with the paper's orders), characterises its residuals on
@@ -35,12 +32,8 @@ Examples:
 /// Arguments of `stiction diagnose`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// CSV file with PV and OP columns (`-` for standard input).
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    file: Option<PathBuf>,
-    /// Use an embedded example loop instead of a file.
-    #[arg(long, value_enum)]
-    example: Option<Example>,
+    #[command(flatten)]
+    source: LoopFlags,
     /// Stiction model of the baseline.
     #[arg(long, value_name = "NAME", default_value = "kano")]
     stiction: String,
@@ -64,48 +57,32 @@ pub struct Args {
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let search = args.search.args();
     let baseline = discrepancy::baseline(&search, &args.stiction, &args.linear).map_err(usage)?;
-    let file = args.file.as_deref();
+    let file = args.source.file.as_deref();
     let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "diagnose", s);
-    let d = match loop_data(file, args.example, &args.data, s) {
-        Ok(d) => d,
-        Err(f) => return Err(refused(f, s)),
-    };
-    let pv = d.require_pv().map_err(data)?;
+    let d = args.source.load(&args.data, s).map_err(|f| refused(f, s))?;
+    let problem = monitoring::problem(&d)?;
     let options = discrepancy::options_for(&search, monitoring::span_of(&d.op), &args.without)
         .map_err(usage)?;
-    let problem = Problem {
-        op: &d.op,
-        pv,
-        mv: d.mv.as_deref(),
-    };
-    let bar = crate::progress::Progress::since(
-        s.progress,
-        "diagnose",
-        "steps",
-        std::time::Instant::now(),
-    );
+    let started = std::time::Instant::now();
+    let bar = crate::progress::Progress::since(s.progress, "diagnose", "steps", started);
     let tick = |done: usize, total: usize, _what: &str| bar.update(done, total);
     let outcome = diagnose_with_progress(problem, &baseline, &options, Some(&tick));
     bar.finish();
     let dg = match outcome {
         Ok(dg) => dg,
-        Err(e @ discrepancy::DiagnoseError::UnknownCause { .. }) => return Err(usage(e)),
-        Err(discrepancy::DiagnoseError::Search(
-            e @ (grid_search::SearchError::Budget { .. }
-            | grid_search::SearchError::InvalidOption { .. }),
-        )) => return Err(usage(anyhow::Error::new(e).context(d.source.clone()))),
-        Err(other) => return Err(refused(data(anyhow!("{}: {other}", d.source)), s)),
+        Err(e @ DiagnoseError::UnknownCause { .. }) => return Err(usage(e)),
+        Err(DiagnoseError::Search(e)) if e.is_usage() => {
+            return Err(usage(anyhow::Error::new(e).context(d.source.clone())))
+        }
+        Err(other) => return Err(refused(anyhow!("{}: {other}", d.source).into(), s)),
     };
     reporting::write(&args.report, s, || report::pages::diagnose_page(&d, &dg))?;
     let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
     if args.json {
         let mut v = dg.record(&d.source, &args.search.init);
         v["detection"] = serde_json::json!(det.record());
-        serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
-        writeln!(s.stdout).map_err(data)?;
-        return Ok(());
+        return s.json(&v);
     }
-    let text = report::text::diagnose(&d, &dg).map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)?;
-    writeln!(s.stdout, "{}", report::text::detection_line(&det)).map_err(data)
+    let text = report::text::diagnose(&d, &dg)?;
+    s.text(format!("{text}{}\n", report::text::detection_line(&det)))
 }

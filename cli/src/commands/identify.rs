@@ -5,8 +5,7 @@ use std::path::PathBuf;
 use anyhow::anyhow;
 
 use super::load::{load, DataFlags};
-use super::search_flags::check_identifier;
-use crate::{data, usage, CmdResult, Streams};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Identifies on the first 2/3 of the record and validates the one-step prediction on the last
@@ -57,49 +56,25 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             args.split
         )));
     }
-    let (identifier, _) = check_identifier(
-        &args.linear,
-        args.orders.as_deref().unwrap_or(""),
-        args.delay,
-    )?;
-    let entry = linear_id::find_identifier(&args.linear).map_err(usage)?;
-    let mut flags = args.data.clone();
-    if let Some(col) = &args.input {
-        flags.set_op(col.clone());
-    }
-    if let Some(col) = &args.output {
-        flags.set_pv(col.clone());
-    }
+    let orders = args.orders.as_deref().unwrap_or("");
+    let (identifier, _) =
+        monitoring::identifier_for(&args.linear, orders, args.delay).map_err(usage)?;
+    let flags = args
+        .data
+        .with_columns(args.input.as_ref(), args.output.as_ref());
     let d = load(&args.file, &flags, true, identifier.min_samples().max(3), s)?;
-    let (u, input_name): (&[f64], String) = match (&args.input, &d.mv) {
-        (Some(col), _) => (&d.op, col.clone()),
-        (None, Some(mv)) => (mv, "MV".into()),
-        (None, None) => (&d.op, "OP".into()),
-    };
-    let y = d.require_pv().map_err(data)?;
-    let output = args.output.clone().unwrap_or_else(|| "PV".into());
-    let id = monitoring::identify::identify(
-        identifier.as_ref(),
-        entry.name,
-        &d.source,
-        (u, &input_name),
-        (y, &output),
-        args.split,
-    )
-    .map_err(data)?;
+    let input = monitoring::identify::input_of(&d, args.input.as_deref());
+    let output = (d.require_pv()?, args.output.as_deref().unwrap_or("PV"));
+    let id = monitoring::identify::identify(&*identifier, &d.source, input, output, args.split)?;
     if !id.fit.is_stable() {
         writeln!(
             s.stderr,
             "warning: {}: the identified {} model is unstable (pole outside the unit circle); do not use it for simulation",
-            d.source, entry.name
-        )
-        .map_err(data)?;
+            d.source, id.linear
+        )?;
     }
     if args.json {
-        serde_json::to_writer_pretty(&mut *s.stdout, &id.record(args.delay)).map_err(data)?;
-        writeln!(s.stdout).map_err(data)?;
-        return Ok(());
+        return s.json(&id.record(args.delay));
     }
-    let text = report::text::identify(&d.source, &id).map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)
+    s.text(report::text::identify(&d.source, &id)?)
 }

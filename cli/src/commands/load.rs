@@ -1,10 +1,11 @@
 //! Reading a loop registration from `FILE` (or `-`) with the shared data flags.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use datasets::{read_csv, GapPolicy, LoopData, ReadOptions};
+use anyhow::anyhow;
+use datasets::{read_csv, GapPolicy, Limits, LoopData, OpRange, ReadOptions};
 
-use crate::{data, read_all, Failure, Streams};
+use crate::{read_all, Failure, Streams};
 
 /// Column remaps and the gap policy, shared by every command that reads data.
 #[derive(Debug, Clone, clap::Args)]
@@ -63,17 +64,44 @@ fn parse_op_range(s: &str) -> Result<(f64, f64), String> {
 }
 
 impl DataFlags {
-    /// Use column `name` as OP.
-    pub(crate) fn set_op(&mut self, name: String) {
-        self.op = Some(name);
-    }
     /// The OP column's name (`OP` unless remapped).
     pub(crate) fn op_column(&self) -> &str {
         self.op.as_deref().unwrap_or("OP")
     }
-    /// Use column `name` as PV.
-    pub(crate) fn set_pv(&mut self, name: String) {
-        self.pv = Some(name);
+
+    /// These flags with OP and PV read from the columns `op` and `pv` when given.
+    pub(crate) fn with_columns(&self, op: Option<&String>, pv: Option<&String>) -> DataFlags {
+        DataFlags {
+            op: op.or(self.op.as_ref()).cloned(),
+            pv: pv.or(self.pv.as_ref()).cloned(),
+            ..self.clone()
+        }
+    }
+
+    /// The reader's options for these flags.
+    pub(crate) fn read_options(&self, require_pv: bool, min_rows: usize) -> ReadOptions {
+        let gaps = match (&self.fill, self.drop_gaps) {
+            (Some(_), _) => GapPolicy::FillHold,
+            (None, true) => GapPolicy::DropGaps,
+            (None, false) => GapPolicy::Refuse,
+        };
+        ReadOptions {
+            pv: self.pv.clone(),
+            op: self.op.clone(),
+            sp: self.sp.clone(),
+            mv: self.mv.clone(),
+            time: self.time.clone(),
+            require_pv,
+            gaps,
+            min_rows,
+            mode: self.mode.clone(),
+            mat_loop: self.mat_loop.clone(),
+            limits: Limits {
+                max_rows: self.max_rows,
+                ..Limits::default()
+            },
+            op_range: (self.op_range).map_or(OpRange::Detect, |(lo, hi)| OpRange::Given(lo, hi)),
+        }
     }
 }
 
@@ -86,50 +114,14 @@ pub(crate) fn load(
     s: &mut Streams<'_>,
 ) -> Result<LoopData, Failure> {
     let opts = flags.read_options(require_pv, min_rows);
-    let loop_data = if file.as_os_str() == "-" {
-        let bytes = read_all(s.stdin)
-            .map_err(|e| data(anyhow::anyhow!("-: cannot read standard input: {e}")))?;
-        read_csv(bytes.as_slice(), "-", &opts)
+    let d = if file.as_os_str() == "-" {
+        let bytes = read_all(s.stdin).map_err(|e| anyhow!("-: cannot read standard input: {e}"))?;
+        read_csv(bytes.as_slice(), "-", &opts)?
     } else {
-        datasets::read_path(PathBuf::from(file), &opts)
+        datasets::read_path(file, &opts)?
+    };
+    for note in &d.notes {
+        let _ = writeln!(s.stderr, "note: {}: {note}", d.source);
     }
-    .map_err(data)?;
-    for note in &loop_data.notes {
-        let _ = writeln!(s.stderr, "note: {}: {note}", loop_data.source);
-    }
-    Ok(loop_data)
-}
-
-impl DataFlags {
-    /// The reader's options for these flags.
-    pub(crate) fn read_options(&self, require_pv: bool, min_rows: usize) -> ReadOptions {
-        let flags = self;
-        ReadOptions {
-            pv: flags.pv.clone(),
-            op: flags.op.clone(),
-            sp: flags.sp.clone(),
-            mv: flags.mv.clone(),
-            time: flags.time.clone(),
-            require_pv,
-            gaps: if flags.fill.is_some() {
-                GapPolicy::FillHold
-            } else if flags.drop_gaps {
-                GapPolicy::DropGaps
-            } else {
-                GapPolicy::Refuse
-            },
-            min_rows,
-            mode: flags.mode.clone(),
-            mat_loop: flags.mat_loop.clone(),
-            limits: datasets::Limits {
-                max_rows: flags.max_rows,
-                ..datasets::Limits::default()
-            },
-            op_range: flags
-                .op_range
-                .map_or(datasets::OpRange::Detect, |(lo, hi)| {
-                    datasets::OpRange::Given(lo, hi)
-                }),
-        }
-    }
+    Ok(d)
 }

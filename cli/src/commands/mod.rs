@@ -12,10 +12,13 @@ pub mod simulate;
 pub mod trend;
 pub mod valve;
 
-use anyhow::Context;
-use stiction_models::{find_model, Direction, InitialState, StictionModel};
+use std::io::Write;
+use std::path::Path;
 
-use crate::{usage, Failure};
+use anyhow::{anyhow, Context};
+use stiction_models::{Direction, InitialState};
+
+use crate::{usage, CmdResult, Failure};
 
 /// Parse `K=V` (for `--param`).
 pub(crate) fn parse_param(s: &str) -> Result<(String, f64), String> {
@@ -33,21 +36,18 @@ pub(crate) fn parse_param(s: &str) -> Result<(String, f64), String> {
     Ok((k.to_string(), value))
 }
 
-/// Build a registered stiction model from its name and `K=V` pairs (bad usage on failure).
-pub(crate) fn build_model(
-    name: &str,
-    params: &[(String, f64)],
-) -> Result<Box<dyn StictionModel>, Failure> {
-    let entry = find_model(name).map_err(usage)?;
-    entry.build_named(params).map_err(usage)
-}
-
 /// The initial valve state from the `--start`, `--us0`, `--mv0` flags.
 pub(crate) fn initial_state(
     start: StartFlag,
     us0: Option<f64>,
     mv0: Option<f64>,
 ) -> Result<InitialState, Failure> {
+    // The flags' names, not the library's fields (`stuck_at`, `position`).
+    for (flag, v) in [("--us0", us0), ("--mv0", mv0)] {
+        if let Some(v) = v.filter(|v| !v.is_finite()) {
+            return Err(usage(anyhow!("{flag} {v}: expected a finite OP value")));
+        }
+    }
     let (direction, stuck) = match start {
         StartFlag::Down => (Direction::Down, true),
         StartFlag::Up => (Direction::Up, true),
@@ -60,14 +60,6 @@ pub(crate) fn initial_state(
         stuck_at: us0,
         position: mv0,
     };
-    // The flags' names, not the library's fields (`stuck_at`, `position`).
-    for (flag, v) in [("--us0", us0), ("--mv0", mv0)] {
-        if let Some(v) = v.filter(|v| !v.is_finite()) {
-            return Err(usage(anyhow::anyhow!(
-                "{flag} {v}: expected a finite OP value"
-            )));
-        }
-    }
     st.validate().map_err(usage)?;
     Ok(st)
 }
@@ -87,17 +79,14 @@ pub(crate) enum StartFlag {
 
 /// Parse `LO,HI` (for `--clip`).
 pub(crate) fn parse_clip(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s
-        .split_once(',')
-        .ok_or_else(|| format!("expected LO,HI (e.g. 0,100), got {s:?}"))?;
-    let lo: f64 = a
-        .trim()
-        .parse()
-        .map_err(|_| format!("{a:?} is not a number"))?;
-    let hi: f64 = b
-        .trim()
-        .parse()
-        .map_err(|_| format!("{b:?} is not a number"))?;
+    let (a, b) =
+        (s.split_once(',')).ok_or_else(|| format!("expected LO,HI (e.g. 0,100), got {s:?}"))?;
+    let number = |t: &str| {
+        t.trim()
+            .parse()
+            .map_err(|_| format!("{t:?} is not a number"))
+    };
+    let (lo, hi): (f64, f64) = (number(a)?, number(b)?);
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
         return Err(format!("expected finite LO < HI, got {lo},{hi}"));
     }
@@ -105,25 +94,19 @@ pub(crate) fn parse_clip(s: &str) -> Result<(f64, f64), String> {
 }
 
 /// Open `path` for writing, or stdout for `None`/`-`.
-pub(crate) fn with_output<F>(
-    path: Option<&std::path::Path>,
-    stdout: &mut dyn std::io::Write,
-    f: F,
-) -> Result<(), Failure>
+pub(crate) fn with_output<F>(path: Option<&Path>, stdout: &mut dyn Write, f: F) -> CmdResult
 where
-    F: FnOnce(&mut dyn std::io::Write) -> anyhow::Result<()>,
+    F: FnOnce(&mut dyn Write) -> anyhow::Result<()>,
 {
     match path {
         Some(p) if p.as_os_str() != "-" => {
             let file = std::fs::File::create(p)
-                .with_context(|| format!("cannot create {}", p.display()))
-                .map_err(crate::data)?;
+                .with_context(|| format!("cannot create {}", p.display()))?;
             let mut w = std::io::BufWriter::new(file);
-            f(&mut w).map_err(crate::data)?;
-            std::io::Write::flush(&mut w)
-                .with_context(|| format!("cannot write {}", p.display()))
-                .map_err(crate::data)
+            f(&mut w)?;
+            Ok(w.flush()
+                .with_context(|| format!("cannot write {}", p.display()))?)
         }
-        _ => f(stdout).map_err(crate::data),
+        _ => Ok(f(stdout)?),
     }
 }

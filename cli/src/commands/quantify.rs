@@ -1,20 +1,19 @@
 //! `stiction quantify` and `stiction compare`: the grid search on one loop.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::anyhow;
-use datasets::simulate::Scenario;
 use datasets::LoopData;
-use grid_search::Problem;
-use serde_json::{json, Value};
-use stiction_models::{find_model, Kano};
+use monitoring::Fitted;
+use serde_json::json;
+use stiction_models::find_model;
 
 use super::load::{load, DataFlags};
-use super::search_flags::{check_identifier, SearchFlags};
+use super::search_flags::SearchFlags;
 use crate::progress::Progress;
 use crate::reporting::{self, ReportFlags};
-use crate::{data, usage, CmdResult, Failure, Streams};
+use crate::{usage, CmdResult, Failure, Streams};
 
 pub(crate) const QUANTIFY_HELP: &str = "\
 The grid covers the model's parameters from 0 to the OP span (the triangle J <= S for kano).
@@ -47,15 +46,33 @@ pub(crate) enum Example {
     Paper,
 }
 
-/// Arguments of `stiction quantify`.
+/// The loop to analyse: a file or an embedded example.
 #[derive(Debug, clap::Args)]
-pub struct QuantifyArgs {
+pub(crate) struct LoopFlags {
     /// CSV file with PV and OP columns (`-` for standard input).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
-    file: Option<PathBuf>,
+    pub file: Option<PathBuf>,
     /// Use an embedded example loop instead of a file.
     #[arg(long, value_enum)]
     example: Option<Example>,
+}
+
+impl LoopFlags {
+    /// Read the file (notes on stderr), or simulate the example.
+    pub(crate) fn load(&self, flags: &DataFlags, s: &mut Streams<'_>) -> Result<LoopData, Failure> {
+        match (&self.file, self.example) {
+            (_, Some(Example::Paper)) => Ok(monitoring::paper_example()?),
+            (Some(f), None) => load(f, flags, true, 30, s),
+            (None, None) => Err(usage(anyhow!("give a FILE or --example"))),
+        }
+    }
+}
+
+/// Arguments of `stiction quantify`.
+#[derive(Debug, clap::Args)]
+pub struct QuantifyArgs {
+    #[command(flatten)]
+    source: LoopFlags,
     /// Registered stiction model searched over (see `stiction models`).
     #[arg(long, value_name = "NAME", default_value = "kano")]
     stiction: String,
@@ -79,12 +96,8 @@ pub struct QuantifyArgs {
 /// Arguments of `stiction compare`.
 #[derive(Debug, clap::Args)]
 pub struct CompareArgs {
-    /// CSV file with PV and OP columns (`-` for standard input).
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    file: Option<PathBuf>,
-    /// Use an embedded example loop instead of a file.
-    #[arg(long, value_enum)]
-    example: Option<Example>,
+    #[command(flatten)]
+    source: LoopFlags,
     /// Stiction models, comma-separated.
     #[arg(
         long,
@@ -112,112 +125,63 @@ pub struct CompareArgs {
     json: bool,
 }
 
-/// The loop to analyse: a file or an embedded example.
-pub(crate) fn loop_data(
-    file: Option<&Path>,
-    example: Option<Example>,
-    flags: &DataFlags,
-    s: &mut Streams<'_>,
-) -> Result<LoopData, Failure> {
-    match (file, example) {
-        (_, Some(Example::Paper)) => {
-            let scenario = Scenario {
-                valve: Box::new(Kano::params().s(9.0).j(3.0).check().map_err(data)?),
-                ..Scenario::default()
-            };
-            let sim = scenario.simulate().map_err(data)?;
-            let mut d = sim.to_loop_data();
-            d.source = "example paper (kano S = 9, J = 3, seed 1)".into();
-            Ok(d)
-        }
-        (Some(f), None) => load(f, flags, true, 30, s),
-        (None, None) => Err(usage(anyhow!("give a FILE or --example"))),
-    }
-}
-
-/// Everything about one quantification run, for printing: the workflow library's result.
-pub(crate) use monitoring::Fitted as Run;
-
 /// Run one stiction × linear combination on `d`. The progress bar (on a terminal) appears once
 /// `since` is a second old and its label starts with `step` (e.g. `compare 3/10: `).
 pub(crate) fn run_one(
-    stiction: &str,
-    linear: &str,
+    (stiction, linear): (&str, &str),
     flags: &SearchFlags,
     d: &LoopData,
     s: &mut Streams<'_>,
     (since, step): (Instant, &str),
     node_fits: grid_search::NodeFits,
-) -> Result<Run, Failure> {
+) -> Result<Fitted, Failure> {
     let mut combination = flags.combination(stiction, linear)?;
     combination.search.node_fits = node_fits;
-    let pv = d.require_pv().map_err(data)?;
-    let problem = Problem {
-        op: &d.op,
-        pv,
-        mv: d.mv.as_deref(),
-    };
-    let bar = Progress::since(
-        s.progress,
-        &format!(
-            "{step}{} + {}",
-            combination.stiction.name, combination.linear.name
-        ),
-        "nodes",
-        since,
+    let problem = monitoring::problem(d)?;
+    let label = format!(
+        "{step}{} + {}",
+        combination.stiction.name, combination.linear.name
     );
-    let tick = |done: usize, total: usize| bar.update(done, total);
-    let run = combination.run(problem, Some(&tick));
+    let bar = Progress::since(s.progress, &label, "nodes", since);
+    let run = combination.run(problem, Some(&bar.tick()));
     bar.finish();
     // Keep the error's type (a node budget breach is bad usage, see `crate::run_from`).
-    run.map_err(|e| data(anyhow::Error::new(e).context(d.source.clone())))
-}
-
-/// The contract's quantify object as JSON.
-pub(crate) fn quantify_json(r: &Run, init: &stiction_models::Initialization) -> Value {
-    serde_json::to_value(r.record(init)).unwrap_or_default()
+    Ok(run.map_err(|e| anyhow::Error::new(e).context(d.source.clone()))?)
 }
 
 pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult {
-    let file = args.file.as_deref();
+    let file = args.source.file.as_deref();
     let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "quantify", s);
-    let d = match loop_data(file, args.example, &args.data, s) {
-        Ok(d) => d,
-        Err(f) => return Err(refused(f, s)),
+    let d = args.source.load(&args.data, s).map_err(|f| refused(f, s))?;
+    let combination = (args.stiction.as_str(), args.linear.as_str());
+    // a surface written out carries both criteria's fits at every node
+    let node_fits = if args.surface.is_some() {
+        grid_search::NodeFits::Both
+    } else {
+        grid_search::NodeFits::Criterion
     };
-    let r = match run_one(
-        &args.stiction,
-        &args.linear,
+    let r = run_one(
+        combination,
         &args.search,
         &d,
         s,
         (Instant::now(), ""),
-        // a surface written out carries both criteria's fits at every node
-        if args.surface.is_some() {
-            grid_search::NodeFits::Both
-        } else {
-            grid_search::NodeFits::Criterion
-        },
-    ) {
-        Ok(r) => r,
-        Err(f) => return Err(refused(f, s)),
-    };
+        node_fits,
+    )
+    .map_err(|f| refused(f, s))?;
     if let Some(path) = &args.surface {
-        r.write_surface(path).map_err(data)?;
+        r.write_surface(path)?;
     }
     reporting::write(&args.report, s, || report::pages::quantify_page(&d, &r))?;
     let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
     if args.json {
-        let mut v = quantify_json(&r, &args.search.init);
+        let mut v = serde_json::to_value(r.record(&args.search.init))?;
         v["source"] = json!(d.source);
         v["detection"] = json!(det.record());
-        serde_json::to_writer_pretty(&mut *s.stdout, &v).map_err(data)?;
-        writeln!(s.stdout).map_err(data)?;
-        return Ok(());
+        return s.json(&v);
     }
-    let text = report::text::quantify(&d.source, &r, args.search.init.label()).map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)?;
-    writeln!(s.stdout, "{}", report::text::detection_line(&det)).map_err(data)
+    let text = report::text::quantify(&d.source, &r, args.search.init.label())?;
+    s.text(format!("{text}{}\n", report::text::detection_line(&det)))
 }
 
 pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
@@ -226,79 +190,43 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
         find_model(name).map_err(usage)?;
     }
     for name in &args.linear {
-        check_identifier(name, "", 0)?;
+        monitoring::identifier_for(name, "", 0).map_err(usage)?;
     }
-    let d = match loop_data(args.file.as_deref(), args.example, &args.data, s) {
-        Ok(d) => d,
-        Err(f) => {
-            return Err(reporting::refused(
-                args.file.as_deref(),
-                f,
-                &args.report,
-                "compare",
-                s,
-            ))
-        }
-    };
+    let file = args.source.file.as_deref();
+    let d = (args.source.load(&args.data, s))
+        .map_err(|f| reporting::refused(file, f, &args.report, "compare", s))?;
+    let (started, total) = (Instant::now(), args.stiction.len() * args.linear.len());
     let mut rows = Vec::new();
-    let started = Instant::now();
-    let total = args.stiction.len() * args.linear.len();
     for st in &args.stiction {
         for li in &args.linear {
             let step = format!("compare {}/{total}: ", rows.len() + 1);
             let r = run_one(
-                st,
-                li,
+                (st, li),
                 &args.search,
                 &d,
                 s,
                 (started, &step),
                 grid_search::NodeFits::Criterion,
             );
-            rows.push((st.clone(), li.clone(), r));
+            rows.push((st.as_str(), li.as_str(), r.map_err(|f| f.line())));
         }
     }
     let view: Vec<report::text::CompareRow<'_>> = rows
         .iter()
-        .map(|(st, li, r)| {
-            let r = r.as_ref().map_err(|f| crate::one_line(f.error()));
-            (st.as_str(), li.as_str(), r)
-        })
+        .map(|(st, li, r)| (*st, *li, r.as_ref().map_err(Clone::clone)))
         .collect();
-    let criterion = args.search.criterion_label();
+    let criterion = args.search.criterion.into();
     reporting::write(&args.report, s, || {
         report::pages::compare_page(&d, &view, criterion)
     })?;
     if args.json {
-        let mut doc = monitoring::CompareRecord {
-            source: d.source.clone(),
-            results: Vec::new(),
-            errors: Vec::new(),
-        };
-        for (st, li, r) in &rows {
-            match r {
-                Ok(r) => doc.results.push(r.record(&args.search.init)),
-                Err(f) => doc.errors.push(monitoring::CompareError {
-                    stiction_model: st.clone(),
-                    linear_model: li.clone(),
-                    error: crate::one_line(f.error()),
-                }),
-            }
+        let mut doc = monitoring::CompareRecord::new(&d.source);
+        for (st, li, r) in &view {
+            doc.push(st, li, r.clone().map(|r| r.record(&args.search.init)));
         }
-        // through a Value: keys in the sorted order every document is printed in
-        let doc = serde_json::to_value(&doc).map_err(data)?;
-        serde_json::to_writer_pretty(&mut *s.stdout, &doc).map_err(data)?;
-        writeln!(s.stdout).map_err(data)?;
-        return Ok(());
+        return s.json(&doc);
     }
-    let options = args.search.options(1.0)?;
-    let text = report::text::compare(
-        &d,
-        options.split,
-        options.init.label(),
-        options.criterion,
-        &view,
-    )
-    .map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)
+    let o = args.search.settings(&[])?.options(1.0);
+    let text = report::text::compare(&d, o.split, o.init.label(), o.criterion, &view)?;
+    s.text(text)
 }

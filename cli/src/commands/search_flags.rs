@@ -1,45 +1,23 @@
-//! Flags shared by `quantify`, `compare` (and later `diagnose`): the linear model's orders,
-//! the dead time, and the grid.
+//! Flags shared by `quantify`, `compare`, `diagnose`, `trend` and `batch`: the linear model's
+//! orders, the dead time, the grid and the search.
 
-use anyhow::anyhow;
-use grid_search::SearchOptions;
-use linear_id::{find_identifier, LinearIdentifier};
-use monitoring::{parse_orders, Combination, Orders, SearchArgs, Settings};
+use grid_search::Criterion;
+use monitoring::{Combination, DelayArg, SearchArgs, Settings};
 use stiction_models::Initialization;
 
 use super::valve::parse_init;
 use crate::{usage, Failure};
 
-/// The dead time: fixed or estimated.
-/// `--delay N|auto` (the library's [`DelayArg`]).
-pub(crate) use monitoring::DelayArg as DelayFlag;
-
-pub(crate) fn parse_delay(s: &str) -> Result<DelayFlag, String> {
-    DelayFlag::parse(s)
-}
-
+/// `--split`: a decimal or a fraction `A/B`, strictly between 0 and 1.
 pub(crate) fn parse_split(s: &str) -> Result<f64, String> {
-    let v = match s.split_once('/') {
-        Some((a, b)) => {
-            let a: f64 = a
-                .trim()
-                .parse()
-                .map_err(|_| format!("{s:?} is not a fraction"))?;
-            let b: f64 = b
-                .trim()
-                .parse()
-                .map_err(|_| format!("{s:?} is not a fraction"))?;
-            a / b
-        }
-        None => s
-            .trim()
-            .parse::<f64>()
-            .map_err(|_| format!("{s:?} is not a number"))?,
+    let number = |t: &str| t.trim().parse::<f64>().ok();
+    let (v, what) = match s.split_once('/') {
+        Some((a, b)) => (number(a).zip(number(b)).map(|(a, b)| a / b), "a fraction"),
+        None => (number(s), "a number"),
     };
-    if v.is_finite() && v > 0.0 && v < 1.0 {
-        Ok(v)
-    } else {
-        Err(format!("{s}: expected a fraction strictly between 0 and 1"))
+    match v.ok_or_else(|| format!("{s:?} is not {what}"))? {
+        v if v.is_finite() && v > 0.0 && v < 1.0 => Ok(v),
+        _ => Err(format!("{s}: expected a fraction strictly between 0 and 1")),
     }
 }
 
@@ -52,8 +30,8 @@ pub(crate) struct SearchFlags {
     #[arg(long, value_name = "ORDERS")]
     pub orders: Option<String>,
     /// Process dead time in samples, or `auto` to estimate it.
-    #[arg(long, value_name = "N|auto", default_value = "0", value_parser = parse_delay)]
-    pub delay: DelayFlag,
+    #[arg(long, value_name = "N|auto", default_value = "0", value_parser = DelayArg::parse)]
+    pub delay: DelayArg,
     /// Grid step in OP units (% of span): exhaustive grid at this step. Default: a coarse grid
     /// at span/40 refined at step 0.1 around its best node.
     #[arg(long, value_name = "X", allow_hyphen_values = true)]
@@ -83,25 +61,16 @@ pub(crate) enum CriterionFlag {
     Simulation,
 }
 
-impl SearchFlags {
-    /// The ranking criterion in words.
-    pub(crate) fn criterion_label(&self) -> &'static str {
-        match self.criterion {
-            CriterionFlag::Prediction => "one-step prediction",
-            CriterionFlag::Simulation => "free-run simulation",
+impl From<CriterionFlag> for Criterion {
+    fn from(c: CriterionFlag) -> Criterion {
+        match c {
+            CriterionFlag::Prediction => Criterion::Prediction,
+            CriterionFlag::Simulation => Criterion::Simulation,
         }
     }
+}
 
-    /// Search options for a record with OP span `span`.
-    pub fn options(&self, span: f64) -> Result<SearchOptions, Failure> {
-        Ok(self.settings(&[])?.options(span))
-    }
-
-    /// The settings these flags describe, checked against the identifiers `linear` (their
-    /// names, the orders and the dead time are bad usage here, with the flags' names): orders,
-    /// dead time (`auto` scans 0..=`monitoring::MAX_AUTO_DELAY`), grid (`--step` =
-    /// exhaustive, else the default for each record's span), initialization, split, criterion
-    /// and node budget.
+impl SearchFlags {
     /// The flags as the library's [`SearchArgs`].
     pub(crate) fn args(&self) -> SearchArgs {
         SearchArgs {
@@ -109,17 +78,14 @@ impl SearchFlags {
             delay: self.delay,
             step: self.step,
             init: self.init.label().to_string(),
-            criterion: match self.criterion {
-                CriterionFlag::Prediction => "prediction",
-                CriterionFlag::Simulation => "simulation",
-            }
-            .to_string(),
+            criterion: Criterion::from(self.criterion).label().to_string(),
             split: self.split,
             max_nodes: self.max_nodes,
         }
     }
 
-    /// The settings of a run over the identifiers `linear` (usage errors name the flag).
+    /// The settings of a run over the identifiers `linear` (orders, dead time, grid, search;
+    /// usage errors name the flag).
     pub(crate) fn settings(&self, linear: &[String]) -> Result<Settings, Failure> {
         let names: Vec<&str> = linear.iter().map(String::as_str).collect();
         self.args().settings(&names).map_err(usage)
@@ -131,23 +97,4 @@ impl SearchFlags {
             .combination(stiction, linear)
             .map_err(usage)
     }
-}
-
-/// `--orders` split into `(name, value)` items (a name for `NAME=VALUE`).
-pub(crate) fn check_identifier(
-    name: &str,
-    orders: &str,
-    delay: usize,
-) -> Result<(Box<dyn LinearIdentifier>, Orders), Failure> {
-    let entry = find_identifier(name).map_err(usage)?;
-    let orders = parse_orders(orders, Some(entry)).map_err(usage)?;
-    if delay != 0 && !entry.orders.iter().any(|o| o.name == "delay") {
-        return Err(usage(anyhow!(
-            "{}: this identifier has no dead-time option",
-            entry.name
-        )));
-    }
-    let named = orders.resolve(entry).map_err(usage)?;
-    let id = monitoring::build_identifier(entry, &named, delay).map_err(usage)?;
-    Ok((id, orders))
 }

@@ -6,7 +6,7 @@ use anyhow::Context;
 use datasets::simulate::{Overrides, Scenario};
 
 use super::{parse_param, with_output};
-use crate::{data, usage, CmdResult, Failure, Streams};
+use crate::{usage, CmdResult, Failure, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Defaults are the paper's benchmark (eqs. 10-12): ARMAX(3,3,3) plant, PI Kc = KI = 0.5,
@@ -73,20 +73,13 @@ fn scenario(args: &Args, s: &mut Streams<'_>) -> Result<Scenario, Failure> {
     let mut sc = match &args.config {
         Some(path) => {
             let text = if path.as_os_str() == "-" {
-                let bytes = crate::read_all(s.stdin)
-                    .context("reading standard input")
-                    .map_err(data)?;
-                String::from_utf8(bytes)
-                    .context("-: not UTF-8")
-                    .map_err(data)?
+                let bytes = crate::read_all(s.stdin).context("reading standard input")?;
+                String::from_utf8(bytes).context("-: not UTF-8")?
             } else {
                 std::fs::read_to_string(path)
-                    .with_context(|| format!("cannot read {}", path.display()))
-                    .map_err(data)?
+                    .with_context(|| format!("cannot read {}", path.display()))?
             };
-            Scenario::from_json(&text)
-                .with_context(|| path.display().to_string())
-                .map_err(data)?
+            Scenario::from_json(&text).with_context(|| path.display().to_string())?
         }
         None => Scenario::default(),
     };
@@ -104,29 +97,22 @@ fn scenario(args: &Args, s: &mut Streams<'_>) -> Result<Scenario, Failure> {
         seed: args.seed,
     })
     .map_err(usage)?;
-    // Flags are usage: a bad value given on the command line exits 2.
-    sc.validate().map_err(|e| {
-        if args.config.is_some() {
-            data(e)
-        } else {
-            usage(e)
-        }
-    })?;
-    Ok(sc)
+    match sc.validate() {
+        // Flags are usage: a bad value given on the command line exits 2.
+        Err(e) if args.config.is_none() => Err(usage(e)),
+        result => Ok(result.map(|()| sc)?),
+    }
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let sc = scenario(&args, s)?;
+    let output = args.output.as_deref();
     if args.print_config {
-        return with_output(args.output.as_deref(), s.stdout, |w| {
-            writeln!(w, "{}", sc.to_json())?;
-            Ok(())
-        });
+        return with_output(output, s.stdout, |w| Ok(writeln!(w, "{}", sc.to_json())?));
     }
-    let sim = sc.simulate().map_err(data)?;
-    writeln!(s.stderr, "{}", sim.summary(&sc)).map_err(data)?;
-    with_output(args.output.as_deref(), s.stdout, |w| {
-        sim.write_csv(w).context("writing CSV")?;
-        Ok(())
+    let sim = sc.simulate()?;
+    writeln!(s.stderr, "{}", sim.summary(&sc))?;
+    with_output(output, s.stdout, |w| {
+        sim.write_csv(w).context("writing CSV")
     })
 }

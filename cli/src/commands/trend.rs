@@ -5,16 +5,13 @@
 use std::path::PathBuf;
 
 use anyhow::anyhow;
-use stiction_models::find_model;
 
-use super::batch::IntegratingFlag;
-use super::load::DataFlags;
-use super::search_flags::SearchFlags;
-use crate::reporting::{self, ReportFlags};
-use crate::{data, usage, CmdResult, Streams};
 use monitoring::batch::DEFAULT_MIN_FIT;
-use monitoring::registration::expand;
 use monitoring::trend::{self, TrendOptions, DEFAULT_HORIZON, DEFAULT_THRESHOLD};
+
+use super::batch::{Combos, RunFlags};
+use crate::reporting::{self, ReportFlags};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 Every registration (file) of one valve is quantified with every stiction x linear
@@ -44,17 +41,8 @@ pub struct Args {
     /// The valve to follow (file-name prefix before `_`); required when the files hold several.
     #[arg(long, value_name = "TAG")]
     valve: Option<String>,
-    /// Stiction models, comma-separated.
-    #[arg(
-        long,
-        value_name = "A,B",
-        value_delimiter = ',',
-        default_value = "kano"
-    )]
-    stiction: Vec<String>,
-    /// Linear identifiers, comma-separated.
-    #[arg(long, value_name = "X,Y", value_delimiter = ',', default_value = "arx")]
-    linear: Vec<String>,
+    #[command(flatten)]
+    combos: Combos,
     /// Maintenance threshold on S, % of valve span.
     #[arg(long, value_name = "S%", default_value_t = DEFAULT_THRESHOLD)]
     threshold: f64,
@@ -64,13 +52,8 @@ pub struct Args {
     /// How far ahead (days) the trend is projected for the `watch` verdict.
     #[arg(long, value_name = "DAYS", default_value_t = DEFAULT_HORIZON)]
     horizon: f64,
-    /// Integrating loops are identified from MV to ΔPV; `auto` = level loops (tag letter L).
-    #[arg(long, value_enum, default_value = "auto")]
-    integrating: IntegratingFlag,
     #[command(flatten)]
-    search: SearchFlags,
-    #[command(flatten)]
-    data: DataFlags,
+    run: RunFlags,
     /// Do not diagnose the weak and outlying registrations (faster; `why` then lists only the
     /// evidence from the quantification itself).
     #[arg(long)]
@@ -83,57 +66,33 @@ pub struct Args {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    for name in &args.stiction {
-        find_model(name).map_err(usage)?;
-    }
-    let settings = args.search.settings(&args.linear)?;
+    let run = args.run.options(&args.combos, args.min_fit)?;
     if !(args.threshold.is_finite() && args.threshold >= 0.0) {
         return Err(usage(anyhow!(
             "--threshold {}: expected a non-negative S in % of valve span",
             args.threshold
         )));
     }
-    let (files, not_loops) = expand(&args.paths, &[], args.data.op_column()).map_err(usage)?;
-    for n in &not_loops {
-        let _ = writeln!(s.stderr, "note: skipped {}: {n}", n.path.display());
-    }
+    let files = args.run.files(&args.paths, &[], s)?;
     let (valve, files) = trend::select(files, args.valve.as_deref()).map_err(|e| match e {
         monitoring::MonitoringError::SeveralValves(_) => usage(e),
-        other => data(other),
+        other => other.into(),
     })?;
+    let (threshold, horizon) = (args.threshold, args.horizon);
     let options = TrendOptions {
-        run: monitoring::batch::BatchOptions {
-            stiction: args.stiction.clone(),
-            linear: args.linear.clone(),
-            settings,
-            read: args.data.read_options(true, monitoring::batch::MIN_ROWS),
-            integrating: args.integrating.into(),
-            min_fit: args.min_fit,
-        },
-        threshold: args.threshold,
-        horizon: args.horizon,
+        run,
+        threshold,
+        horizon,
     };
     let bar = crate::progress::Progress::new(s.progress, &format!("trend {valve}"));
-    let tick = |done: usize, total: usize| bar.update(done, total);
     let diagnoser = discrepancy::registration::RegistrationDiagnosis;
-    let vt = trend::follow(
-        &valve,
-        &files,
-        &options,
-        (!args.no_diagnose).then_some(&diagnoser as _),
-        Some(&tick),
-    );
+    let diagnoser = (!args.no_diagnose).then_some(&diagnoser as _);
+    let vt = trend::follow(&valve, &files, &options, diagnoser, Some(&bar.tick()));
     bar.finish();
     let vt = vt.map_err(usage)?;
-
     reporting::write(&args.report, s, || report::pages::trend_page(&vt))?;
     if args.json {
-        let doc = serde_json::to_value(vt.record()).map_err(data)?;
-        serde_json::to_writer_pretty(&mut *s.stdout, &doc).map_err(data)?;
-        writeln!(s.stdout).map_err(data)?;
-        return Ok(());
+        return s.json(&vt.record());
     }
-
-    let text = report::text::trend(&vt).map_err(data)?;
-    write!(s.stdout, "{text}").map_err(data)
+    s.text(report::text::trend(&vt)?)
 }

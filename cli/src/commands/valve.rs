@@ -3,11 +3,11 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use stiction_models::{clip, run_valve, Initialization};
+use stiction_models::{clip, find_model, run_valve, Initialization};
 
-use super::{build_model, initial_state, parse_clip, parse_param, with_output, StartFlag};
+use super::{initial_state, parse_clip, parse_param, with_output, StartFlag};
 use crate::commands::load::{load, DataFlags};
-use crate::{data, CmdResult, Streams};
+use crate::{usage, CmdResult, Streams};
 
 pub(crate) const AFTER_HELP: &str = "\
 The default initialization is In.1 with the valve at rest at OP(0) after moving down
@@ -59,37 +59,27 @@ pub(crate) fn parse_init(s: &str) -> Result<Initialization, String> {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    let model = build_model(&args.model, &args.params)?;
+    let entry = find_model(&args.model).map_err(usage)?;
+    let model = entry.build_named(&args.params).map_err(usage)?;
     let init = match args.init {
         Initialization::In1(_) => {
             Initialization::In1(initial_state(args.start, args.us0, args.mv0)?)
         }
         other => other,
     };
-    let loop_data = load(&args.file, &args.data, false, 1, s)?;
-    let mut op = loop_data.op.clone();
+    let d = load(&args.file, &args.data, false, 1, s)?;
+    let mut op = d.op.clone();
     if let Some((lo, hi)) = args.clip {
         clip(&mut op, lo, hi);
     }
-    let run = run_valve(model.as_ref(), &op, &init).map_err(data)?;
-    if !matches!(init, Initialization::In1(_)) {
-        let how = if run.fell_back {
-            " the four starts never coincide (fell back to In.2);"
-        } else {
-            ""
-        };
-        writeln!(
-            s.stderr,
-            "note: {}:{how} MV does not depend on the valve's initial state from sample {} on (0-based); before it, MV is the average of the four starts",
-            init.label(),
-            run.valid_from
-        )
-        .map_err(data)?;
+    let run = run_valve(model.as_ref(), &op, &init)?;
+    if let Some(note) = run.start_note(&init) {
+        writeln!(s.stderr, "note: {note}")?;
     }
     with_output(args.output.as_deref(), s.stdout, |w| {
         let mut out = csv::Writer::from_writer(w);
         out.write_record(["OP", "MV"])?;
-        for (o, m) in loop_data.op.iter().zip(&run.mv) {
+        for (o, m) in d.op.iter().zip(&run.mv) {
             out.write_record([o.to_string(), m.to_string()])?;
         }
         out.flush().context("writing CSV")?;
