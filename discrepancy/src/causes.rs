@@ -128,9 +128,8 @@ impl Cause for AsymmetricStiction {
             ],
             &start,
         )?;
-        let (sym_best, sym_fit) = best_of(&sym).ok_or_else(|| DiagnoseError::NoValidNode {
+        let (sym_best, sym_fit) = best_of(&sym).ok_or_else(|| DiagnoseError::EmptySearch {
             model: "kano-asym".into(),
-            reason: "empty search".into(),
         })?;
         // Free search from the symmetric optimum and from one split each way (the surface
         // is rugged; a single start often stalls at the symmetric point).

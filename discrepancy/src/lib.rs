@@ -48,14 +48,15 @@ pub enum DiagnoseError {
     /// A stiction model could not be built.
     #[error(transparent)]
     Stiction(#[from] stiction_models::StictionError),
-    /// No node of a local search could be evaluated.
-    #[error("{model}: no node could be evaluated ({reason})")]
-    NoValidNode {
+    /// A local search evaluated no node.
+    #[error("{model}: no node could be evaluated (empty search)")]
+    EmptySearch {
         /// The stiction model searched.
         model: String,
-        /// Why the first node failed.
-        reason: String,
     },
+    /// The workflow library refused (a setting, a write, ...).
+    #[error(transparent)]
+    Monitoring(monitoring::MonitoringError),
     /// An option is out of range.
     #[error("invalid option {name} = {value}: expected {expected}")]
     InvalidOption {
@@ -86,10 +87,7 @@ impl From<monitoring::MonitoringError> for DiagnoseError {
             monitoring::MonitoringError::Identification(e) => DiagnoseError::Identifier(e),
             monitoring::MonitoringError::Search(e) => DiagnoseError::Search(e),
             monitoring::MonitoringError::Setting { message, .. } => DiagnoseError::Setting(message),
-            other => DiagnoseError::NoValidNode {
-                model: "combination".into(),
-                reason: other.to_string(),
-            },
+            other => DiagnoseError::Monitoring(other),
         }
     }
 }

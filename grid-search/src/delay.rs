@@ -62,7 +62,7 @@ pub fn estimate_delay(
         Some(&(delay, _)) => Ok(DelayScan { delay, scores }),
         None => Err(last_err.unwrap_or(SearchError::NoValidNode {
             nodes: 0,
-            reason: "no delay candidate".into(),
+            reason: crate::NoNode::NoDelay,
         })),
     }
 }

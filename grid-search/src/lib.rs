@@ -114,9 +114,36 @@ pub enum SearchError {
     NoValidNode {
         /// Number of nodes tried.
         nodes: usize,
-        /// The most frequent skip reason.
-        reason: String,
+        /// Why: the most frequent skip reason, or what else went wrong.
+        reason: NoNode,
     },
+}
+
+/// Why a search has no valid node ([`SearchError::NoValidNode`]).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum NoNode {
+    /// Every node was skipped; the most frequent reason.
+    Skipped(Skip),
+    /// The grid has no node.
+    EmptyGrid,
+    /// The best node could not be evaluated again for its model and series.
+    RefitFailed(Skip),
+    /// A dead-time scan found no delay with a valid node.
+    NoDelay,
+    /// The best node's evaluation kept no model.
+    NotRefitted,
+}
+
+impl std::fmt::Display for NoNode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NoNode::Skipped(s) | NoNode::RefitFailed(s) => s.fmt(f),
+            NoNode::EmptyGrid => f.write_str("no nodes in the grid"),
+            NoNode::NoDelay => f.write_str("no delay candidate"),
+            NoNode::NotRefitted => f.write_str("the best node could not be refitted"),
+        }
+    }
 }
 
 impl SearchError {

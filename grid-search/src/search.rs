@@ -1238,19 +1238,19 @@ fn finish<I: LinearIdentifier + ?Sized>(
 
     let skipped = surface.iter().filter(|n| n.outcome.is_err()).count();
     let Some(best) = best_index(&surface, crit) else {
-        let mut counts: HashMap<String, usize> = HashMap::new();
+        // the most frequent reason, by its sentence (ties: the first in alphabetical order)
+        let mut counts: HashMap<String, (usize, &Skip)> = HashMap::new();
         for nf in &surface {
             if let Err(r) = &nf.outcome {
-                *counts.entry(r.to_string()).or_default() += 1;
+                counts.entry(r.to_string()).or_insert((0, r)).0 += 1;
             }
         }
         let reason = counts
             .into_iter()
-            .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
-            .map_or_else(
-                || "no nodes in the grid".to_string(),
-                |(r, _)| r.to_string(),
-            );
+            .max_by(|a, b| a.1 .0.cmp(&b.1 .0).then(b.0.cmp(&a.0)))
+            .map_or(crate::NoNode::EmptyGrid, |(_, (_, r))| {
+                crate::NoNode::Skipped(r.clone())
+            });
         return Err(SearchError::NoValidNode {
             nodes: surface.len(),
             reason,
@@ -1263,11 +1263,11 @@ fn finish<I: LinearIdentifier + ?Sized>(
         .evaluate(&best_params, &mut Scratch::default(), true)
         .map_err(|r| SearchError::NoValidNode {
             nodes: surface.len(),
-            reason: r.to_string(),
+            reason: crate::NoNode::RefitFailed(r),
         })?;
-    let ev = full.ok_or_else(|| SearchError::NoValidNode {
+    let ev = full.ok_or(SearchError::NoValidNode {
         nodes: surface.len(),
-        reason: "the best node could not be refitted".into(),
+        reason: crate::NoNode::NotRefitted,
     })?;
     let stiction = (entry.build)(&best_params)?;
     let eq = stiction.equivalent();
