@@ -581,10 +581,14 @@ pub fn diagnose_with_progress(
     }
     let cause = chosen.map_or("none".to_string(), |i| findings[i].cause.to_string());
     let Path {
-        causes,
+        mut causes,
         steps,
         picks,
     } = path;
+    if causes.is_empty() {
+        // `no-stiction` (no forward selection after it)
+        causes.extend(chosen.map(|i| findings[i].cause));
+    }
     // the final model: the last step's pick, else the first cause's extension
     let final_fit = match (picks.len(), picks.last()) {
         (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),

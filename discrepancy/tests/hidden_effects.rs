@@ -64,6 +64,12 @@ fn diagnose_names_the_hidden_effect() {
         options.disabled = disabled.clone();
         let d = diagnose(problem, &Baseline::paper().unwrap(), &options).unwrap();
         let right = d.cause == effect.cause();
+        // `cause` is the first of `causes` (none: empty)
+        assert_eq!(
+            d.causes.first().map_or("none", String::as_str),
+            d.cause,
+            "seed {seed}"
+        );
         if effect == Effect::Clean {
             clean_n += 1;
             clean_ok += usize::from(right);
