@@ -31,3 +31,33 @@ fn diagnose_paper_loop_3000(bencher: divan::Bencher) {
         diagnose(p, &baseline, &options).unwrap().cause
     });
 }
+
+/// Two hidden causes at once (the paper's disturbance shape, a = 0.8, and 4 samples of extra
+/// dead time): the forward selection's second step, and its second start when the first
+/// round's runner-up is significant too.
+#[divan::bench(sample_count = 3, sample_size = 1)]
+fn diagnose_disturbance_and_delay_3000(bencher: divan::Bencher) {
+    let mut plant = datasets::simulate::Plant::paper();
+    plant.delay = 4;
+    let sim = Scenario {
+        plant: datasets::simulate::PlantSpec::Explicit(plant),
+        valve: Box::new(Kano::params().s(7.0).j(2.0).check().unwrap()),
+        disturbances: vec![datasets::simulate::Disturbance::Paper { a: 0.8 }],
+        controller: datasets::simulate::Controller { kc: 0.3, ki: 0.3 },
+        ..Scenario::default()
+    }
+    .simulate()
+    .unwrap();
+    let span = sim.op.iter().cloned().fold(f64::MIN, f64::max)
+        - sim.op.iter().cloned().fold(f64::MAX, f64::min);
+    let options = DiagnoseOptions::for_span(span);
+    let baseline = Baseline::paper().unwrap();
+    let p = Problem {
+        op: &sim.op,
+        pv: &sim.pv,
+        mv: None,
+    };
+    let d = diagnose(p, &baseline, &options).unwrap();
+    eprintln!("two causes hidden; diagnose finds {:?}", d.causes);
+    bencher.bench(|| diagnose(p, &baseline, &options).unwrap().causes.join("+"));
+}
