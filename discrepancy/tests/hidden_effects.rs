@@ -99,13 +99,14 @@ fn diagnose_names_the_hidden_effect() {
             }
         }
         lines.push(format!(
-            "{} seed {seed} {:?} ({}, {}) true S {:.2} | cause {} | base S {:.2} {note}",
+            "{} seed {seed} {:?} ({}, {}) true S {:.2} | cause {} (causes {}) | base S {:.2} {note}",
             if right { "ok " } else { "BAD" },
             effect,
             c.plant,
             c.what,
             c.s,
             d.cause,
+            d.causes.join(", "),
             d.baseline.s
         ));
     }
