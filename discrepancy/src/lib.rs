@@ -543,8 +543,9 @@ pub fn diagnose_with_progress(
     // carries every extension chosen before it (its stiction model, identifier and dead
     // time), so the last is the joint model. Two starts when the runner-up of the first
     // round is significant too (extensions do not commute: EARX at a scanned dead time is
-    // not the scan of EARX's dead time): the path whose final model fits the validation data
-    // better wins (never the one that names more causes for naming them).
+    // not the scan of EARX's dead time): the runner-up's path wins only when its final model
+    // fits the validation data significantly better (LR over `lr_base`), never for naming
+    // more causes.
     let candidates: Vec<&'static str> = findings
         .iter()
         .filter(|f| f.significant && f.cause != "no-stiction")
@@ -573,7 +574,12 @@ pub fn diagnose_with_progress(
                     .or(findings[start].fitted.as_ref())
                     .map_or(f64::NEG_INFINITY, Fitted::fit_val)
             };
-            if fit(&other, k) > fit(&path, i) {
+            // the other path replaces the best first cause only when its final model is
+            // significantly better (the LR between the two final models over `lr_base`)
+            let n_val = (problem.op.len() - base.result.split_index) as f64;
+            let sse = |f: f64| (1.0 - f / 100.0).max(1e-12);
+            let lr = n_val * (sse(fit(&path, i)) / sse(fit(&other, k))).ln();
+            if lr > options.lr_base {
                 path = other;
                 chosen = Some(k);
             }

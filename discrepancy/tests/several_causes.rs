@@ -4,7 +4,7 @@
 //! CI size: 6 loops with a disturbance and an extra dead time together, and 6 loops of each
 //! single effect (disturbance, time-delay); `STICTION_SUITE_SIZE=N` runs N of each.
 //! Acceptance: the set of causes right in at least two thirds of the two-cause loops and of
-//! each single effect's loops (measured at size 6: 5/6 two-cause, 4/6 disturbance alone,
+//! each single effect's loops (measured at size 6: 5/6 two-cause, 5/6 disturbance alone,
 //! 6/6 dead time alone; docs/DIAGNOSE.md). Without the forward selection no two-cause loop
 //! can be right (one cause at most).
 #![allow(clippy::unwrap_used)]
