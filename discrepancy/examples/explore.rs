@@ -5,8 +5,6 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 use common::{case, Effect};
-use discrepancy::{diagnose, Baseline, DiagnoseOptions};
-use grid_search::Problem;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -30,19 +28,11 @@ fn main() {
     for &e in &effects {
         for seed in first..first + n {
             let c = case(seed, e, 3000);
-            let pr = Problem {
-                op: &c.sim.op,
-                pv: &c.sim.pv,
-                mv: None,
-            };
-            let span = c.sim.op.iter().cloned().fold(f64::MIN, f64::max)
-                - c.sim.op.iter().cloned().fold(f64::MAX, f64::min);
-            let mut o = DiagnoseOptions::for_span(span);
-            o.disabled = std::env::var("STICTION_SUITE_DISABLE")
+            let disabled: Vec<String> = std::env::var("STICTION_SUITE_DISABLE")
                 .ok()
                 .map(|s| s.split(',').map(str::to_string).collect())
                 .unwrap_or_default();
-            let d = diagnose(pr, &Baseline::paper().unwrap(), &o).unwrap();
+            let d = c.diagnose(&disabled);
             let ok = if d.cause == e.cause() { "OK " } else { "BAD" };
             let f: Vec<String> = d
                 .findings

@@ -14,8 +14,6 @@
 mod common;
 
 use common::{case, Effect};
-use discrepancy::{diagnose, Baseline, DiagnoseOptions};
-use grid_search::Problem;
 
 #[test]
 fn diagnose_names_the_hidden_effect() {
@@ -53,16 +51,7 @@ fn diagnose_names_the_hidden_effect() {
     }
     for (seed, effect) in loops {
         let c = case(seed, effect, samples);
-        let problem = Problem {
-            op: &c.sim.op,
-            pv: &c.sim.pv,
-            mv: None,
-        };
-        let span = c.sim.op.iter().cloned().fold(f64::MIN, f64::max)
-            - c.sim.op.iter().cloned().fold(f64::MAX, f64::min);
-        let mut options = DiagnoseOptions::for_span(span);
-        options.disabled = disabled.clone();
-        let d = diagnose(problem, &Baseline::paper().unwrap(), &options).unwrap();
+        let d = c.diagnose(&disabled);
         let right = d.cause == effect.cause();
         // `cause` is the first of `causes` (none: empty)
         assert_eq!(

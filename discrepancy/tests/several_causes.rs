@@ -12,21 +12,10 @@
 mod common;
 
 use common::{case, Effect};
-use discrepancy::{diagnose, Baseline, DiagnoseOptions};
-use grid_search::Problem;
 
 fn causes_of(effect: Effect, seed: u64, disabled: &[String]) -> (Vec<String>, String) {
     let c = case(seed, effect, 3000);
-    let problem = Problem {
-        op: &c.sim.op,
-        pv: &c.sim.pv,
-        mv: None,
-    };
-    let span = c.sim.op.iter().cloned().fold(f64::MIN, f64::max)
-        - c.sim.op.iter().cloned().fold(f64::MAX, f64::min);
-    let mut options = DiagnoseOptions::for_span(span);
-    options.disabled = disabled.to_vec();
-    let d = diagnose(problem, &Baseline::paper().unwrap(), &options).unwrap();
+    let d = c.diagnose(disabled);
     let steps: Vec<String> = d
         .steps
         .iter()

@@ -873,33 +873,10 @@ fn fit_from(num: f64, den: f64) -> f64 {
 /// three distinct values iff one lies strictly between their minimum and maximum (a NaN, which
 /// equals nothing, takes the counting path).
 fn three_distinct(x: &[f64]) -> bool {
-    const L: usize = 8;
-    let (mut lo, mut hi, mut nan) = ([f64::INFINITY; L], [f64::NEG_INFINITY; L], [false; L]);
-    let chunks = x.chunks_exact(L);
-    let rest = chunks.remainder();
-    for c in chunks {
-        for l in 0..L {
-            lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
-            hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
-            nan[l] |= c[l].is_nan();
-        }
+    match linear_id::extremes(x) {
+        Some((min, max)) => min < max && x.iter().any(|&v| v > min && v < max),
+        None => distinct_at_least(x, 3) >= 3,
     }
-    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for l in 0..L {
-        min = min.min(lo[l]);
-        max = max.max(hi[l]);
-    }
-    for &v in rest {
-        if v.is_nan() {
-            nan[0] = true;
-        }
-        min = min.min(v);
-        max = max.max(v);
-    }
-    if nan.iter().any(|&b| b) {
-        return distinct_at_least(x, 3) >= 3;
-    }
-    min < max && x.iter().any(|&v| v > min && v < max)
 }
 
 /// Number of distinct values, counting up to `cap`.

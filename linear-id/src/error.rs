@@ -149,16 +149,11 @@ pub(crate) fn check_data(u: &[f64], y: &[f64], needed: usize) -> Result<(), IdEr
 /// were round-off that two exact solvers disagreed on (grid-search's `fast_path` test).
 pub const CONSTANT_SPREAD: f64 = 1e-10;
 
-/// True when `x` (finite) is constant to [`CONSTANT_SPREAD`] of its largest magnitude (an
-/// empty signal is not).
-pub(crate) fn numerically_constant(x: &[f64]) -> bool {
-    let Some(&first) = x.first() else {
-        return false;
-    };
-    // lane-wise minimum and maximum (vectorised); a NaN takes the fold, whose `min`/`max`
-    // skip it
+/// `(min, max)` of `x`, lane-wise (vectorised); `None` when `x` is empty or holds a NaN.
+pub fn extremes(x: &[f64]) -> Option<(f64, f64)> {
     const L: usize = 8;
-    let (mut lo, mut hi, mut nan) = ([first; L], [first; L], false);
+    let &first = x.first()?;
+    let (mut lo, mut hi, mut nan) = ([first; L], [first; L], first.is_nan());
     let chunks = x.chunks_exact(L);
     let rest = chunks.remainder();
     for c in chunks {
@@ -168,11 +163,8 @@ pub(crate) fn numerically_constant(x: &[f64]) -> bool {
             nan |= c[l].is_nan();
         }
     }
-    if nan || first.is_nan() || rest.iter().any(|v| v.is_nan()) {
-        let (lo, hi, big) = x.iter().fold((first, first, 0.0_f64), |(lo, hi, big), &v| {
-            (lo.min(v), hi.max(v), big.max(v.abs()))
-        });
-        return hi - lo <= CONSTANT_SPREAD * big;
+    if nan || rest.iter().any(|v| v.is_nan()) {
+        return None;
     }
     let (mut min, mut max) = (first, first);
     for l in 0..L {
@@ -183,8 +175,26 @@ pub(crate) fn numerically_constant(x: &[f64]) -> bool {
         min = min.min(v);
         max = max.max(v);
     }
-    // the largest magnitude is at one of the extremes
-    max - min <= CONSTANT_SPREAD * min.abs().max(max.abs())
+    Some((min, max))
+}
+
+/// True when `x` (finite) is constant to [`CONSTANT_SPREAD`] of its largest magnitude (an
+/// empty signal is not).
+pub(crate) fn numerically_constant(x: &[f64]) -> bool {
+    let Some(&first) = x.first() else {
+        return false;
+    };
+    match extremes(x) {
+        // the largest magnitude is at one of the extremes
+        Some((min, max)) => max - min <= CONSTANT_SPREAD * min.abs().max(max.abs()),
+        // a NaN: the fold, whose `min`/`max` skip it
+        None => {
+            let (lo, hi, big) = x.iter().fold((first, first, 0.0_f64), |(lo, hi, big), &v| {
+                (lo.min(v), hi.max(v), big.max(v.abs()))
+            });
+            hi - lo <= CONSTANT_SPREAD * big
+        }
+    }
 }
 
 /// Validate an order: `lo <= value <= hi`.

@@ -150,7 +150,7 @@ mod registry;
 
 pub use arx::{Arx, ArxParams, Centering};
 pub use arx_sums::{ArxOutputSums, GRAM_PIVOT_TOL};
-pub use error::{IdError, CONSTANT_SPREAD};
+pub use error::{extremes, IdError, CONSTANT_SPREAD};
 pub use fit::{
     e_g, fit_mv, fit_percent_unsquared, fit_pv, frequency_grid, polynomial_frequency_response,
     E_G_GRID_POINTS,

@@ -200,3 +200,21 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
         sim,
     }
 }
+
+impl Case {
+    /// `diagnose` on this loop from the paper's baseline, the diagnosis's default options for
+    /// its OP span, with the causes `disabled` left out.
+    pub fn diagnose(&self, disabled: &[String]) -> discrepancy::Diagnosis {
+        let problem = grid_search::Problem {
+            op: &self.sim.op,
+            pv: &self.sim.pv,
+            mv: None,
+        };
+        let span = self.sim.op.iter().cloned().fold(f64::MIN, f64::max)
+            - self.sim.op.iter().cloned().fold(f64::MAX, f64::min);
+        let mut options = discrepancy::DiagnoseOptions::for_span(span);
+        options.disabled = disabled.to_vec();
+        let baseline = discrepancy::Baseline::paper().expect("the paper's baseline");
+        discrepancy::diagnose(problem, &baseline, &options).expect("a diagnosis")
+    }
+}
