@@ -1,8 +1,9 @@
-//! Wall time of one diagnosis of a 3000-sample loop (the paper's loop, Kano S = 9, J = 3).
+//! Wall time of one diagnosis of a 3000-sample loop: the paper's loop (Kano S = 9, J = 3), and a
+//! loop with two hidden causes at once.
 #![allow(missing_docs, clippy::unwrap_used)]
 
-use datasets::simulate::Scenario;
-use discrepancy::{diagnose, Baseline, DiagnoseOptions};
+use datasets::simulate::{Controller, Disturbance, Plant, PlantSpec, Scenario};
+use discrepancy::{diagnose, Baseline, DiagnoseOptions, Diagnosis};
 use grid_search::Problem;
 use stiction_models::Kano;
 
@@ -10,44 +11,10 @@ fn main() {
     divan::main();
 }
 
-#[divan::bench(sample_count = 3, sample_size = 1)]
-fn diagnose_paper_loop_3000(bencher: divan::Bencher) {
-    let sim = Scenario {
-        valve: Box::new(Kano::params().s(9.0).j(3.0).check().unwrap()),
-        ..Scenario::default()
-    }
-    .simulate()
-    .unwrap();
-    let span = sim.op.iter().cloned().fold(f64::MIN, f64::max)
-        - sim.op.iter().cloned().fold(f64::MAX, f64::min);
-    let options = DiagnoseOptions::for_span(span);
-    let baseline = Baseline::paper().unwrap();
-    bencher.bench(|| {
-        let p = Problem {
-            op: &sim.op,
-            pv: &sim.pv,
-            mv: None,
-        };
-        diagnose(p, &baseline, &options).unwrap().cause
-    });
-}
-
-/// Two hidden causes at once (the paper's disturbance shape, a = 0.8, and 4 samples of extra
-/// dead time): the forward selection's second step, and its second start when the first
-/// round's runner-up is significant too.
-#[divan::bench(sample_count = 3, sample_size = 1)]
-fn diagnose_disturbance_and_delay_3000(bencher: divan::Bencher) {
-    let mut plant = datasets::simulate::Plant::paper();
-    plant.delay = 4;
-    let sim = Scenario {
-        plant: datasets::simulate::PlantSpec::Explicit(plant),
-        valve: Box::new(Kano::params().s(7.0).j(2.0).check().unwrap()),
-        disturbances: vec![datasets::simulate::Disturbance::Paper { a: 0.8 }],
-        controller: datasets::simulate::Controller { kc: 0.3, ki: 0.3 },
-        ..Scenario::default()
-    }
-    .simulate()
-    .unwrap();
+/// Simulate `scenario`, then time its diagnosis from the paper's baseline; `show` prints the
+/// causes found once, before the timing.
+fn bench_diagnosis(bencher: divan::Bencher, scenario: Scenario, show: fn(&Diagnosis)) {
+    let sim = scenario.simulate().unwrap();
     let span = sim.op.iter().cloned().fold(f64::MIN, f64::max)
         - sim.op.iter().cloned().fold(f64::MAX, f64::min);
     let options = DiagnoseOptions::for_span(span);
@@ -57,7 +24,34 @@ fn diagnose_disturbance_and_delay_3000(bencher: divan::Bencher) {
         pv: &sim.pv,
         mv: None,
     };
-    let d = diagnose(p, &baseline, &options).unwrap();
-    eprintln!("two causes hidden; diagnose finds {:?}", d.causes);
+    show(&diagnose(p, &baseline, &options).unwrap());
     bencher.bench(|| diagnose(p, &baseline, &options).unwrap().causes.join("+"));
+}
+
+#[divan::bench(sample_count = 3, sample_size = 1)]
+fn diagnose_paper_loop_3000(bencher: divan::Bencher) {
+    let scenario = Scenario {
+        valve: Box::new(Kano::params().s(9.0).j(3.0).check().unwrap()),
+        ..Scenario::default()
+    };
+    bench_diagnosis(bencher, scenario, |_| {});
+}
+
+/// Two hidden causes at once (the paper's disturbance shape, a = 0.8, and 4 samples of extra
+/// dead time): the forward selection's second step, and its second start when the first
+/// round's runner-up is significant too.
+#[divan::bench(sample_count = 3, sample_size = 1)]
+fn diagnose_disturbance_and_delay_3000(bencher: divan::Bencher) {
+    let mut plant = Plant::paper();
+    plant.delay = 4;
+    let scenario = Scenario {
+        plant: PlantSpec::Explicit(plant),
+        valve: Box::new(Kano::params().s(7.0).j(2.0).check().unwrap()),
+        disturbances: vec![Disturbance::Paper { a: 0.8 }],
+        controller: Controller { kc: 0.3, ki: 0.3 },
+        ..Scenario::default()
+    };
+    bench_diagnosis(bencher, scenario, |d| {
+        eprintln!("two causes hidden; diagnose finds {:?}", d.causes)
+    });
 }
