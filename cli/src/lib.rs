@@ -30,15 +30,7 @@ pub use io::Streams;
     long_about = "Quantify control-valve stiction from logged loop data (SP, PV, OP).\n\n\
         A stiction model (Kano, He, ...) turns the controller output OP into an estimated valve \
         position MV; a linear model maps MV to the process variable PV.",
-    after_help = "Examples:\n  \
-        stiction models\n  \
-        stiction simulate --valve kano --param S=9 --param J=3 -o loop.csv\n  \
-        stiction quantify loop.csv\n  \
-        stiction compare --example paper\n\n\
-        Exit status: 0 success; 1 bad data or a failed computation (one line naming the file, \
-        row and column); 2 bad usage.\n\
-        JSON: --json prints exactly one JSON document on standard output; its keys are listed \
-        in docs/CLI.md."
+    after_help = include_str!("../help/stiction.txt")
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -48,34 +40,34 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// List the registered stiction models and linear identifiers with their parameters.
-    #[command(after_help = "Examples:\n  stiction models\n  stiction models --json")]
+    #[command(after_help = include_str!("../help/models.txt"))]
     Models(commands::models::Args),
     /// Run a stiction model over the OP column of a CSV file; writes CSV `OP,MV`.
-    #[command(after_help = commands::valve::AFTER_HELP)]
+    #[command(after_help = include_str!("../help/valve.txt"))]
     Valve(commands::valve::Args),
     /// Identify a linear model from an input column (MV, or OP) to PV and print its fits.
-    #[command(after_help = commands::identify::AFTER_HELP)]
+    #[command(after_help = include_str!("../help/identify.txt"))]
     Identify(commands::identify::Args),
     /// Quantify stiction: grid search of a stiction model with a linear model (paper §2.3).
-    #[command(after_help = commands::quantify::QUANTIFY_HELP)]
+    #[command(after_help = include_str!("../help/quantify.txt"))]
     Quantify(commands::quantify::QuantifyArgs),
     /// Every stiction x linear combination on one loop, in one table (paper Tables 3-8).
-    #[command(after_help = commands::quantify::COMPARE_HELP)]
+    #[command(after_help = include_str!("../help/compare.txt"))]
     Compare(commands::quantify::CompareArgs),
     /// Simulate the paper's closed-loop benchmark (PI loop, sticky valve); writes CSV `t,SP,PV,OP,MV`.
-    #[command(after_help = commands::simulate::AFTER_HELP)]
+    #[command(after_help = include_str!("../help/simulate.txt"))]
     Simulate(commands::simulate::Args),
     /// What the model gets wrong, its cause, the extended model and the gain (discrepancy).
-    #[command(after_help = commands::diagnose::AFTER_HELP)]
+    #[command(after_help = include_str!("../help/diagnose.txt"))]
     Diagnose(commands::diagnose::Args),
     /// Follow one valve over repeated registrations: S trend, outliers explained, maintenance verdict.
-    #[command(after_help = commands::trend::AFTER_HELP)]
+    #[command(after_help = include_str!("../help/trend.txt"))]
     Trend(commands::trend::Args),
     /// Is it the valve? The published stiction detection tests and one calibrated verdict.
-    #[command(after_help = commands::detect::AFTER_HELP)]
+    #[command(after_help = include_str!("../help/detect.txt"))]
     Detect(commands::detect::Args),
     /// Quantify many loops in parallel: one row per loop (JSON lines and CSV), resumable.
-    #[command(after_help = commands::batch::AFTER_HELP)]
+    #[command(after_help = include_str!("../help/batch.txt"))]
     Batch(commands::batch::Args),
 }
 
@@ -131,9 +123,8 @@ pub fn run() -> ExitCode {
     ExitCode::from(code as u8)
 }
 
-/// Run with explicit arguments (the first is the program name) and streams; returns the exit
-/// status (0, 1 or 2). Never panics on user input.
-pub fn run_from<I, T>(args: I, streams: &mut Streams<'_>) -> i32
+/// Parse the arguments (the first is the program name) as `run_from` does, without running.
+pub fn parse<I, T>(args: I) -> Result<Cli, clap::Error>
 where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
@@ -142,10 +133,19 @@ where
     // not an unknown flag `-0`); no flag of ours is a digit.
     let command = <Cli as clap::CommandFactory>::command()
         .mut_subcommands(|c| c.allow_negative_numbers(true));
-    let parsed = command
+    command
         .try_get_matches_from(args)
-        .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m));
-    let cli = match parsed {
+        .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m))
+}
+
+/// Run with explicit arguments (the first is the program name) and streams; returns the exit
+/// status (0, 1 or 2). Never panics on user input.
+pub fn run_from<I, T>(args: I, streams: &mut Streams<'_>) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match parse(args) {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
             let _ = write!(streams.stdout, "{}", e.render());

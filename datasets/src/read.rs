@@ -30,6 +30,23 @@ pub enum GapPolicy {
     DropGaps,
 }
 
+impl std::str::FromStr for GapPolicy {
+    type Err = String;
+
+    /// `refuse`, `hold` or `drop` (the Python package's `gaps`; the CLI spells them
+    /// `--fill hold` and `--drop-gaps`).
+    fn from_str(s: &str) -> Result<GapPolicy, String> {
+        match s {
+            "refuse" => Ok(GapPolicy::Refuse),
+            "hold" => Ok(GapPolicy::FillHold),
+            "drop" => Ok(GapPolicy::DropGaps),
+            other => Err(format!(
+                "gaps={other:?}: expected \"refuse\", \"hold\" or \"drop\""
+            )),
+        }
+    }
+}
+
 /// Options of [`read_csv`].
 ///
 /// | field | default | meaning |

@@ -43,6 +43,36 @@ pub enum OpRange {
 // `Given` is checked finite with lo < hi before use; equality is never asked of NaN.
 impl Eq for OpRange {}
 
+impl OpRange {
+    /// The span `lo` (closed valve) to `hi` (fully open) in OP's units, checked finite with
+    /// `lo < hi`; the error says what is expected. The CLI's `--op-range` and the Python
+    /// package's `op_range` both end here.
+    pub fn given(lo: f64, hi: f64) -> Result<OpRange, String> {
+        if lo.is_finite() && hi.is_finite() && lo < hi {
+            Ok(OpRange::Given(lo, hi))
+        } else {
+            Err(
+                "expected finite LO < HI (the closed and the fully open valve in OP's units)"
+                    .into(),
+            )
+        }
+    }
+
+    /// [`OpRange::given`] from the text `LO,HI`.
+    pub fn parse(s: &str) -> Result<OpRange, String> {
+        let number = |t: &str| t.trim().parse::<f64>().ok();
+        let pair = s
+            .split_once(',')
+            .and_then(|(a, b)| number(a).zip(number(b)));
+        match pair.and_then(|(lo, hi)| OpRange::given(lo, hi).ok()) {
+            Some(range) => Ok(range),
+            None => Err(format!(
+                "expected LO,HI with LO < HI (the closed and the fully open valve in OP's units), got {s:?}"
+            )),
+        }
+    }
+}
+
 /// The units assumed for OP and the affine map to % of valve span.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct OpUnits {
@@ -144,6 +174,23 @@ mod tests {
 
     fn span_of(op: &[f64]) -> Option<(f64, f64)> {
         op_units(op, OpRange::Detect).unwrap().span
+    }
+
+    #[test]
+    fn op_range_text_and_pair_are_checked_alike() {
+        assert_eq!(OpRange::parse(" 4, 20"), Ok(OpRange::Given(4.0, 20.0)));
+        assert_eq!(OpRange::parse("-1,1"), Ok(OpRange::Given(-1.0, 1.0)));
+        for bad in ["5,1", "3,3", "a,1", "1", "1,inf", "nan,2", ""] {
+            assert!(OpRange::parse(bad).is_err(), "{bad}");
+        }
+        assert!(OpRange::given(1.0, f64::NAN).is_err());
+        assert!(OpRange::given(2.0, 1.0).is_err());
+        assert_eq!(OpRange::given(0.0, 1.0), Ok(OpRange::Given(0.0, 1.0)));
+        let gaps = |s: &str| s.parse::<crate::GapPolicy>();
+        assert_eq!(gaps("hold"), Ok(crate::GapPolicy::FillHold));
+        assert_eq!(gaps("drop"), Ok(crate::GapPolicy::DropGaps));
+        assert_eq!(gaps("refuse"), Ok(crate::GapPolicy::Refuse));
+        assert!(gaps("Hold").is_err());
     }
 
     #[test]

@@ -19,7 +19,7 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use datasets::{GapPolicy, LoopData, OpRange, ReadOptions};
+use datasets::{LoopData, OpRange, ReadOptions};
 use monitoring::{MonitoringError, SearchArgs, Settings};
 use stiction_models::{find_model, run_valve, Initialization};
 
@@ -99,26 +99,11 @@ fn read_args(d: Option<&Bound<'_, PyDict>>) -> PyResult<ReadArgs> {
 
 impl ReadArgs {
     fn options(&self, require_pv: bool, min_rows: usize) -> PyResult<ReadOptions> {
-        let gaps = match self.gaps.as_deref() {
-            None | Some("refuse") => GapPolicy::Refuse,
-            Some("hold") => GapPolicy::FillHold,
-            Some("drop") => GapPolicy::DropGaps,
-            Some(other) => {
-                return Err(usage_err(format!(
-                    "gaps={other:?}: expected \"refuse\", \"hold\" or \"drop\""
-                )))
-            }
-        };
+        let gaps = self.gaps.as_deref().unwrap_or("refuse").parse().map_err(usage_err)?;
         let op_range = match self.op_range {
             None => OpRange::Detect,
-            Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo < hi => {
-                OpRange::Given(lo, hi)
-            }
-            Some((lo, hi)) => {
-                return Err(usage_err(format!(
-                    "op_range=({lo}, {hi}): expected (LO, HI) with LO < HI, the closed and the fully open valve in OP's units"
-                )))
-            }
+            Some((lo, hi)) => OpRange::given(lo, hi)
+                .map_err(|e| usage_err(format!("op_range=({lo}, {hi}): {e}")))?,
         };
         let mut limits = datasets::Limits::default();
         if let Some(n) = self.max_rows {

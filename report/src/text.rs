@@ -35,13 +35,13 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
     };
     writeln!(
         out,
-        "{}: {} + {} ({}), {}, {delay_note}, ranked by one-step {}",
+        "{}: {} + {} ({}), {}, {delay_note}, ranked by {}",
         source,
         r.stiction.name,
         r.linear,
         orders.join(", "),
         init,
-        q.criterion.label()
+        q.criterion.describe()
     )?;
     let own = pages::own_params(r.stiction, q);
     writeln!(
@@ -108,13 +108,13 @@ pub fn compare(
 
     writeln!(
         out,
-        "{}: {} samples, identification {} / validation {}, {}, ranked by one-step {}",
+        "{}: {} samples, identification {} / validation {}, {}, ranked by {}",
         d.source,
         d.len(),
         (d.len() as f64 * split).floor(),
         d.len() - (d.len() as f64 * split).floor() as usize,
         init,
-        criterion.label()
+        criterion.describe()
     )?;
     writeln!(
         out,

@@ -11,28 +11,6 @@ use super::load::DataFlags;
 use super::search_flags::SearchFlags;
 use crate::{usage, CmdResult, Failure, Streams};
 
-pub(crate) const AFTER_HELP: &str = "\
-Loops run in parallel (each grid search shares the same thread pool). Each file gets one row
-per stiction x linear combination: file, valve, time, status ok/error, S, J with their
-likelihood-ratio ranges, F_PV, the no-stiction fit, the reader's notes, for a failure its
-one-line error, and the stiction detector's score and verdict on the file's record
-(detect_score, detect_verdict: as `stiction detect` gives them). Without -o the rows are
-printed as a table.
-
-With -o OUT, rows go to OUT.jsonl (one JSON object per line, appended as each loop finishes)
-and OUT.csv (rewritten at the end from OUT.jsonl). The run is resumable: a file whose name,
-size and modification time, and the run's settings, match a row already in OUT.jsonl is
-skipped; change the file or the settings and it is done again.
-
---labels FILE (CSV with columns file,label; label stiction / no-stiction) adds the label to
-each row and reports how well S separates the labels: ROC AUC and the threshold maximising
-TPR - FPR (Youden), over the rows with status ok of the first combination; and the same for
-the detector's score over the same rows.
-
-Examples:
-  stiction batch ../shared/data/plant -o plant --labels ../shared/data/plant/labels.csv
-  stiction batch DIR --stiction kano,he --linear arx,ss -o results";
-
 /// Arguments of `stiction batch`.
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -8,19 +8,6 @@ use super::batch::IntegratingFlag;
 use super::load::{load, DataFlags};
 use crate::{usage, CmdResult, Streams};
 
-pub(crate) const AFTER_HELP: &str = "\
-Runs every registered detection test (oscillation, Horch's cross-correlation or integrating
-test, He's curve fit, Choudhury's bicoherence with the PV-OP ellipse, stick-slip, the area
-ratio) on the time series and combines their statistics into a score in [0, 1] (a calibrated
-logistic model) and a verdict: stiction, no-stiction or inconclusive. A loop that neither
-oscillates regularly nor shows stick-slip is never called sticky. The tests and the
-calibration: docs/DETECTION.md.
-
-Examples:
-  stiction detect loop.csv
-  stiction detect 2111LIC31102B_20240823-2155.csv --integrating auto
-  stiction detect loop.csv --json";
-
 /// Arguments of `stiction detect`.
 #[derive(Debug, clap::Args)]
 pub struct Args {

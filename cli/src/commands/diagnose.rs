@@ -10,25 +10,6 @@ use super::search_flags::SearchFlags;
 use crate::reporting::{self, ReportFlags};
 use crate::{usage, CmdResult, Streams};
 
-pub(crate) const AFTER_HELP: &str = "\
-Fits the baseline (default kano + arx with the paper's orders), characterises its residuals on
-the validation data (whiteness, dependence on past MV, low-frequency content and trend,
-direction of valve motion, stuck versus moving), then fits one extension per registered cause
-and keeps a cause only when its validation gain passes a likelihood-ratio test that grows with
-the extension's extra parameters (docs/DIAGNOSE.md):
-  disturbance          external nonstationary disturbance -> EARX / EARMAX
-  asymmetric-stiction  friction differs by direction      -> kano-asym
-  time-delay           unmodelled dead time               -> the delay estimated
-  no-stiction          the oscillation is not the valve's -> S <= 0.2 % (negligible)
-Otherwise the cause is `none` and the baseline stands. Several causes: on the chosen extension
-the other causes significant in the first round are tested again, and added while one gains
-significantly (forward selection; the final model carries them all, JSON `causes`).
-
-Examples:
-  stiction diagnose loop.csv
-  stiction diagnose --example paper --json
-  stiction diagnose loop.csv --linear armax --orders 2,2,2";
-
 /// Arguments of `stiction diagnose`.
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -7,18 +7,6 @@ use anyhow::anyhow;
 use super::load::{load, DataFlags};
 use crate::{usage, CmdResult, Streams};
 
-pub(crate) const AFTER_HELP: &str = "\
-Identifies on the first 2/3 of the record and validates the one-step prediction on the last
-1/3 (F_PV, paper eq. 9, squared norms, in %). The input is the MV column when the file has
-one, otherwise OP; --input and --output choose any columns. An unstable identified model is
-reported (exit 0, `stable: false`, a warning on stderr), never silently used.
-
-Examples:
-  stiction identify loop.csv --linear arx
-  stiction identify loop.csv --linear armax --orders 2,2,2 --delay 1 --json
-  stiction identify loop.csv --linear ss --orders n=3 --input OP
-  stiction identify plant.csv --linear earx --input u --output y";
-
 /// Arguments of `stiction identify`.
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -43,24 +43,11 @@ pub struct DataFlags {
     /// OP's valve span `LO,HI` in OP's units (closed, fully open), e.g. `0,1`, `0,16383`,
     /// `4,20`: OP is rescaled to % of it. Default: assumed from OP's range (0-1, 0-100,
     /// integer counts), with a note saying which.
-    #[arg(long, value_name = "LO,HI", value_parser = parse_op_range, allow_hyphen_values = true)]
-    op_range: Option<(f64, f64)>,
+    #[arg(long, value_name = "LO,HI", value_parser = OpRange::parse, allow_hyphen_values = true)]
+    op_range: Option<OpRange>,
     /// Most data rows read from a file (a longer file is refused, not read for minutes).
     #[arg(long, value_name = "N", default_value_t = datasets::Limits::default().max_rows)]
     max_rows: usize,
-}
-
-/// `LO,HI` with finite LO < HI (for `--op-range`).
-fn parse_op_range(s: &str) -> Result<(f64, f64), String> {
-    let parsed = s
-        .split_once(',')
-        .and_then(|(a, b)| Some((a.trim().parse::<f64>().ok()?, b.trim().parse::<f64>().ok()?)));
-    match parsed {
-        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo < hi => Ok((lo, hi)),
-        _ => Err(format!(
-            "expected LO,HI with LO < HI (the closed and the fully open valve in OP's units), got {s:?}"
-        )),
-    }
 }
 
 impl DataFlags {
@@ -100,7 +87,7 @@ impl DataFlags {
                 max_rows: self.max_rows,
                 ..Limits::default()
             },
-            op_range: (self.op_range).map_or(OpRange::Detect, |(lo, hi)| OpRange::Given(lo, hi)),
+            op_range: self.op_range.unwrap_or_default(),
         }
     }
 }

@@ -15,29 +15,6 @@ use crate::progress::Progress;
 use crate::reporting::{self, ReportFlags};
 use crate::{usage, CmdResult, Failure, Streams};
 
-pub(crate) const QUANTIFY_HELP: &str = "\
-The grid covers the model's parameters from 0 to the OP span (the triangle J <= S for kano).
-Each node simulates MV from OP, identifies the linear model on the first 2/3 of the record
-(from the sample where MV no longer depends on the valve's initial state, In.3) and scores
-the one-step prediction of PV on the last 1/3 (F_PV, paper eq. 9, in %). S and J are in OP
-units (% of valve span); the region is the set of nodes not significantly worse than the best.
-
-Examples:
-  stiction quantify loop.csv
-  stiction quantify loop.csv --stiction he --linear earx --delay auto
-  stiction quantify loop.csv --linear armax --orders 2,2,2 --step 0.2 --surface fit.csv
-  stiction quantify --example paper --json";
-
-pub(crate) const COMPARE_HELP: &str = "\
-Runs quantify for every stiction x linear combination and prints one table in the layout
-of the paper's Tables 3-8 (S, J, F_PV id, F_PV val, F_MV). A combination that fails gets its
-error in its row; the others still run.
-
-Examples:
-  stiction compare --example paper
-  stiction compare loop.csv --stiction kano,he --linear arx,earx
-  stiction compare loop.csv --json > results.json";
-
 /// Which embedded example to use instead of a file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum Example {

@@ -8,20 +8,6 @@ use datasets::simulate::{Overrides, Scenario};
 use super::{parse_param, with_output};
 use crate::{usage, CmdResult, Failure, Streams};
 
-pub(crate) const AFTER_HELP: &str = "\
-Defaults are the paper's benchmark (eqs. 10-12): ARMAX(3,3,3) plant, PI Kc = KI = 0.5,
-random-walk set point (Δ = 2, δ = 0.05), noise σ_e = 0.1, 3000 samples kept after a
-warm-up of 500, seed 1, OP and PV around 50. Flags override the --config file.
-The valve is restarted from its default initial state at the first kept sample, so
-`stiction valve` on the OP column with the same model and parameters reproduces MV exactly.
-
-Examples:
-  stiction simulate --valve kano --param S=9 --param J=3 -o loop.csv
-  stiction simulate --plant slow --valve he --param fs=2 --param fd=1 --noise 0.05
-  stiction simulate --param S=5 --param J=2 --disturbance 0.25 --seed 7
-  stiction simulate --valve kano-asym --param D=3 --param J_up=0.5 --param J_dn=2 --print-config > s.json
-  stiction simulate --config s.json --samples 6000";
-
 /// Arguments of `stiction simulate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -13,25 +13,6 @@ use super::batch::{Combos, RunFlags};
 use crate::reporting::{self, ReportFlags};
 use crate::{usage, CmdResult, Streams};
 
-pub(crate) const AFTER_HELP: &str = "\
-Every registration (file) of one valve is quantified with every stiction x linear
-combination; registrations are ordered by the time in the file name (<valve>_YYYYMMDD-HHMM)
-or else their first time stamp. For each combination:
-  weak      validation F_PV below --min-fit: not used for the trend, with the evidence why
-  outlier   S outside median +- max(3 x 1.4826 x MAD, 0.1) of the other usable
-            registrations (4 or more needed): not used for the trend, with the evidence why
-  level     median S of the usable registrations; slope: Theil-Sen, % per 30 days
-Verdict (on the mean over combinations of level, latest usable S and projected S):
-  schedule maintenance   level >= threshold
-  watch                  level < threshold, but the latest usable S or the level projected
-                         --horizon days ahead >= threshold, or level >= threshold / 2
-  healthy                otherwise; undetermined when no registration is usable
-
-Examples:
-  stiction trend ../shared/data/plant --valve 2411FIC20102
-  stiction trend data/V1_*.csv --threshold 1.5 --json
-  stiction trend DIR --valve LIC1 --stiction kano,he --linear arx,armax";
-
 /// Arguments of `stiction trend`.
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -9,18 +9,6 @@ use super::{initial_state, parse_clip, parse_param, with_output, StartFlag};
 use crate::commands::load::{load, DataFlags};
 use crate::{usage, CmdResult, Streams};
 
-pub(crate) const AFTER_HELP: &str = "\
-The default initialization is In.1 with the valve at rest at OP(0) after moving down
-(d0 = -1, stp0 = 1, u_s0 = OP(0), MV(0) = u_s0 + (S-J)/2); with --start up, MV(0) = u_s0 - (S-J)/2.
-In.2 / In.3 run the four (stp, d) starts and write their average; the sample from which MV no
-longer depends on the start is reported on stderr. OP is not clipped unless --clip is given.
-
-Examples:
-  stiction valve loop.csv --model kano --param S=4 --param J=1
-  stiction valve loop.csv --model he --param fs=2.5 --param fd=1.5 --start up -o mv.csv
-  stiction valve loop.csv --model kano-asym --param D=3 --param J_up=0.5 --param J_dn=2
-  cat loop.csv | stiction valve - --model kano --param S=9 --param J=3 --init In.3";
-
 /// Arguments of `stiction valve`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
