@@ -1,6 +1,8 @@
 //! The exhaustive kano × arx grid on the paper loop, fast path only, repeated: a target for
 //! `perf record` (`cargo run --release -p grid-search --example profile_exhaustive -- 20`;
-//! `BOTH=1` computes the free-run fits at every node, `SAMPLE=1` takes the sample path).
+//! `BOTH=1` computes the free-run fits at every node, `SAMPLE=1` takes the sample path;
+//! `LINEAR=ss` (any identifier) with `COARSE=1` profiles the default coarse-to-fine grid of
+//! `compare` for that identifier instead).
 
 use datasets::simulate::Scenario;
 use grid_search::{quantify_with, GridPlan, NodeFits, NodePath, Problem, SearchOptions};
@@ -19,9 +21,16 @@ fn main() {
     .simulate()
     .expect("simulates");
     let kano = find_model("kano").expect("registered");
-    let arx = (find_identifier("arx").expect("registered").build)(&[]).expect("default orders");
+    let linear = std::env::var("LINEAR").unwrap_or_else(|_| "arx".into());
+    let arx = (find_identifier(&linear).expect("registered").build)(&[]).expect("default orders");
+    let span = sim.op.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+        - sim.op.iter().fold(f64::INFINITY, |a, &b| a.min(b));
     let opts = SearchOptions {
-        grid: GridPlan::Exhaustive { step: 0.1 },
+        grid: if std::env::var_os("COARSE").is_some() {
+            GridPlan::for_span(span)
+        } else {
+            GridPlan::Exhaustive { step: 0.1 }
+        },
         node_fits: if std::env::var_os("BOTH").is_some() {
             NodeFits::Both
         } else {

@@ -177,17 +177,123 @@ fn pinv_ls(ab: &mut [f64], rows: usize, k: usize, sizes: &[usize]) -> Result<Pin
     la::householder_qr_colmajor_simd(ab, rows, nc, k);
     let r = |i: usize, j: usize| ab[j * rows + i];
     let qtb = Mat::<f64>::from_fn(k, nc - k, |i, j| r(i, k + j));
-    let mut pinvs = Vec::with_capacity(sizes.len());
-    for &s in sizes {
-        let rs = Mat::<f64>::from_fn(s, s, |i, j| if j >= i { r(i, j) } else { 0.0 });
-        let rtol = PINV_RTOL.max(rows.max(s) as f64 * f64::EPSILON);
-        let pi = match la::upper_inverse_if_well_conditioned(rs.as_ref(), rtol) {
-            Some(inv) => inv,
-            None => la::pinv_rtol(rs.as_ref(), rtol).ok_or_else(|| svd_failed("SVD of R"))?,
-        };
-        pinvs.push(pi);
+    let rk = Mat::<f64>::from_fn(k, k, |i, j| if j >= i { r(i, j) } else { 0.0 });
+    PinvLs::from_r(rk, qtb, rows, sizes)
+}
+
+impl PinvLs {
+    /// The pseudo-inverses of the leading `sizes` blocks of the upper-triangular `r`.
+    fn from_r(r: Mat<f64>, qtb: Mat<f64>, rows: usize, sizes: &[usize]) -> Result<Self, IdError> {
+        let mut pinvs = Vec::with_capacity(sizes.len());
+        for &s in sizes {
+            let rs = r.as_ref().get(..s, ..s);
+            let rtol = PINV_RTOL.max(rows.max(s) as f64 * f64::EPSILON);
+            let pi = match la::upper_inverse_if_well_conditioned(rs, rtol) {
+                Some(inv) => inv,
+                None => la::pinv_rtol(rs, rtol).ok_or_else(|| svd_failed("SVD of R"))?,
+            };
+            pinvs.push(pi);
+        }
+        Ok(PinvLs { pinvs, qtb })
     }
-    Ok(PinvLs { pinvs, qtb })
+}
+
+/// How step 2's least squares are solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Step2 {
+    /// From the Gram matrix when it is well conditioned ([`step2_from_gram`]), else the QR.
+    Auto,
+    /// Always the Householder QR of the data matrix (the reference in tests).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Qr,
+}
+
+/// Smallest accepted squared pivot of the unit-diagonal Cholesky factor of the step-2 Gram
+/// matrix ([`step2_from_gram`]); the same bound as the ARX sums' (`arx_sums::GRAM_PIVOT_TOL`,
+/// where it is argued).
+const STEP2_PIVOT_TOL: f64 = crate::arx_sums::GRAM_PIVOT_TOL;
+
+/// Step 2's `R` and `Qᵀ targets` from the Gram matrix of its columns instead of a Householder
+/// QR of the `N × (k + targets)` data matrix.
+///
+/// Every column is a shift of the scaled u or y (`cols[c] = (is_y, shift)`), so the whole
+/// Gram matrix comes from shifted products ([`shifted_products`], `O((p + f) N)` instead of
+/// the QR's `O((k + targets)² N)`). With `D` scaling the regressor block to unit diagonal and
+/// `D G D = L Lᵀ` (Cholesky), `R = Lᵀ D⁻¹` is the QR's triangular factor up to the signs of
+/// its rows and `Qᵀ B = R⁻ᵀ Xᵀ B`; every product `pinv(R) Qᵀ b` the steps use is unchanged by
+/// those signs. Normal equations square the condition number, so this is used only when every
+/// pivot `L_ii² >= 1e-4` (the QR's relative pivots >= 1e-2, eight decades above the
+/// pseudo-inverse cut); otherwise `None` and the caller takes the QR ([`pinv_ls`]). Test:
+/// `step2_gram_matches_the_qr` (fits equal to 1e-9 relative).
+fn step2_from_gram(
+    us: &[f64],
+    ys: &[f64],
+    ncol: usize,
+    cols: &[(bool, usize)],
+    k: usize,
+) -> Option<(Mat<f64>, Mat<f64>)> {
+    let shifts = cols.iter().map(|c| c.1).max()? + 1;
+    let huu = shifted_products(us, shifts, us, shifts, ncol);
+    let hyy = shifted_products(ys, shifts, ys, shifts, ncol);
+    let huy = shifted_products(us, shifts, ys, shifts, ncol);
+    let g = |i: usize, j: usize| match (cols[i], cols[j]) {
+        ((false, a), (false, b)) => huu[a * shifts + b],
+        ((true, a), (true, b)) => hyy[a * shifts + b],
+        ((false, a), (true, b)) => huy[a * shifts + b],
+        ((true, a), (false, b)) => huy[b * shifts + a],
+    };
+    let nt = cols.len() - k;
+    let mut scale = vec![0.0; k];
+    for (i, s) in scale.iter_mut().enumerate() {
+        let d = g(i, i);
+        if !(d > 0.0 && d.is_finite()) {
+            return None;
+        }
+        *s = 1.0 / d.sqrt();
+    }
+    // Cholesky of D G D in place (lower triangle, row-major k × k)
+    let mut l = vec![0.0; k * k];
+    for j in 0..k {
+        let mut v = g(j, j) * scale[j] * scale[j];
+        for m in 0..j {
+            v -= l[j * k + m] * l[j * k + m];
+        }
+        if !(v >= STEP2_PIVOT_TOL) {
+            return None;
+        }
+        let ljj = v.sqrt();
+        l[j * k + j] = ljj;
+        for i in j + 1..k {
+            let mut w = g(i, j) * scale[i] * scale[j];
+            for m in 0..j {
+                w -= l[i * k + m] * l[j * k + m];
+            }
+            l[i * k + j] = w / ljj;
+        }
+    }
+    // R = Lᵀ D⁻¹; Qᵀ B = R⁻ᵀ Xᵀ B = L⁻¹ D Xᵀ B (forward substitution per target)
+    let r = Mat::<f64>::from_fn(
+        k,
+        k,
+        |i, j| {
+            if j >= i {
+                l[j * k + i] / scale[j]
+            } else {
+                0.0
+            }
+        },
+    );
+    let mut qtb = Mat::<f64>::zeros(k, nt);
+    for t in 0..nt {
+        for i in 0..k {
+            let mut v = g(i, k + t) * scale[i];
+            for m in 0..i {
+                v -= l[i * k + m] * qtb[(m, t)];
+            }
+            qtb[(i, t)] = v / l[i * k + i];
+        }
+    }
+    (r.as_ref().is_all_finite() && qtb.as_ref().is_all_finite()).then_some((r, qtb))
 }
 
 /// `Σ_{t < ncol} a[oa + t] b[ob + t]` for every `oa < ka`, `ob < kb` (row-major `ka × kb`),
@@ -321,7 +427,7 @@ impl ParsimK {
         ParsimKParams::default()
     }
 
-    fn run(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+    fn run(&self, u: &[f64], y: &[f64], step2: Step2) -> Result<LinearFit, IdError> {
         let prm = self.p;
         let (f, p) = (prm.f, prm.p);
         let len = y.len();
@@ -345,27 +451,34 @@ impl ParsimK {
         // column-major in one buffer (one QR gives R and Qᵀ targets)
         let kreg = zp_cols + 2;
         let ntarg = 2 * f - 1;
-        let mut reg = Vec::with_capacity(ncol * (kreg + ntarg));
-        for i in 0..p {
-            reg.extend_from_slice(&us[i..i + ncol]);
-        }
-        for i in 0..p {
-            reg.extend_from_slice(&ys[i..i + ncol]);
-        }
-        reg.extend_from_slice(&us[p..p + ncol]);
-        reg.extend_from_slice(&ys[p..p + ncol]);
-        for i in 0..f {
-            reg.extend_from_slice(&ys[p + i..p + i + ncol]);
-        }
-        for i in 1..f {
-            reg.extend_from_slice(&us[p + i..p + i + ncol]);
-        }
+        // (is_y, shift) of each column: the regressors, then the targets
+        let cols: Vec<(bool, usize)> = (0..p)
+            .map(|i| (false, i))
+            .chain((0..p).map(|i| (true, i)))
+            .chain([(false, p), (true, p)])
+            .chain((0..f).map(|i| (true, p + i)))
+            .chain((1..f).map(|i| (false, p + i)))
+            .collect();
         // Step 3 needs the Gram of [Zp | Uf] (Hankel structure, no product of the full data)
         let gram = hankel_gram(&us, &ys, ncol, p, f);
 
         // --- Step 2
-        let ls = pinv_ls(&mut reg, ncol, kreg, &[zp_cols + 1, kreg])?;
-        drop(reg);
+        let sizes = [zp_cols + 1, kreg];
+        let gram_step2 = match step2 {
+            Step2::Auto => step2_from_gram(&us, &ys, ncol, &cols, kreg),
+            Step2::Qr => None,
+        };
+        let ls = match gram_step2 {
+            Some((r, qtb)) => PinvLs::from_r(r, qtb, ncol, &sizes)?,
+            None => {
+                let mut reg = Vec::with_capacity(ncol * (kreg + ntarg));
+                for &(is_y, shift) in &cols {
+                    let s = if is_y { &ys } else { &us };
+                    reg.extend_from_slice(&s[shift..shift + ncol]);
+                }
+                pinv_ls(&mut reg, ncol, kreg, &sizes)?
+            }
+        };
         let coef = |pi: &Mat<f64>, rhs: &[f64]| -> Vec<f64> {
             let s = pi.nrows();
             (0..s)
@@ -524,7 +637,7 @@ impl LinearIdentifier for ParsimK {
     }
     fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
         check_data(u, y, self.min_samples())?;
-        self.run(u, y)
+        self.run(u, y, Step2::Auto)
     }
     fn box_clone(&self) -> Box<dyn LinearIdentifier> {
         Box::new(*self)
@@ -597,6 +710,89 @@ inventory::submit! {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+
+    /// A sticky-valve-like input (held levels with jumps) through a second-order plant with
+    /// noise of amplitude `noise`.
+    fn valve_loop(len: usize, seed: u64, noise: f64) -> (Vec<f64>, Vec<f64>) {
+        let mut state = seed;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let (mut u, mut y) = (vec![0.0; len], vec![0.0; len]);
+        let mut level = 50.0;
+        for k in 0..len {
+            if rnd() > 0.3 {
+                level += 2.0 * rnd();
+            }
+            u[k] = level;
+            let mut v = 40.0 + noise * rnd();
+            if k >= 2 {
+                v += 1.5 * (y[k - 1] - 40.0) - 0.7 * (y[k - 2] - 40.0)
+                    + 0.4 * (u[k - 1] - 50.0)
+                    + 0.1 * (u[k - 2] - 50.0);
+            }
+            y[k] = v;
+        }
+        (u, y)
+    }
+
+    #[test]
+    fn step2_gram_matches_the_qr() {
+        let mut from_gram = 0;
+        // noisy records take the Gram path; the noise-free one falls back to the QR
+        for (seed, noise) in [(1, 3.0), (2, 2.0), (3, 4.0), (4, 1e-6)] {
+            let (u, y) = valve_loop(2000, seed, noise);
+            for (n, f, p) in [(2, 10, 10), (2, 5, 8), (0, 6, 6)] {
+                let ss = ParsimK::params().n(n).f(f).p(p).check().unwrap();
+                let qr = ss.run(&u, &y, Step2::Qr).unwrap();
+                let auto = ss.run(&u, &y, Step2::Auto).unwrap();
+                let (f1, f2) = (qr.info().fit_pv, auto.info().fit_pv);
+                assert!(
+                    (f1 - f2).abs() <= 1e-9 * f1.abs(),
+                    "seed {seed} n={n} f={f} p={p}: fit {f1} vs {f2}"
+                );
+                let p1 = qr.predict_one_step(&u, &y).unwrap();
+                let p2 = auto.predict_one_step(&u, &y).unwrap();
+                let big = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                for (a, b) in p1.iter().zip(&p2) {
+                    assert!((a - b).abs() <= 1e-9 * big, "seed {seed}: {a} vs {b}");
+                }
+                let us: Vec<f64> = u.iter().map(|v| v - 50.0).collect();
+                let ys: Vec<f64> = y.iter().map(|v| v - 40.0).collect();
+                let ncol = u.len() + 1 - p - f;
+                let cols: Vec<(bool, usize)> = (0..p)
+                    .map(|i| (false, i))
+                    .chain((0..p).map(|i| (true, i)))
+                    .chain([(false, p), (true, p)])
+                    .chain((0..f).map(|i| (true, p + i)))
+                    .collect();
+                from_gram +=
+                    usize::from(step2_from_gram(&us, &ys, ncol, &cols, 2 * p + 2).is_some());
+            }
+        }
+        // the comparison is not vacuous: the Gram path is taken on these records
+        assert!(
+            from_gram == 9,
+            "Gram path taken {from_gram} of 12 times, expected 9"
+        );
+    }
+
+    #[test]
+    fn step2_gram_refuses_a_rank_deficient_record() {
+        // u constant after the first samples: the u shifts are collinear over the columns
+        let (mut u, y) = valve_loop(600, 5, 0.3);
+        u[10..].fill(51.0);
+        let ncol = u.len() + 1 - 20;
+        let cols: Vec<(bool, usize)> = (0..10)
+            .map(|i| (false, i))
+            .chain((0..10).map(|i| (true, i)))
+            .chain([(false, 10), (true, 10)])
+            .collect();
+        assert!(step2_from_gram(&u, &y, ncol, &cols, 22).is_none());
+    }
 
     #[test]
     fn hankel_gram_matches_product() {
