@@ -226,22 +226,11 @@ const STEP2_PIVOT_TOL: f64 = crate::arx_sums::GRAM_PIVOT_TOL;
 /// pseudo-inverse cut); otherwise `None` and the caller takes the QR ([`pinv_ls`]). Test:
 /// `step2_gram_matches_the_qr` (fits equal to 1e-9 relative).
 fn step2_from_gram(
-    us: &[f64],
-    ys: &[f64],
-    ncol: usize,
+    h: &ShiftedProducts,
     cols: &[(bool, usize)],
     k: usize,
 ) -> Option<(Mat<f64>, Mat<f64>)> {
-    let shifts = cols.iter().map(|c| c.1).max()? + 1;
-    let huu = shifted_products(us, shifts, us, shifts, ncol);
-    let hyy = shifted_products(ys, shifts, ys, shifts, ncol);
-    let huy = shifted_products(us, shifts, ys, shifts, ncol);
-    let g = |i: usize, j: usize| match (cols[i], cols[j]) {
-        ((false, a), (false, b)) => huu[a * shifts + b],
-        ((true, a), (true, b)) => hyy[a * shifts + b],
-        ((false, a), (true, b)) => huy[a * shifts + b],
-        ((true, a), (false, b)) => huy[b * shifts + a],
-    };
+    let g = |i: usize, j: usize| h.get(cols[i], cols[j]);
     let nt = cols.len() - k;
     let mut scale = vec![0.0; k];
     for (i, s) in scale.iter_mut().enumerate() {
@@ -321,11 +310,7 @@ fn shifted_products(a: &[f64], ka: usize, b: &[f64], kb: usize, ncol: usize) -> 
 /// every entry is a shifted product of u or y with itself or the other
 /// ([`shifted_products`]), `O((p + f) N)` instead of `O((2p + f)² N)`. Equal to the direct
 /// product up to round-off (test `hankel_gram_matches_product`).
-fn hankel_gram(us: &[f64], ys: &[f64], ncol: usize, p: usize, f: usize) -> Mat<f64> {
-    let ku = p + f;
-    let huu = shifted_products(us, ku, us, ku, ncol);
-    let hyy = shifted_products(ys, p, ys, p, ncol);
-    let huy = shifted_products(us, ku, ys, p, ncol);
+fn hankel_gram(h: &ShiftedProducts, p: usize, f: usize) -> Mat<f64> {
     // column c -> (is_y, shift)
     let col = |c: usize| -> (bool, usize) {
         if c < p {
@@ -337,12 +322,39 @@ fn hankel_gram(us: &[f64], ys: &[f64], ncol: usize, p: usize, f: usize) -> Mat<f
         }
     };
     let nz = 2 * p + f;
-    Mat::<f64>::from_fn(nz, nz, |i, j| match (col(i), col(j)) {
-        ((false, a), (false, b)) => huu[a * ku + b],
-        ((true, a), (true, b)) => hyy[a * p + b],
-        ((false, a), (true, b)) => huy[a * p + b],
-        ((true, a), (false, b)) => huy[b * p + a],
-    })
+    Mat::<f64>::from_fn(nz, nz, |i, j| h.get(col(i), col(j)))
+}
+
+/// The shifted products of the scaled u and y with themselves and each other for every pair
+/// of shifts below `k` ([`shifted_products`]): every entry of the step-2 and step-3 Gram
+/// matrices, computed once per identification.
+struct ShiftedProducts {
+    k: usize,
+    uu: Vec<f64>,
+    yy: Vec<f64>,
+    uy: Vec<f64>,
+}
+
+impl ShiftedProducts {
+    fn new(us: &[f64], ys: &[f64], k: usize, ncol: usize) -> Self {
+        ShiftedProducts {
+            k,
+            uu: shifted_products(us, k, us, k, ncol),
+            yy: shifted_products(ys, k, ys, k, ncol),
+            uy: shifted_products(us, k, ys, k, ncol),
+        }
+    }
+
+    /// `Σ_t s_a(t + a) s_b(t + b)` for the columns `(is_y, shift)` `a` and `b`.
+    fn get(&self, (ya, a): (bool, usize), (yb, b): (bool, usize)) -> f64 {
+        let k = self.k;
+        match (ya, yb) {
+            (false, false) => self.uu[a * k + b],
+            (true, true) => self.yy[a * k + b],
+            (false, true) => self.uy[a * k + b],
+            (true, false) => self.uy[b * k + a],
+        }
+    }
 }
 
 /// Step-6 regressors in one pass over the data: the predictor output
@@ -459,13 +471,15 @@ impl ParsimK {
             .chain((0..f).map(|i| (true, p + i)))
             .chain((1..f).map(|i| (false, p + i)))
             .collect();
+        // every column of steps 2 and 3 is a shift below p + f of u or y
+        let products = ShiftedProducts::new(&us, &ys, p + f, ncol);
         // Step 3 needs the Gram of [Zp | Uf] (Hankel structure, no product of the full data)
-        let gram = hankel_gram(&us, &ys, ncol, p, f);
+        let gram = hankel_gram(&products, p, f);
 
         // --- Step 2
         let sizes = [zp_cols + 1, kreg];
         let gram_step2 = match step2 {
-            Step2::Auto => step2_from_gram(&us, &ys, ncol, &cols, kreg),
+            Step2::Auto => step2_from_gram(&products, &cols, kreg),
             Step2::Qr => None,
         };
         let ls = match gram_step2 {
@@ -769,8 +783,8 @@ mod tests {
                     .chain([(false, p), (true, p)])
                     .chain((0..f).map(|i| (true, p + i)))
                     .collect();
-                from_gram +=
-                    usize::from(step2_from_gram(&us, &ys, ncol, &cols, 2 * p + 2).is_some());
+                let h = ShiftedProducts::new(&us, &ys, p + f, ncol);
+                from_gram += usize::from(step2_from_gram(&h, &cols, 2 * p + 2).is_some());
             }
         }
         // the comparison is not vacuous: the Gram path is taken on these records
@@ -791,7 +805,8 @@ mod tests {
             .chain((0..10).map(|i| (true, i)))
             .chain([(false, 10), (true, 10)])
             .collect();
-        assert!(step2_from_gram(&u, &y, ncol, &cols, 22).is_none());
+        let h = ShiftedProducts::new(&u, &y, 20, ncol);
+        assert!(step2_from_gram(&h, &cols, 22).is_none());
     }
 
     #[test]
@@ -815,7 +830,7 @@ mod tests {
                     .copy_from_slice(&us[p + i..p + i + ncol]);
             }
             let direct = la::mul(x.as_ref().transpose(), x.as_ref());
-            let fast = hankel_gram(&us, &ys, ncol, p, f);
+            let fast = hankel_gram(&ShiftedProducts::new(&us, &ys, p + f, ncol), p, f);
             for i in 0..2 * p + f {
                 for j in 0..2 * p + f {
                     assert!(
