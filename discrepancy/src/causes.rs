@@ -391,3 +391,12 @@ inventory::submit! {
         build: || Box::new(NoStiction),
     }
 }
+
+inventory::submit! {
+    CauseEntry {
+        name: "compression",
+        description: "PV read back from a historian's compressed storage: named first, the baseline stands with a warning, no other cause is tested",
+        statistic: "share of the PV samples on exactly straight sloped segments",
+        build: || Box::new(crate::Compression),
+    }
+}

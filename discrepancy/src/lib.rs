@@ -12,9 +12,12 @@
 //! Causes are plugins: a type implementing [`Cause`] plus one `inventory::submit!` of a
 //! [`CauseEntry`]. The built-ins are `disturbance` (EARX/EARMAX), `asymmetric-stiction`
 //! (`kano-asym`), `time-delay` (the dead time estimated) and `no-stiction` (the oscillation is
-//! not the valve's: S = J = 0 explains PV as well). This crate does no IO.
+//! not the valve's: S = J = 0 explains PV as well), and `compression` (PV read back from a
+//! historian's compressed storage: named first, no other cause tested, [`Cause::reframe`]).
+//! This crate does no IO.
 
 mod causes;
+mod compression;
 mod eval;
 pub mod registration;
 mod residuals;
@@ -30,6 +33,7 @@ use stiction_models::ModelEntry;
 pub use monitoring::{Combination, FitSummary, Fitted};
 
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
+pub use compression::Compression;
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.
@@ -66,6 +70,12 @@ pub enum DiagnoseError {
         value: f64,
         /// Valid range.
         expected: String,
+    },
+    /// A cause that acts through [`Cause::reframe`] was asked for an extension.
+    #[error("{cause} acts on every model of the diagnosis, not as an extension")]
+    NotAnExtension {
+        /// The cause.
+        cause: &'static str,
     },
     /// A search setting that cannot work for a diagnosis (the message names the CLI's flag).
     #[error("{0}")]
@@ -255,6 +265,29 @@ pub trait Cause: Send + Sync + fmt::Debug {
     fn overrides(&self) -> bool {
         false
     }
+    /// A cause in the data rather than in the loop, which biases how models are compared
+    /// (`compression`): when it holds for `problem`, the diagnosis fits the returned baseline
+    /// instead, names this cause first with the returned evidence, and tests no other cause
+    /// (their likelihood-ratio tests assume data the cause has altered). Default: never.
+    fn reframe(
+        &self,
+        _problem: Problem<'_>,
+        _baseline: &Baseline,
+        _search: &SearchOptions,
+    ) -> Option<Reframe> {
+        None
+    }
+}
+
+/// What a cause in the data changes ([`Cause::reframe`]).
+#[derive(Debug, Clone)]
+pub struct Reframe {
+    /// The baseline to fit instead.
+    pub baseline: Baseline,
+    /// The search options of that fit.
+    pub search: SearchOptions,
+    /// The evidence, in words, and the cause's statistic.
+    pub evidence: Evidence,
 }
 
 /// A registered cause.
@@ -376,7 +409,8 @@ pub struct Diagnosis {
     pub cause: String,
     /// Every cause found, in the order the forward selection added them (empty: none).
     pub causes: Vec<String>,
-    /// Index in `findings` of the chosen cause.
+    /// Index in `findings` of the first cause with an extension (a cause that reframes the
+    /// diagnosis, `compression`, comes before it in `causes` and has none).
     pub chosen: Option<usize>,
     /// One per hypothesis tested, best first (chosen first, then by LR margin).
     pub findings: Vec<Finding>,
@@ -443,6 +477,26 @@ pub fn diagnose_with_progress(
             });
         }
     }
+    // a cause in the data (compression) changes how every model is compared
+    let original = options;
+    let mut reframed = None;
+    for entry in &known {
+        if options.disabled.iter().any(|d| d == entry.name) {
+            continue;
+        }
+        if let Some(r) = (entry.build)().reframe(problem, baseline, &options.search) {
+            let o = DiagnoseOptions {
+                search: r.search,
+                ..options.clone()
+            };
+            reframed = Some((entry.name, r.evidence, o, r.baseline));
+            break;
+        }
+    }
+    let original_baseline = baseline;
+    let (options, baseline) = reframed
+        .as_ref()
+        .map_or((options, baseline), |r| (&r.2, &r.3));
     let span = span_of(problem.op);
     let t0 = Instant::now();
     let mut base = diagnosis_combination(
@@ -472,7 +526,13 @@ pub fn diagnose_with_progress(
     let mut findings = Vec::new();
     let mut overriding = Vec::new();
     let mut done = 1;
-    for entry in known {
+    // a reframed diagnosis tests no other cause (see `Cause::reframe`)
+    let testable = if reframed.is_some() {
+        &[][..]
+    } else {
+        &known[..]
+    };
+    for &entry in testable {
         if options.disabled.iter().any(|d| d == entry.name) {
             continue;
         }
@@ -585,7 +645,7 @@ pub fn diagnose_with_progress(
             }
         }
     }
-    let cause = chosen.map_or("none".to_string(), |i| findings[i].cause.to_string());
+    let mut cause = chosen.map_or("none".to_string(), |i| findings[i].cause.to_string());
     let Path {
         mut causes,
         steps,
@@ -619,6 +679,14 @@ pub fn diagnose_with_progress(
                 e.j
             );
         }
+    }
+    if let Some((name, ev, _, _)) = reframed {
+        let finding = reframed_finding(problem, original_baseline, original, &base, name, ev)?;
+        summary = format!("{} {summary}", finding.evidence);
+        findings.insert(0, finding);
+        chosen = chosen.map(|i| i + 1);
+        causes.insert(0, name);
+        cause = name.to_string();
     }
     Ok(Diagnosis {
         baseline: base.summary(),
@@ -811,6 +879,73 @@ fn test_cause(
     (finding, overrides)
 }
 
+/// The finding of a cause that reframed the diagnosis ([`Cause::reframe`]): the baseline
+/// under the caller's search options (e.g. ranked by one-step prediction) against the
+/// reframed baseline `base`, compared by the reframed criterion's validation fit.
+fn reframed_finding(
+    problem: Problem<'_>,
+    baseline: &Baseline,
+    original: &DiagnoseOptions,
+    base: &Fitted,
+    name: &'static str,
+    ev: Evidence,
+) -> Result<Finding, DiagnoseError> {
+    let criterion = base.result.criterion;
+    let (b, n_val) = (
+        base.summary(),
+        (problem.op.len() - base.result.split_index) as f64,
+    );
+    let mut finding = Finding {
+        cause: name,
+        evidence: format!("Cause: {name}. {}", ev.text),
+        statistic: ev.statistic,
+        extended: Some(b.clone()),
+        fitted: None,
+        gain_fit_pv_val: f64::NAN,
+        delta_s: f64::NAN,
+        delta_j: f64::NAN,
+        lr: f64::NAN,
+        threshold: f64::NAN,
+        reference: format!(
+            "the baseline ranked by {}",
+            original.search.criterion.describe()
+        ),
+        // a property of the data, detected from the data: no likelihood ratio decides it
+        significant: true,
+        error: None,
+    };
+    if original.search.criterion == criterion {
+        return Ok(finding);
+    }
+    let orig = diagnosis_combination(
+        baseline,
+        original,
+        baseline.stiction,
+        baseline.linear,
+        baseline.fixed_delay(),
+    )
+    .run(problem, None)?;
+    let fit = |f: &Fitted| f.result.fits_score(criterion);
+    let sse = |f: f64| (1.0 - f / 100.0).max(1e-12);
+    let (f0, f1) = (fit(&orig), fit(base));
+    finding.gain_fit_pv_val = f1 - f0;
+    finding.delta_s = b.s - orig.result.s;
+    finding.delta_j = b.j - orig.result.j;
+    finding.lr = n_val * (sse(f0) / sse(f1)).ln();
+    finding.evidence = format!(
+        "{} Ranked by {} the baseline would estimate S = {:.2} %, J = {:.2} % ({} fit {f0:.1} % on validation data); ranked by {}, S = {:.2} %, J = {:.2} % ({f1:.1} %).",
+        finding.evidence,
+        original.search.criterion.describe(),
+        orig.result.s,
+        orig.result.j,
+        criterion.label(),
+        criterion.describe(),
+        b.s,
+        b.j
+    );
+    Ok(finding)
+}
+
 /// The summary: the actionable sentence first (which model to use and its S, J), then the
 /// evidence for the cause, then what the baseline and its residuals show.
 fn summarise(
@@ -865,6 +1000,8 @@ fn summarise(
                 f.evidence,
             )
         }
+        // nothing tested (a cause in the data, `Cause::reframe`, says why before this)
+        None if findings.is_empty() => baseline,
         None => {
             let tested: Vec<String> = findings
                 .iter()
@@ -901,6 +1038,11 @@ pub fn action_line(dg: &Diagnosis) -> String {
             ),
             None => f.cause.to_string(),
         },
+        // a cause in the data named alone (`Cause::reframe`): the baseline with its warning
+        None if dg.cause != "none" => format!(
+            "{}: the baseline S = {:.2} %, J = {:.2} % with caution (no other cause tested); see the summary",
+            dg.cause, dg.baseline.s, dg.baseline.j
+        ),
         None => format!(
             "none: the baseline stands, S = {:.2} %, J = {:.2} %",
             dg.baseline.s, dg.baseline.j
