@@ -28,6 +28,11 @@ pub(crate) struct PatternSearch<'a> {
     pub directions: Vec<Vec<f64>>,
     /// Maximum number of node evaluations.
     pub budget: usize,
+    /// Per-parameter step multipliers (steps and the rounding lattice of parameter `i` are
+    /// `scales[i]` times the OP-unit ones); empty: all 1.
+    pub scales: Vec<f64>,
+    /// Which nodes may be evaluated; `None`: the model's `admissible` for `span`.
+    pub admit: Option<&'a (dyn Fn(&[f64]) -> bool + Sync)>,
 }
 
 impl PatternSearch<'_> {
@@ -55,10 +60,18 @@ impl PatternSearch<'_> {
                     centre
                         .iter()
                         .zip(d)
-                        .map(|(c, di)| ((c + sgn * step * di) / self.fine).round() * self.fine)
+                        .enumerate()
+                        .map(|(i, (c, di))| {
+                            let k = self.scales.get(i).copied().unwrap_or(1.0);
+                            let lattice = self.fine * k;
+                            ((c + sgn * step * k * di) / lattice).round() * lattice
+                        })
                         .collect::<Vec<f64>>()
                 })
-                .filter(|p| self.entry.admissible(p, self.span))
+                .filter(|p| match self.admit {
+                    Some(admit) => admit(p),
+                    None => self.entry.admissible(p, self.span),
+                })
                 .filter(|p| {
                     !visited
                         .iter()

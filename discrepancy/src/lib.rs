@@ -11,10 +11,12 @@
 //!
 //! Causes are plugins: a type implementing [`Cause`] plus one `inventory::submit!` of a
 //! [`CauseEntry`]. The built-ins are `disturbance` (EARX/EARMAX), `asymmetric-stiction`
-//! (`kano-asym`), `time-delay` (the dead time estimated) and `no-stiction` (the oscillation is
+//! (`kano-asym`), `time-delay` (the dead time estimated), `valve-characteristic` (`kano-char`:
+//! an installed flow characteristic after the valve) and `no-stiction` (the oscillation is
 //! not the valve's: S = J = 0 explains PV as well). This crate does no IO.
 
 mod causes;
+mod characteristic;
 mod eval;
 pub mod registration;
 mod residuals;
@@ -30,6 +32,7 @@ use stiction_models::ModelEntry;
 pub use monitoring::{Combination, FitSummary, Fitted};
 
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
+pub use characteristic::ValveCharacteristic;
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.

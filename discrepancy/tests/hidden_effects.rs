@@ -36,6 +36,7 @@ fn diagnose_names_the_hidden_effect() {
         Effect::Asymmetric,
         Effect::Delay,
         Effect::Oscillation,
+        Effect::Characteristic,
     ];
     let (mut effect_ok, mut effect_n, mut clean_ok, mut clean_n) = (0, 0, 0, 0);
     let (mut closer, mut compared) = (0, 0);
