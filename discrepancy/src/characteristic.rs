@@ -16,6 +16,22 @@ use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitt
 const SEARCH_SHAPE: f64 = 6.0;
 /// Lags (after the dead time) of the residual's correlation with the squared opening.
 const LAGS: usize = 5;
+/// A characteristic is negligible when the local gain changes by at most this factor over the
+/// range OP covers (its 5th to 95th percentile): the nested reference of the extension is the
+/// best valve with a negligible characteristic, as `no-stiction`'s is the best valve with
+/// negligible S (a tiny curvature that only helps re-fit S and J is not a characteristic).
+pub const NEGLIGIBLE_GAIN_RATIO: f64 = 1.1;
+
+/// The 5th-to-95th percentile range of `x`.
+fn travel(x: &[f64]) -> f64 {
+    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.len() < 2 {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+    at(0.95) - at(0.05)
+}
 
 /// An installed flow characteristic: the process sees a static monotone function of the valve
 /// position, so its gain depends on the opening. Extend `kano` to `kano-char` (S, J and the
@@ -23,8 +39,9 @@ const LAGS: usize = 5;
 /// stiction → characteristic → linear.
 ///
 /// The extension is a pattern search started at the baseline's `(S, J, a = 0)`; its nested
-/// reference is the best linear valve (`a = 0`) the same search finds (searched again from the
-/// linear projection of the optimum), so one extra parameter. Statistic: the largest
+/// reference is the best valve with a negligible characteristic (the local gain changing by at
+/// most [`NEGLIGIBLE_GAIN_RATIO`] over OP's 5-95 % range) the same search finds (searched
+/// from the start and again from the projection of the optimum), so one extra parameter. Statistic: the largest
 /// correlation, in standard errors, of the baseline's prediction residual with the squared
 /// deviation of the estimated valve position from its mean at lags `delay + 1 ..= delay + 5`
 /// (the term a curved characteristic adds to a linear model).
@@ -105,9 +122,15 @@ impl Cause for ValveCharacteristic {
         let admit = move |p: &[f64]| {
             p.len() == 3 && kano.admissible(&p[..2], span) && p[2].abs() <= limit + 1e-9
         };
+        // |a| of a negligible characteristic over the range OP covers
+        let negligible = 100.0 * NEGLIGIBLE_GAIN_RATIO.ln() / travel(ctx.problem.op).max(fine);
+        let admit_ref = move |p: &[f64]| admit(p) && p[2].abs() <= negligible + 1e-9;
         // the shape moves by 1 per coarse step of S, by fine/coarse at the finest
         let scales = vec![1.0, 1.0, 1.0 / coarse];
-        let search = |directions: Vec<Vec<f64>>, from: &[f64], budget: usize| {
+        let search = |directions: Vec<Vec<f64>>,
+                      from: &[f64],
+                      budget: usize,
+                      admit: &(dyn Fn(&[f64]) -> bool + Sync)| {
             PatternSearch {
                 entry,
                 identifier: identifier.as_ref(),
@@ -119,7 +142,7 @@ impl Cause for ValveCharacteristic {
                 directions,
                 budget,
                 scales: scales.clone(),
-                admit: Some(&admit),
+                admit: Some(admit),
             }
             .run(from)
         };
@@ -130,37 +153,41 @@ impl Cause for ValveCharacteristic {
                 .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))
                 .map(|n| (n.params.clone(), n.score(crit)))
         };
-        let linear_dirs = || vec![vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![1.0, 1.0, 0.0]];
-        let start = vec![snap(q.s), snap(q.j.min(q.s)), 0.0];
-        // The reference: the best linear valve near the baseline's estimate.
-        let lin = search(linear_dirs(), &start, 120)?;
-        let (lin_best, lin_fit) = best_of(&lin).ok_or_else(|| DiagnoseError::EmptySearch {
-            model: "kano-char".into(),
-        })?;
-        // Free search from the linear optimum and from a shape each way (the fit is often
-        // flat in `a` near 0 while S and J are off).
-        let mut free = Vec::new();
         let dirs = vec![
             vec![0.0, 0.0, 1.0],
             vec![1.0, 0.0, 0.0],
             vec![0.0, 1.0, 0.0],
             vec![1.0, 1.0, 0.0],
         ];
-        for a0 in [0.0, 3.0, -3.0] {
+        let start = vec![snap(q.s), snap(q.j.min(q.s)), 0.0];
+        // The reference: the best valve with a negligible characteristic near the baseline's
+        // estimate.
+        let lin = search(dirs.clone(), &start, 150, &admit_ref)?;
+        let (lin_best, lin_fit) = best_of(&lin).ok_or_else(|| DiagnoseError::EmptySearch {
+            model: "kano-char".into(),
+        })?;
+        // Free search from the linear optimum and from a shape each way (the fit is often
+        // flat in `a` near 0 while S and J are off).
+        let mut free = Vec::new();
+        for a0 in [lin_best[2], 3.0, -3.0] {
             let st = vec![lin_best[0], lin_best[1], a0];
             if admit(&st) {
-                free.extend(search(dirs.clone(), &st, 200)?);
+                free.extend(search(dirs.clone(), &st, 200, &admit)?);
             }
         }
         let (free_best, _) = best_of(&free).unwrap_or((lin_best.clone(), lin_fit));
-        // Fair reference: the linear search again from the optimum's linear projection.
-        let lin2 = search(linear_dirs(), &[free_best[0], free_best[1], 0.0], 120)?;
-        let ref_fit = best_of(&lin2)
-            .map_or(lin_fit, |(_, f)| f.max(lin_fit))
-            .max(ctx.baseline.fit_val());
+        // Fair reference: the reference search again from the optimum's linear projection.
+        let lin2 = search(dirs, &[free_best[0], free_best[1], 0.0], 150, &admit_ref)?;
         let mut nodes = lin;
         nodes.extend(free);
         nodes.extend(lin2);
+        // every node visited with a negligible characteristic counts for the reference
+        let ref_fit = nodes
+            .iter()
+            .filter(|n| admit_ref(&n.params))
+            .map(|n| n.score(crit))
+            .fold(lin_fit, f64::max)
+            .max(ctx.baseline.fit_val());
         let count = nodes.len();
         let result = grid_search::quantify_from_surface(
             entry,
@@ -187,7 +214,7 @@ impl Cause for ValveCharacteristic {
             fitted,
             lr,
             extra_params: 1,
-            reference: "best linear valve (a = 0) of the same search".into(),
+            reference: "best valve with a negligible characteristic (gain change <= 10 % over OP's range) of the same search".into(),
         })
     }
 }
