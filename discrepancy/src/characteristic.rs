@@ -14,6 +14,8 @@ use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitt
 /// Largest |a| the extension searches: `e^6 ≈ 400` is the gain ratio over the whole span, more
 /// than any installed valve (equal-percentage rangeability 50 is `a = 3.9`).
 const SEARCH_SHAPE: f64 = 6.0;
+/// |a| of the coarse lattice the free search starts from (rangeability e³ = 20).
+const SHAPE_START: f64 = 3.0;
 /// Lags (after the dead time) of the residual's correlation with the squared opening.
 const LAGS: usize = 5;
 /// A characteristic is negligible when the local gain changes by at most this factor over the
@@ -168,13 +170,41 @@ impl Cause for ValveCharacteristic {
         })?;
         // Free search from the linear optimum and from a shape each way (the fit is often
         // flat in `a` near 0 while S and J are off).
-        let mut free = Vec::new();
-        for a0 in [lin_best[2], 3.0, -3.0] {
-            let st = vec![lin_best[0], lin_best[1], a0];
-            if admit(&st) {
-                free.extend(search(dirs.clone(), &st, 200, &admit)?);
+        // A coarse (S, J) lattice at a = ±3 (the baseline's S can be far off when the gain
+        // changes with the opening: 19.1 for a true 9.05), then free searches from the
+        // linear optimum and from the best coarse node of each sign.
+        let mut coarse_nodes = Vec::new();
+        for a0 in [SHAPE_START, -SHAPE_START] {
+            for (s0, j0) in grid_search::grid::nodes(kano, span, coarse)
+                .into_iter()
+                .map(|p| (p[0], p[1]))
+            {
+                coarse_nodes.push(vec![s0, j0, a0]);
             }
         }
+        let lattice = grid_search::evaluate_nodes(
+            entry,
+            identifier.as_ref(),
+            ctx.problem,
+            &ctx.options.search,
+            coarse_nodes,
+        )?;
+        let best_sign = |sign: f64| {
+            lattice
+                .iter()
+                .filter(|n| n.params[2] * sign > 0.0)
+                .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))
+                .filter(|n| n.score(crit).is_finite())
+                .map(|n| n.params.clone())
+        };
+        let mut starts = vec![lin_best.clone()];
+        starts.extend(best_sign(1.0));
+        starts.extend(best_sign(-1.0));
+        let mut free = Vec::new();
+        for st in starts.iter().filter(|p| admit(p)) {
+            free.extend(search(dirs.clone(), st, 200, &admit)?);
+        }
+        free.extend(lattice);
         let (free_best, _) = best_of(&free).unwrap_or((lin_best.clone(), lin_fit));
         // Fair reference: the reference search again from the optimum's linear projection.
         let lin2 = search(dirs, &[free_best[0], free_best[1], 0.0], 150, &admit_ref)?;
