@@ -19,6 +19,7 @@ the extension's extra parameters (docs/DIAGNOSE.md):
   disturbance          external nonstationary disturbance -> EARX / EARMAX
   asymmetric-stiction  friction differs by direction      -> kano-asym
   time-delay           unmodelled dead time               -> the delay estimated
+  valve-characteristic installed flow characteristic     -> kano-char (S, J, shape a)
   no-stiction          the oscillation is not the valve's -> S <= 0.2 % (negligible)
 Otherwise the cause is `none` and the baseline stands. Several causes: on the chosen extension
 the other causes significant in the first round are tested again, and added while one gains
