@@ -8,7 +8,7 @@ use grid_search::NodeFit;
 use linear_id::find_identifier;
 use stiction_models::{find_model, MAX_SHAPE};
 
-use crate::eval::PatternSearch;
+use crate::eval::{Admit, PatternSearch};
 use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitted};
 
 /// Largest |a| the extension searches: `e^6 ≈ 400` is the gain ratio over the whole span, more
@@ -129,10 +129,7 @@ impl Cause for ValveCharacteristic {
         let admit_ref = move |p: &[f64]| admit(p) && p[2].abs() <= negligible + 1e-9;
         // the shape moves by 1 per coarse step of S, by fine/coarse at the finest
         let scales = vec![1.0, 1.0, 1.0 / coarse];
-        let search = |directions: Vec<Vec<f64>>,
-                      from: &[f64],
-                      budget: usize,
-                      admit: &(dyn Fn(&[f64]) -> bool + Sync)| {
+        let search = |directions: Vec<Vec<f64>>, from: &[f64], budget: usize, admit: &Admit| {
             PatternSearch {
                 entry,
                 identifier: identifier.as_ref(),

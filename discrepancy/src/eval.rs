@@ -12,6 +12,9 @@ use stiction_models::ModelEntry;
 
 use crate::DiagnoseError;
 
+/// Which parameter vectors a search may evaluate.
+pub(crate) type Admit = dyn Fn(&[f64]) -> bool + Sync;
+
 /// A pattern search over a model's parameters, started at a given node: each round tries a
 /// step along every direction (both signs), moves to the best improvement, and halves the
 /// step down to `fine` when nothing improves. Nodes are evaluated by
@@ -32,7 +35,7 @@ pub(crate) struct PatternSearch<'a> {
     /// `scales[i]` times the OP-unit ones); empty: all 1.
     pub scales: Vec<f64>,
     /// Which nodes may be evaluated; `None`: the model's `admissible` for `span`.
-    pub admit: Option<&'a (dyn Fn(&[f64]) -> bool + Sync)>,
+    pub admit: Option<&'a Admit>,
 }
 
 impl PatternSearch<'_> {

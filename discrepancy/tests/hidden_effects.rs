@@ -109,7 +109,10 @@ fn diagnose_names_the_hidden_effect() {
             }
         };
         let r = &mut table[row];
-        for (k, v) in [true, right, set_right, s_ok, sticky].into_iter().enumerate() {
+        for (k, v) in [true, right, set_right, s_ok, sticky]
+            .into_iter()
+            .enumerate()
+        {
             r.1[k] += usize::from(v);
         }
         r.2 = r.2.max(d.elapsed_ms);
@@ -144,9 +147,7 @@ fn diagnose_names_the_hidden_effect() {
         clean_ok * 10 >= clean_n * 9,
         "none in {clean_ok}/{clean_n} clean loops (< 90 %)"
     );
-    if let Some((_, [n, _, set, _, _], _)) =
-        table.iter().find(|r| r.0 == Effect::Characteristic)
-    {
+    if let Some((_, [n, _, set, _, _], _)) = table.iter().find(|r| r.0 == Effect::Characteristic) {
         assert!(
             set * 10 >= n * 8,
             "valve-characteristic exactly in {set}/{n} characteristic loops (< 80 %)"

@@ -270,11 +270,16 @@ mod tests {
 
     #[test]
     fn a_zero_is_kano_bit_for_bit() {
-        let op: Vec<f64> = (0..200).map(|k| 50.0 + 8.0 * (k as f64 * 0.1).sin()).collect();
+        let op: Vec<f64> = (0..200)
+            .map(|k| 50.0 + 8.0 * (k as f64 * 0.1).sin())
+            .collect();
         let init = InitialState::default();
         let k = Kano::params().s(4.0).j(1.0).check().unwrap();
         let c = KanoChar::params().s(4.0).j(1.0).check().unwrap();
-        assert_eq!(k.simulate(&op, &init).unwrap(), c.simulate(&op, &init).unwrap());
+        assert_eq!(
+            k.simulate(&op, &init).unwrap(),
+            c.simulate(&op, &init).unwrap()
+        );
     }
 
     #[test]
@@ -295,7 +300,9 @@ mod tests {
 
     #[test]
     fn stepped_equals_simulated_and_a_is_checked() {
-        let op: Vec<f64> = (0..300).map(|k| 50.0 + 8.0 * (k as f64 * 0.07).sin()).collect();
+        let op: Vec<f64> = (0..300)
+            .map(|k| 50.0 + 8.0 * (k as f64 * 0.07).sin())
+            .collect();
         let init = InitialState::default();
         let c = KanoChar::params().s(3.0).j(1.0).a(3.0).check().unwrap();
         let sim = c.simulate(&op, &init).unwrap();

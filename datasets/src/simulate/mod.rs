@@ -871,4 +871,30 @@ mod tests {
             sim.pv[1]
         );
     }
+
+    #[test]
+    fn characteristic_is_optional_in_json_and_keeps_the_local_gain() {
+        let plain = Scenario::default().to_json();
+        assert!(!plain.contains("characteristic"), "{plain}");
+        let s = Scenario::from_json(
+            r#"{"characteristic": {"kind": "equal-percentage", "rangeability": 50}, "samples": 200}"#,
+        )
+        .unwrap();
+        let c = s.characteristic.unwrap();
+        assert!((c.shape() - 50f64.ln()).abs() < 1e-12);
+        assert!(s.to_json().contains("equal-percentage"));
+        // local gain 1 at the operating point, growing with the opening (×R^0.1 over 10 %)
+        let g = |x: f64| (c.deviation(x + 1e-6) - c.deviation(x - 1e-6)) / 2e-6;
+        assert!((g(0.0) - 1.0).abs() < 1e-6);
+        assert!((g(10.0) / g(0.0) - 50f64.powf(0.1)).abs() < 1e-6);
+        let q = Characteristic::QuickOpening { rangeability: 50.0 };
+        assert!((q.shape() + 50f64.ln()).abs() < 1e-12);
+        assert!(Scenario::from_json(
+            r#"{"characteristic": {"kind": "quick-opening", "rangeability": 0.5}}"#
+        )
+        .is_err());
+        // the valve model still reproduces the recorded MV (the stem position)
+        let sim = s.simulate().unwrap();
+        assert_eq!(s.valve.simulate(&sim.op, &s.valve_init).unwrap(), sim.mv);
+    }
 }

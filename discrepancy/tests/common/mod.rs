@@ -5,9 +5,7 @@
 //! effect's own draws, then the simulator seed. Ranges are documented in `docs/DIAGNOSE.md`.
 #![allow(dead_code)]
 
-use datasets::simulate::{
-    Characteristic, Disturbance, Plant, PlantSpec, Scenario, SimulatedLoop,
-};
+use datasets::simulate::{Characteristic, Disturbance, Plant, PlantSpec, Scenario, SimulatedLoop};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use stiction_models::{Kano, KanoAsym, StictionModel};
