@@ -39,7 +39,7 @@ fn invalid_parameters_name_the_parameter_and_its_range() {
         err_line(&["valve", "-", "--model", "nope"], csv),
         (
             2,
-            "error: unknown stiction model \"nope\"; registered models are he, kano, kano-asym"
+            "error: unknown stiction model \"nope\"; registered models are he, kano, kano-asym, kano-char"
                 .into()
         )
     );

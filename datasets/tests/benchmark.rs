@@ -313,6 +313,7 @@ fn valve_model_reproduces_mv_from_op() {
                 ("J_up".into(), 1.0),
                 ("J_dn".into(), 2.0),
             ],
+            "kano-char" => vec![("S".into(), 4.0), ("J".into(), 1.0), ("a".into(), 3.0)],
             _ => entry
                 .params
                 .iter()

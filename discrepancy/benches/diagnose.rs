@@ -1,8 +1,10 @@
-//! Wall time of one diagnosis of a 3000-sample loop: the paper's loop (Kano S = 9, J = 3), and a
-//! loop with two hidden causes at once.
+//! Wall time of one diagnosis of a 3000-sample loop: the paper's loop (Kano S = 9, J = 3), a
+//! loop with two hidden causes at once, and a loop with an installed equal-percentage valve.
 #![allow(missing_docs, clippy::unwrap_used)]
 
-use datasets::simulate::{Controller, Disturbance, Plant, PlantSpec, Scenario};
+use datasets::simulate::{
+    Characteristic, Controller, Disturbance, Plant, PlantSpec, Scenario, Setpoint,
+};
 use discrepancy::{diagnose, Baseline, DiagnoseOptions, Diagnosis};
 use grid_search::Problem;
 use stiction_models::Kano;
@@ -53,5 +55,24 @@ fn diagnose_disturbance_and_delay_3000(bencher: divan::Bencher) {
     };
     bench_diagnosis(bencher, scenario, |d| {
         eprintln!("two causes hidden; diagnose finds {:?}", d.causes)
+    });
+}
+
+/// An installed equal-percentage valve (rangeability 40) after a Kano valve (S = 6, J = 2),
+/// the set point wandering as in the suite's characteristic loops (random-walk step 5).
+#[divan::bench(sample_count = 3, sample_size = 1)]
+fn diagnose_equal_percentage_3000(bencher: divan::Bencher) {
+    let scenario = Scenario {
+        valve: Box::new(Kano::params().s(6.0).j(2.0).check().unwrap()),
+        characteristic: Some(Characteristic::EqualPercentage { rangeability: 40.0 }),
+        setpoint: Setpoint {
+            step: 5.0,
+            ..Setpoint::default()
+        },
+        controller: Controller { kc: 0.3, ki: 0.3 },
+        ..Scenario::default()
+    };
+    bench_diagnosis(bencher, scenario, |d| {
+        eprintln!("equal-percentage valve; diagnose finds {:?}", d.causes)
     });
 }

@@ -15,6 +15,8 @@ fn main() {
         Effect::Asymmetric,
         Effect::Delay,
         Effect::Oscillation,
+        Effect::Characteristic,
+        Effect::DisturbanceDelay,
     ];
     let effects: Vec<Effect> = match args.get(2) {
         Some(w) if w != "all" => all
@@ -49,7 +51,41 @@ fn main() {
                 })
                 .collect();
             println!("{ok} {:?} {seed} {} true S {:.2} J {:.2} | found {} | base S {:.2} | {} | {} | {:.1}s",
-                e, c.plant, c.s, c.j, d.cause, d.baseline.s, f.join(" "), c.what, d.elapsed_ms / 1e3);
+                e, c.plant, c.s, c.j, d.causes.join("+"), d.baseline.s, f.join(" "), c.what, d.elapsed_ms / 1e3);
+            if std::env::var_os("EXPLORE_STEPS").is_some() {
+                let ms = |f: &discrepancy::Finding| {
+                    let a = f
+                        .fitted
+                        .as_ref()
+                        .filter(|x| x.stiction.name == "kano-char")
+                        .map(|x| x.result.stiction.param_values()[2]);
+                    let t = f.fitted.as_ref().map_or(0.0, |x| x.elapsed_ms);
+                    match a {
+                        Some(a) => format!(
+                            "{t:.0} (a {a:+.2}, gain ratio {:.2})",
+                            common::gain_ratio(a, &c.sim.op)
+                        ),
+                        None => format!("{t:.0}"),
+                    }
+                };
+                let first: Vec<String> = d
+                    .findings
+                    .iter()
+                    .map(|f| format!("{} {} ms", f.cause, ms(f)))
+                    .collect();
+                println!("    first round: {}", first.join(", "));
+                for (k, step) in d.steps.iter().enumerate() {
+                    let v: Vec<String> = step
+                        .iter()
+                        .map(|f| format!("{} LR {:.0} {} ms", f.cause, f.lr, ms(f)))
+                        .collect();
+                    println!("    step {k}: {}", v.join(", "));
+                }
+                println!(
+                    "    final S {:.2}",
+                    d.final_fit().map_or(d.baseline.s, |f| f.result.s)
+                );
+            }
         }
     }
 }

@@ -9,6 +9,15 @@ use stiction_models::find_model;
 use crate::eval::PatternSearch;
 use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitted};
 
+/// Whether the extensions that refit the model on a grid (or from its (S, J)) keep the
+/// current stiction model: not `kano-char`, whose shape `a` a grid does not search (a grid
+/// fixes `a = 0`) and `kano-asym` cannot carry. On a `kano-char` model found by
+/// `valve-characteristic` these causes are not tested again; the forward selection's second
+/// path (from the runner-up) finds a characteristic on top of them instead.
+fn keeps_stiction_model(ctx: &Context<'_>) -> bool {
+    ctx.baseline.stiction.name != "kano-char"
+}
+
 /// An external nonstationary disturbance: extend ARX → EARX and ARMAX → EARMAX (a time-varying
 /// bias η_k estimated with the model, paper eqs. 7-8).
 ///
@@ -30,7 +39,7 @@ impl Cause for Disturbance {
         "disturbance"
     }
     fn applies(&self, ctx: &Context<'_>) -> bool {
-        extended_linear(ctx.baseline.linear).is_some()
+        extended_linear(ctx.baseline.linear).is_some() && keeps_stiction_model(ctx)
     }
     fn evidence(&self, ctx: &Context<'_>) -> Evidence {
         let r = ctx.residuals;
@@ -76,7 +85,7 @@ impl Cause for AsymmetricStiction {
         "asymmetric-stiction"
     }
     fn applies(&self, ctx: &Context<'_>) -> bool {
-        ctx.baseline.stiction.name != "kano-asym"
+        ctx.baseline.stiction.name != "kano-asym" && keeps_stiction_model(ctx)
     }
     fn evidence(&self, ctx: &Context<'_>) -> Evidence {
         let r = ctx.residuals;
@@ -110,6 +119,8 @@ impl Cause for AsymmetricStiction {
                 fine,
                 directions,
                 budget: 400,
+                scales: Vec::new(),
+                admit: None,
             }
             .run(from)
         };
@@ -215,11 +226,13 @@ impl Cause for TimeDelay {
         "time-delay"
     }
     fn applies(&self, ctx: &Context<'_>) -> bool {
-        ctx.baseline_spec
-            .linear
-            .orders
-            .iter()
-            .any(|o| o.name == "delay")
+        keeps_stiction_model(ctx)
+            && ctx
+                .baseline_spec
+                .linear
+                .orders
+                .iter()
+                .any(|o| o.name == "delay")
     }
     fn evidence(&self, ctx: &Context<'_>) -> Evidence {
         let r = ctx.residuals;

@@ -12,6 +12,9 @@ use stiction_models::ModelEntry;
 
 use crate::DiagnoseError;
 
+/// Which parameter vectors a search may evaluate.
+pub(crate) type Admit = dyn Fn(&[f64]) -> bool + Sync;
+
 /// A pattern search over a model's parameters, started at a given node: each round tries a
 /// step along every direction (both signs), moves to the best improvement, and halves the
 /// step down to `fine` when nothing improves. Nodes are evaluated by
@@ -28,6 +31,11 @@ pub(crate) struct PatternSearch<'a> {
     pub directions: Vec<Vec<f64>>,
     /// Maximum number of node evaluations.
     pub budget: usize,
+    /// Per-parameter step multipliers (steps and the rounding lattice of parameter `i` are
+    /// `scales[i]` times the OP-unit ones); empty: all 1.
+    pub scales: Vec<f64>,
+    /// Which nodes may be evaluated; `None`: the model's `admissible` for `span`.
+    pub admit: Option<&'a Admit>,
 }
 
 impl PatternSearch<'_> {
@@ -55,10 +63,18 @@ impl PatternSearch<'_> {
                     centre
                         .iter()
                         .zip(d)
-                        .map(|(c, di)| ((c + sgn * step * di) / self.fine).round() * self.fine)
+                        .enumerate()
+                        .map(|(i, (c, di))| {
+                            let k = self.scales.get(i).copied().unwrap_or(1.0);
+                            let lattice = self.fine * k;
+                            ((c + sgn * step * k * di) / lattice).round() * lattice
+                        })
                         .collect::<Vec<f64>>()
                 })
-                .filter(|p| self.entry.admissible(p, self.span))
+                .filter(|p| match self.admit {
+                    Some(admit) => admit(p),
+                    None => self.entry.admissible(p, self.span),
+                })
                 .filter(|p| {
                     !visited
                         .iter()

@@ -11,12 +11,14 @@
 //!
 //! Causes are plugins: a type implementing [`Cause`] plus one `inventory::submit!` of a
 //! [`CauseEntry`]. The built-ins are `disturbance` (EARX/EARMAX), `asymmetric-stiction`
-//! (`kano-asym`), `time-delay` (the dead time estimated) and `no-stiction` (the oscillation is
-//! not the valve's: S = J = 0 explains PV as well), and `compression` (PV read back from a
+//! (`kano-asym`), `time-delay` (the dead time estimated), `valve-characteristic` (`kano-char`:
+//! an installed flow characteristic after the valve), `no-stiction` (the oscillation is not
+//! the valve's: S = J = 0 explains PV as well) and `compression` (PV read back from a
 //! historian's compressed storage: named first, no other cause tested, [`Cause::reframe`]).
 //! This crate does no IO.
 
 mod causes;
+mod characteristic;
 mod compression;
 mod eval;
 pub mod registration;
@@ -33,6 +35,7 @@ use stiction_models::ModelEntry;
 pub use monitoring::{Combination, FitSummary, Fitted};
 
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
+pub use characteristic::ValveCharacteristic;
 pub use compression::Compression;
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
 

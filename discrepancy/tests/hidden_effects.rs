@@ -1,14 +1,18 @@
 //! The seeded hidden-effect suite: loops with one hidden effect drawn at random (or none) must
 //! be diagnosed with the right cause.
 //!
-//! CI size: 6 loops per effect (disturbance, asymmetric-stiction, time-delay, no-stiction) and
-//! 10 clean loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
+//! CI size: 6 loops per effect (disturbance, asymmetric-stiction, time-delay, no-stiction,
+//! valve-characteristic) and 10 clean loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
 //! max(N, 10) clean ones (`cargo xtask suite` uses 24). `STICTION_SUITE_DISABLE=cause` disables a detector
 //! (the check that the suite fails without it, recorded in docs/DIAGNOSE.md).
 //!
 //! Acceptance (all sizes): right cause in >= 90 % of effect loops, `none` in >= 90 % of clean
 //! loops, and the extended model's S closer to the truth than the baseline's in most effect
-//! loops where stiction exists (disturbance, asymmetric-stiction, time-delay).
+//! loops where stiction exists (disturbance, asymmetric-stiction, time-delay,
+//! valve-characteristic); for the characteristic loops, the set of causes exactly
+//! `valve-characteristic` in >= 80 % (the target is 90 % at full size; one miss of 6 at CI
+//! size is 83 %). A table per effect gives the first cause, the exact set and the final
+//! model's S within max(0.5, 10 %) of the truth.
 #![allow(clippy::unwrap_used)]
 
 mod common;
@@ -36,11 +40,15 @@ fn diagnose_names_the_hidden_effect() {
         Effect::Asymmetric,
         Effect::Delay,
         Effect::Oscillation,
+        Effect::Characteristic,
     ];
     let (mut effect_ok, mut effect_n, mut clean_ok, mut clean_n) = (0, 0, 0, 0);
     let (mut closer, mut compared) = (0, 0);
     let mut lines = Vec::new();
     let mut loops: Vec<(u64, Effect)> = Vec::new();
+    // per effect: loops, first cause right, set of causes right, final S within tolerance,
+    // loops with stiction, slowest diagnosis (ms)
+    let mut table: Vec<(Effect, [usize; 5], f64)> = Vec::new();
     for i in 0..size {
         for (k, &e) in effects.iter().enumerate() {
             loops.push((1000 + 10 * i + k as u64, e));
@@ -87,6 +95,28 @@ fn diagnose_names_the_hidden_effect() {
                 }
             }
         }
+        let mut set: Vec<&str> = d.causes.iter().map(String::as_str).collect();
+        set.sort_unstable();
+        let set_right = set == effect.causes();
+        let final_s = d.final_fit().map_or(d.baseline.s, |f| f.result.s);
+        let sticky = c.s > 0.0;
+        let s_ok = sticky && (final_s - c.s).abs() <= (0.1 * c.s).max(0.5);
+        let row = match table.iter().position(|r| r.0 == effect) {
+            Some(i) => i,
+            None => {
+                table.push((effect, [0; 5], 0.0));
+                table.len() - 1
+            }
+        };
+        let r = &mut table[row];
+        for (k, v) in [true, right, set_right, s_ok, sticky]
+            .into_iter()
+            .enumerate()
+        {
+            r.1[k] += usize::from(v);
+        }
+        r.2 = r.2.max(d.elapsed_ms);
+        note.push_str(&format!(" final S {final_s:.2}"));
         lines.push(format!(
             "{} seed {seed} {:?} ({}, {}) true S {:.2} | cause {} (causes {}) | base S {:.2} {note}",
             if right { "ok " } else { "BAD" },
@@ -102,6 +132,10 @@ fn diagnose_names_the_hidden_effect() {
     for l in &lines {
         println!("{l}");
     }
+    println!("effect | loops | first cause right | set of causes right | final S within max(0.5, 10 %) | slowest ms");
+    for (e, [n, first, set, s_ok, sticky], ms) in &table {
+        println!("{e:?} | {n} | {first} | {set} | {s_ok}/{sticky} | {ms:.0}");
+    }
     println!(
         "effect loops: {effect_ok}/{effect_n} right; clean loops: {clean_ok}/{clean_n} none; extended S closer than baseline's: {closer}/{compared}"
     );
@@ -113,6 +147,12 @@ fn diagnose_names_the_hidden_effect() {
         clean_ok * 10 >= clean_n * 9,
         "none in {clean_ok}/{clean_n} clean loops (< 90 %)"
     );
+    if let Some((_, [n, _, set, _, _], _)) = table.iter().find(|r| r.0 == Effect::Characteristic) {
+        assert!(
+            set * 10 >= n * 8,
+            "valve-characteristic exactly in {set}/{n} characteristic loops (< 80 %)"
+        );
+    }
     assert!(
         closer * 2 > compared,
         "extended S closer in only {closer}/{compared}"

@@ -2,7 +2,7 @@
 //! nothing to a loop with one effect.
 //!
 //! CI size: 6 loops with a disturbance and an extra dead time together, and 6 loops of each
-//! single effect (disturbance, time-delay); `STICTION_SUITE_SIZE=N` runs N of each.
+//! single effect (disturbance, time-delay, valve-characteristic); `STICTION_SUITE_SIZE=N` runs N of each.
 //! Acceptance: the set of causes right in at least two thirds of the two-cause loops and of
 //! each single effect's loops (measured at size 6: 5/6 two-cause, 5/6 disturbance alone,
 //! 6/6 dead time alone; docs/DIAGNOSE.md). Without the forward selection no two-cause loop
@@ -82,13 +82,14 @@ fn forward_selection_finds_both_causes() {
     let both = rate(Effect::DisturbanceDelay, 7000);
     let single_d = rate(Effect::Disturbance, 7100);
     let single_t = rate(Effect::Delay, 7200);
+    let single_c = rate(Effect::Characteristic, 7300);
     println!(
-        "two causes {both:.2}, disturbance alone {single_d:.2}, dead time alone {single_t:.2}"
+        "two causes {both:.2}, disturbance alone {single_d:.2}, dead time alone {single_t:.2}, characteristic alone {single_c:.2}"
     );
     let two_thirds = 2.0 / 3.0 - 1e-9;
     assert!(both >= two_thirds, "two-cause loops right {both:.2}");
     assert!(
-        single_d >= two_thirds && single_t >= two_thirds,
-        "single causes right {single_d:.2} / {single_t:.2}"
+        single_d >= two_thirds && single_t >= two_thirds && single_c >= two_thirds,
+        "single causes right {single_d:.2} / {single_t:.2} / {single_c:.2}"
     );
 }

@@ -2,7 +2,8 @@
 //!
 //! A stiction model maps the controller output `OP` (the commanded valve position, % of span)
 //! to the actual valve position `MV`. The built-in models are
-//! [`Kano`] (S, J), [`He`] (fs, fd) and [`KanoAsym`] (D, J_up, J_dn); a third party adds its
+//! [`Kano`] (S, J), [`He`] (fs, fd), [`KanoAsym`] (D, J_up, J_dn) and [`KanoChar`] (S, J and
+//! the shape a of an installed flow characteristic after the valve); a third party adds its
 //! own by implementing [`StictionModel`] and submitting a [`ModelEntry`] with `inventory`.
 //!
 //! ```
@@ -23,6 +24,7 @@ mod he;
 mod init;
 mod kano;
 mod kano_asym;
+mod kano_char;
 mod registry;
 
 pub use events::{run_valve_indexed, EventRule, OpIndex};
@@ -33,6 +35,7 @@ pub use init::{
 };
 pub use kano::{Kano, KanoParams};
 pub use kano_asym::{KanoAsym, KanoAsymParams};
+pub use kano_char::{characteristic, KanoChar, KanoCharParams, MAX_SHAPE};
 pub use registry::{find_model, registry, BuildFn, Constraint, ModelEntry, ParamSpec};
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.

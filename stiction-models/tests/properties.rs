@@ -996,6 +996,7 @@ fn registry_lists_the_built_in_models_with_their_parameters() {
                     "D + J_dn <= span".to_string()
                 ]
             ),
+            ("kano-char", vec!["S", "J", "a"], vec!["J <= S".to_string()]),
         ]
     );
     for entry in registry() {
@@ -1019,7 +1020,7 @@ fn find_model_and_build_named() {
         find_model("choudhury").map(|e| e.name),
         Err(StictionError::UnknownModel {
             name: "choudhury".into(),
-            known: "he, kano, kano-asym".into(),
+            known: "he, kano, kano-asym, kano-char".into(),
         })
     );
     let entry = find_model("kano").expect("registered");

@@ -25,7 +25,8 @@
 //! 2. `SP(k) = SP(k-1) + w(k)` (eq. 12 random walk plus scheduled [`SetpointStep`]s),
 //!    `SP(-1) = pv_bias`;
 //! 3. `y(k) = -Σ a_i y(k-i) + Σ b_i u(k-delay-i) + e(k) + Σ c_i e(k-i) [+ η(k)]` with
-//!    `u = MV - op_bias` and terms with negative index 0;
+//!    `u = MV - op_bias` (or, with an installed [`Characteristic`], `u = h(MV - op_bias)`)
+//!    and terms with negative index 0;
 //! 4. `PV(k) = pv_bias + y(k) [+ η(k)]`;
 //! 5. `err(k) = SP(k) - PV(k)`;
 //! 6. `OP(k) = OP(k-1) + Kc (err(k) - err(k-1)) + KI err(k)`, `OP(-1) = op_bias`,
@@ -248,6 +249,7 @@ pub enum DisturbanceEntry {
 /// | `pv_bias` | 50 | PV (and initial SP) operating point | finite |
 /// | `op_limits` | none | `[lo, hi]` OP clipping with conditional integration | `lo < hi` |
 /// | `sample_time` | 1 | seconds per sample, for the `t` column | `> 0` |
+/// | `characteristic` | none (linear valve) | the installed flow [`Characteristic`] between the valve position MV and the plant: `u = (100/a) (e^(a (MV - op_bias)/100) - 1)`, the same local gain as a linear valve at `op_bias` | see [`Characteristic`] |
 /// | `pv_compression` | none | the logged PV as a historian's swinging-door archive with this deviation (PV units), read back by linear interpolation ([`swinging_door`]); the loop itself runs on the true PV | `> 0` |
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -286,6 +288,81 @@ pub struct Scenario {
     /// Log PV through a swinging-door archive with this deviation ([`swinging_door`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pv_compression: Option<f64>,
+    /// The installed flow characteristic between MV and the plant (none: linear).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub characteristic: Option<Characteristic>,
+}
+
+/// An installed flow characteristic: a static monotone map from the valve position MV (% of
+/// span) to what the process sees.
+///
+/// Every kind is the exponential family `f_a(x) = 100 (e^(a x/100) - 1) / (e^a - 1)` of
+/// `stiction_models::characteristic` (the model `kano-char` fits): an equal-percentage valve
+/// `100 R^(x/100 - 1)` of rangeability `R` is `a = ln R` up to an offset and a scale, and the
+/// quick-opening valve here is its mirror image `100 - f_a(100 - x)`, i.e. `a = -ln R`. The
+/// plant's deviation input is `u = (f_a(MV) - f_a(op_bias)) / f_a'(op_bias)
+/// = (100/a) (e^(a (MV - op_bias)/100) - 1)`: the local gain at the operating point is the
+/// linear valve's, and it changes by the factor `e^(a Δ/100)` over `Δ` % of opening.
+///
+/// JSON: `{"kind": "equal-percentage", "rangeability": 50}`, `{"kind": "quick-opening",
+/// "rangeability": 20}`, `{"kind": "exponential", "a": 3.2}`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Characteristic {
+    /// Equal-percentage, `a = ln R` (rangeability `R > 1`, typically 20-50).
+    EqualPercentage {
+        /// Rangeability R.
+        rangeability: f64,
+    },
+    /// Quick-opening, the mirror image of equal-percentage: `a = -ln R`.
+    QuickOpening {
+        /// Rangeability R.
+        rangeability: f64,
+    },
+    /// The family directly: `a > 0` equal-percentage-like, `a < 0` quick-opening-like, 0 linear.
+    Exponential {
+        /// Shape a, `|a| <= 20`.
+        a: f64,
+    },
+}
+
+impl Characteristic {
+    /// The shape `a` of the exponential family.
+    pub fn shape(&self) -> f64 {
+        match *self {
+            Characteristic::EqualPercentage { rangeability } => rangeability.ln(),
+            Characteristic::QuickOpening { rangeability } => -rangeability.ln(),
+            Characteristic::Exponential { a } => a,
+        }
+    }
+
+    /// The plant's deviation input for the valve position's deviation `dx = MV - op_bias`.
+    pub fn deviation(&self, dx: f64) -> f64 {
+        let a = self.shape();
+        if a == 0.0 {
+            dx
+        } else {
+            100.0 / a * (a * dx / 100.0).exp_m1()
+        }
+    }
+
+    fn validate(&self) -> Result<(), DataError> {
+        match *self {
+            Characteristic::EqualPercentage { rangeability }
+            | Characteristic::QuickOpening { rangeability } => param(
+                "characteristic.rangeability",
+                rangeability,
+                rangeability > 1.0 && rangeability.ln() <= stiction_models::MAX_SHAPE,
+                "1 < R <= e^20",
+            ),
+            Characteristic::Exponential { a } => param(
+                "characteristic.a",
+                a,
+                a.abs() <= stiction_models::MAX_SHAPE,
+                "|a| <= 20",
+            ),
+        }
+    }
 }
 
 impl Default for Scenario {
@@ -311,6 +388,7 @@ impl Default for Scenario {
             op_limits: None,
             sample_time: 1.0,
             pv_compression: None,
+            characteristic: None,
         }
     }
 }
@@ -435,6 +513,9 @@ impl Scenario {
         if let Some([lo, hi]) = self.op_limits {
             param("op_limits[0]", lo, lo < hi, "lo < hi, both finite")?;
             param("op_limits[1]", hi, true, "lo < hi, both finite")?;
+        }
+        if let Some(c) = &self.characteristic {
+            c.validate()?;
         }
         self.valve_init.validate()?;
         Ok(())
@@ -567,7 +648,10 @@ impl Scenario {
                     sample: k,
                 });
             }
-            u[k] = mv - self.op_bias;
+            u[k] = match &self.characteristic {
+                Some(c) => c.deviation(mv - self.op_bias),
+                None => mv - self.op_bias,
+            };
             if kr >= 0 {
                 out.sp.push(sp);
                 out.pv.push(pv);
@@ -786,5 +870,31 @@ mod tests {
             eq.pv[1],
             sim.pv[1]
         );
+    }
+
+    #[test]
+    fn characteristic_is_optional_in_json_and_keeps_the_local_gain() {
+        let plain = Scenario::default().to_json();
+        assert!(!plain.contains("characteristic"), "{plain}");
+        let s = Scenario::from_json(
+            r#"{"characteristic": {"kind": "equal-percentage", "rangeability": 50}, "samples": 200}"#,
+        )
+        .unwrap();
+        let c = s.characteristic.unwrap();
+        assert!((c.shape() - 50f64.ln()).abs() < 1e-12);
+        assert!(s.to_json().contains("equal-percentage"));
+        // local gain 1 at the operating point, growing with the opening (×R^0.1 over 10 %)
+        let g = |x: f64| (c.deviation(x + 1e-6) - c.deviation(x - 1e-6)) / 2e-6;
+        assert!((g(0.0) - 1.0).abs() < 1e-6);
+        assert!((g(10.0) / g(0.0) - 50f64.powf(0.1)).abs() < 1e-6);
+        let q = Characteristic::QuickOpening { rangeability: 50.0 };
+        assert!((q.shape() + 50f64.ln()).abs() < 1e-12);
+        assert!(Scenario::from_json(
+            r#"{"characteristic": {"kind": "quick-opening", "rangeability": 0.5}}"#
+        )
+        .is_err());
+        // the valve model still reproduces the recorded MV (the stem position)
+        let sim = s.simulate().unwrap();
+        assert_eq!(s.valve.simulate(&sim.op, &s.valve_init).unwrap(), sim.mv);
     }
 }

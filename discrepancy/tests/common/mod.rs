@@ -5,7 +5,7 @@
 //! effect's own draws, then the simulator seed. Ranges are documented in `docs/DIAGNOSE.md`.
 #![allow(dead_code)]
 
-use datasets::simulate::{Disturbance, Plant, PlantSpec, Scenario, SimulatedLoop};
+use datasets::simulate::{Characteristic, Disturbance, Plant, PlantSpec, Scenario, SimulatedLoop};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use stiction_models::{Kano, KanoAsym, StictionModel};
@@ -27,6 +27,9 @@ pub enum Effect {
     Oscillation,
     /// A disturbance (as `Disturbance`) and an extra dead time (as `Delay`) at once.
     DisturbanceDelay,
+    /// An installed flow characteristic after the Kano valve: equal-percentage or
+    /// quick-opening (`datasets::simulate::Characteristic`), rangeability 20-50.
+    Characteristic,
 }
 
 impl Effect {
@@ -40,6 +43,7 @@ impl Effect {
             Effect::Order => "process-order",
             Effect::Oscillation => "no-stiction",
             Effect::DisturbanceDelay => "disturbance",
+            Effect::Characteristic => "valve-characteristic",
         }
     }
 
@@ -117,6 +121,8 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
         Box::new(Kano::params().s(s).j(j).check().expect("valid kano"));
     let (mut ts, mut tj) = (s, j);
     let mut disturbances = Vec::new();
+    let mut characteristic = None;
+    let mut setpoint = datasets::simulate::Setpoint::default();
     let what;
     match effect {
         Effect::Clean => what = "none".to_string(),
@@ -175,9 +181,38 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
             });
             what = format!("linear valve, sine amplitude {amplitude:.2} frequency {frequency:.3}");
         }
+        Effect::Characteristic => {
+            let rangeability = uniform(&mut rng, 20.0, 50.0);
+            let c = if rng.random::<f64>() < 0.5 {
+                Characteristic::EqualPercentage { rangeability }
+            } else {
+                Characteristic::QuickOpening { rangeability }
+            };
+            what = format!(
+                "{} R = {rangeability:.1} (a = {:+.2})",
+                if c.shape() > 0.0 {
+                    "equal-percentage"
+                } else {
+                    "quick-opening"
+                },
+                c.shape()
+            );
+            characteristic = Some(c);
+            // A characteristic matters over the range the valve travels: a set point that
+            // wanders 2.5 times as far (random-walk step 5 instead of 2) makes the valve cover
+            // enough of its span for the local gain to change by 1.5 or more.
+            setpoint.step = 5.0;
+            // The loop must stay stable where the characteristic's gain is highest in the
+            // range it visits (25 % of span from the operating point): PI gains lowered as
+            // for a dead time.
+            let peak = (c.shape().abs() * 0.25).exp();
+            while plant.check_stability(gain * peak, gain * peak).is_err() {
+                gain *= 0.8;
+            }
+        }
     }
     let sim_seed = rng.random::<u64>() % 1_000_000;
-    let scenario = Scenario {
+    let mut scenario = Scenario {
         plant: PlantSpec::Explicit(plant),
         valve,
         disturbances,
@@ -185,9 +220,22 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
         controller: datasets::simulate::Controller { kc: gain, ki: gain },
         samples,
         seed: sim_seed,
+        characteristic,
+        setpoint,
         ..Scenario::default()
     };
-    let sim = scenario.simulate().expect("stable scenario");
+    let mut sim = scenario.simulate().expect("stable scenario");
+    // With a characteristic the valve must stay inside its travel (5-95 % of span): a set
+    // point beyond what the valve can deliver winds OP up for good. Such a loop is drawn again
+    // with the next simulator seed (only this effect draws further numbers).
+    while characteristic.is_some() && sim.mv.iter().any(|&m| !(5.0..=95.0).contains(&m)) {
+        scenario.seed = rng.random::<u64>() % 1_000_000;
+        sim = scenario.simulate().expect("stable scenario");
+    }
+    let what = match characteristic {
+        Some(c) => format!("{what}, gain ratio {:.2}", gain_ratio(c.shape(), &sim.mv)),
+        None => what,
+    };
     Case {
         seed,
         effect,
@@ -217,4 +265,17 @@ impl Case {
         let baseline = discrepancy::Baseline::paper().expect("the paper's baseline");
         discrepancy::diagnose(problem, &baseline, &options).expect("a diagnosis")
     }
+}
+
+/// The ratio of the characteristic's local gain at the 95th and the 5th percentile of the
+/// valve position (`e^(|a| Δ/100)`): how much the process gain changes over the range the
+/// valve actually covers.
+pub fn gain_ratio(a: f64, mv: &[f64]) -> f64 {
+    let mut v = mv.to_vec();
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return 1.0;
+    }
+    let at = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+    (a.abs() * (at(0.95) - at(0.05)) / 100.0).exp()
 }

@@ -1,0 +1,256 @@
+//! The cause `valve-characteristic`: an installed flow characteristic (equal-percentage,
+//! quick-opening) between the valve position and the process, which a linear model after the
+//! stiction model cannot represent.
+
+use std::time::Instant;
+
+use grid_search::NodeFit;
+use linear_id::find_identifier;
+use stiction_models::{find_model, MAX_SHAPE};
+
+use crate::eval::{Admit, PatternSearch};
+use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitted};
+
+/// Largest |a| the extension searches: `e^6 ≈ 400` is the gain ratio over the whole span, more
+/// than any installed valve (equal-percentage rangeability 50 is `a = 3.9`).
+const SEARCH_SHAPE: f64 = 6.0;
+/// |a| of the coarse lattice the free search starts from (rangeability e³ = 20).
+const SHAPE_START: f64 = 3.0;
+/// Lags (after the dead time) of the residual's correlation with the squared opening.
+const LAGS: usize = 5;
+/// A characteristic is negligible when the local gain changes by at most this factor over the
+/// range OP covers (its 5th to 95th percentile): the nested reference of the extension is the
+/// best valve with a negligible characteristic, as `no-stiction`'s is the best valve with
+/// negligible S (a tiny curvature that only helps re-fit S and J is not a characteristic).
+pub const NEGLIGIBLE_GAIN_RATIO: f64 = 1.1;
+
+/// The 5th-to-95th percentile range of `x`.
+fn travel(x: &[f64]) -> f64 {
+    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.len() < 2 {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+    at(0.95) - at(0.05)
+}
+
+/// An installed flow characteristic: the process sees a static monotone function of the valve
+/// position, so its gain depends on the opening. Extend `kano` to `kano-char` (S, J and the
+/// shape `a` of `f(x) = 100 (e^(a x/100) − 1)/(e^a − 1)`, OP in % of span), a Hammerstein chain
+/// stiction → characteristic → linear.
+///
+/// The extension is a pattern search started at the baseline's `(S, J, a = 0)`; its nested
+/// reference is the best valve with a negligible characteristic (the local gain changing by at
+/// most [`NEGLIGIBLE_GAIN_RATIO`] over OP's 5-95 % range) the same search finds (searched
+/// from the start and again from the projection of the optimum), so one extra parameter. Statistic: the largest
+/// correlation, in standard errors, of the baseline's prediction residual with the squared
+/// deviation of the estimated valve position from its mean at lags `delay + 1 ..= delay + 5`
+/// (the term a curved characteristic adds to a linear model).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ValveCharacteristic;
+
+/// `(z, lag)`: the largest |correlation| · √n of the validation prediction residuals with
+/// `(MV(t − lag) − mean)²`.
+fn curvature_z(ctx: &Context<'_>) -> (f64, usize) {
+    let q = &ctx.baseline.result;
+    let (pv, pred, mv) = (ctx.problem.pv, &q.pv_pred, &q.mv_est);
+    let n = pv.len().min(pred.len()).min(mv.len());
+    let from = q.split_index.min(n);
+    let m = if from < n {
+        mv[from..n].iter().sum::<f64>() / (n - from) as f64
+    } else {
+        0.0
+    };
+    let mut best = (0.0, 0);
+    for lag in ctx.baseline.delay + 1..=ctx.baseline.delay + LAGS {
+        let rows: Vec<(f64, f64)> = (from.max(lag)..n)
+            .map(|t| (pv[t] - pred[t], (mv[t - lag] - m).powi(2)))
+            .filter(|(r, z)| r.is_finite() && z.is_finite())
+            .collect();
+        let k = rows.len() as f64;
+        if k < 10.0 {
+            continue;
+        }
+        let (mr, mz) = rows
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (r, z)| (a + r / k, b + z / k));
+        let (mut srz, mut srr, mut szz) = (0.0, 0.0, 0.0);
+        for (r, z) in &rows {
+            srz += (r - mr) * (z - mz);
+            srr += (r - mr) * (r - mr);
+            szz += (z - mz) * (z - mz);
+        }
+        if srr > 0.0 && szz > 0.0 {
+            let zval = (srz / (srr * szz).sqrt()).abs() * k.sqrt();
+            if zval > best.0 {
+                best = (zval, lag);
+            }
+        }
+    }
+    best
+}
+
+impl Cause for ValveCharacteristic {
+    fn name(&self) -> &'static str {
+        "valve-characteristic"
+    }
+    fn applies(&self, ctx: &Context<'_>) -> bool {
+        ctx.baseline.stiction.name == "kano"
+    }
+    fn evidence(&self, ctx: &Context<'_>) -> Evidence {
+        let (z, lag) = curvature_z(ctx);
+        Evidence {
+            statistic: z,
+            text: format!(
+                "The prediction residuals correlate with the squared deviation of the estimated valve position from its mean {z:.1} standard errors at lag {lag} (a gain that changes with the opening)."
+            ),
+        }
+    }
+    fn extend(&self, ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
+        let started = Instant::now();
+        let entry = find_model("kano-char")?;
+        let kano = find_model("kano")?;
+        let linear = find_identifier(ctx.baseline.linear)?;
+        let identifier = ctx
+            .combination(entry, linear, ctx.baseline.delay)
+            .identifier(ctx.baseline.delay)?;
+        let q = &ctx.baseline.result;
+        let fine = ctx.options.search.grid.step();
+        let coarse = (ctx.span / 20.0).max(fine);
+        let snap = |v: f64| (v / fine).round() * fine;
+        let span = ctx.span;
+        let limit = SEARCH_SHAPE.min(MAX_SHAPE);
+        let admit = move |p: &[f64]| {
+            p.len() == 3 && kano.admissible(&p[..2], span) && p[2].abs() <= limit + 1e-9
+        };
+        // |a| of a negligible characteristic over the range OP covers
+        let negligible = 100.0 * NEGLIGIBLE_GAIN_RATIO.ln() / travel(ctx.problem.op).max(fine);
+        let admit_ref = move |p: &[f64]| admit(p) && p[2].abs() <= negligible + 1e-9;
+        // the shape moves by 1 per coarse step of S, by fine/coarse at the finest
+        let scales = vec![1.0, 1.0, 1.0 / coarse];
+        let search = |directions: Vec<Vec<f64>>, from: &[f64], budget: usize, admit: &Admit| {
+            PatternSearch {
+                entry,
+                identifier: identifier.as_ref(),
+                problem: ctx.problem,
+                options: &ctx.options.search,
+                span,
+                coarse,
+                fine,
+                directions,
+                budget,
+                scales: scales.clone(),
+                admit: Some(admit),
+            }
+            .run(from)
+        };
+        let crit = ctx.options.search.criterion;
+        let best_of = |nodes: &[NodeFit]| {
+            nodes
+                .iter()
+                .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))
+                .map(|n| (n.params.clone(), n.score(crit)))
+        };
+        let dirs = vec![
+            vec![0.0, 0.0, 1.0],
+            vec![1.0, 0.0, 0.0],
+            vec![0.0, 1.0, 0.0],
+            vec![1.0, 1.0, 0.0],
+        ];
+        let start = vec![snap(q.s), snap(q.j.min(q.s)), 0.0];
+        // The reference: the best valve with a negligible characteristic near the baseline's
+        // estimate.
+        let lin = search(dirs.clone(), &start, 150, &admit_ref)?;
+        let (lin_best, lin_fit) = best_of(&lin).ok_or_else(|| DiagnoseError::EmptySearch {
+            model: "kano-char".into(),
+        })?;
+        // Free search from the linear optimum and from a shape each way (the fit is often
+        // flat in `a` near 0 while S and J are off).
+        // A coarse (S, J) lattice at a = ±3 (the baseline's S can be far off when the gain
+        // changes with the opening: 19.1 for a true 9.05), then free searches from the
+        // linear optimum and from the best coarse node of each sign.
+        let mut coarse_nodes = Vec::new();
+        for a0 in [SHAPE_START, -SHAPE_START] {
+            for (s0, j0) in grid_search::grid::nodes(kano, span, coarse)
+                .into_iter()
+                .map(|p| (p[0], p[1]))
+            {
+                coarse_nodes.push(vec![s0, j0, a0]);
+            }
+        }
+        let lattice = grid_search::evaluate_nodes(
+            entry,
+            identifier.as_ref(),
+            ctx.problem,
+            &ctx.options.search,
+            coarse_nodes,
+        )?;
+        let best_sign = |sign: f64| {
+            lattice
+                .iter()
+                .filter(|n| n.params[2] * sign > 0.0)
+                .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))
+                .filter(|n| n.score(crit).is_finite())
+                .map(|n| n.params.clone())
+        };
+        let mut starts = vec![lin_best.clone()];
+        starts.extend(best_sign(1.0));
+        starts.extend(best_sign(-1.0));
+        let mut free = Vec::new();
+        for st in starts.iter().filter(|p| admit(p)) {
+            free.extend(search(dirs.clone(), st, 200, &admit)?);
+        }
+        free.extend(lattice);
+        let (free_best, _) = best_of(&free).unwrap_or((lin_best.clone(), lin_fit));
+        // Fair reference: the reference search again from the optimum's linear projection.
+        let lin2 = search(dirs, &[free_best[0], free_best[1], 0.0], 150, &admit_ref)?;
+        let mut nodes = lin;
+        nodes.extend(free);
+        nodes.extend(lin2);
+        // every node visited with a negligible characteristic counts for the reference
+        let ref_fit = nodes
+            .iter()
+            .filter(|n| admit_ref(&n.params))
+            .map(|n| n.score(crit))
+            .fold(lin_fit, f64::max)
+            .max(ctx.baseline.fit_val());
+        let count = nodes.len();
+        let result = grid_search::quantify_from_surface(
+            entry,
+            identifier.as_ref(),
+            ctx.problem,
+            &ctx.options.search,
+            nodes,
+            grid_search::GridPlan::Exhaustive { step: fine },
+            vec![format!(
+                "{count} nodes of a local search started at the baseline's estimate (S, J, a = 0), not a full grid"
+            )],
+        )?;
+        let fitted = Fitted {
+            stiction: entry,
+            linear: linear.name,
+            identifier,
+            delay: ctx.baseline.delay,
+            delay_scan: None,
+            result,
+            elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
+        };
+        let lr = ctx.lr(ref_fit, fitted.fit_val());
+        Ok(Extension {
+            fitted,
+            lr,
+            extra_params: 1,
+            reference: "best valve with a negligible characteristic (gain change <= 10 % over OP's range) of the same search".into(),
+        })
+    }
+}
+
+inventory::submit! {
+    CauseEntry {
+        name: "valve-characteristic",
+        description: "installed flow characteristic (equal-percentage, quick-opening): kano -> kano-char (S, J, shape a)",
+        statistic: "largest correlation of the prediction residual with the squared valve-position deviation, in standard errors",
+        build: || Box::new(ValveCharacteristic),
+    }
+}
