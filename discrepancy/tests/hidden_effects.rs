@@ -2,7 +2,8 @@
 //! be diagnosed with the right cause.
 //!
 //! CI size: 6 loops per effect (disturbance, asymmetric-stiction, time-delay, no-stiction,
-//! valve-characteristic) and 10 clean loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
+//! valve-characteristic, and a process gain that changes during the record, which no plugin
+//! models) and 10 clean loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
 //! max(N, 10) clean ones (`cargo xtask suite` uses 24). `STICTION_SUITE_DISABLE=cause` disables a detector
 //! (the check that the suite fails without it, recorded in docs/DIAGNOSE.md).
 //!
@@ -11,7 +12,10 @@
 //! loops where stiction exists (disturbance, asymmetric-stiction, time-delay,
 //! valve-characteristic); for the characteristic loops, the set of causes exactly
 //! `valve-characteristic` in >= 80 % (the target is 90 % at full size; one miss of 6 at CI
-//! size is 83 %). A table per effect gives the first cause, the exact set and the final
+//! size is 83 %); for the process-change loops, `unexplained` among the causes in >= 50 %
+//! (measured 4/6 at CI size; the target is 80 %: docs/DIAGNOSE.md. They do not count
+//! in the 90 % of the effect loops: a registered cause that gains significantly on them is
+//! named before `unexplained`). A table per effect gives the first cause, the exact set and the final
 //! model's S within max(0.5, 10 %) of the truth.
 #![allow(clippy::unwrap_used)]
 
@@ -41,9 +45,11 @@ fn diagnose_names_the_hidden_effect() {
         Effect::Delay,
         Effect::Oscillation,
         Effect::Characteristic,
+        Effect::ProcessChange,
     ];
     let (mut effect_ok, mut effect_n, mut clean_ok, mut clean_n) = (0, 0, 0, 0);
     let (mut closer, mut compared) = (0, 0);
+    let (mut unexplained_ok, mut unexplained_n) = (0, 0);
     let mut lines = Vec::new();
     let mut loops: Vec<(u64, Effect)> = Vec::new();
     // per effect: loops, first cause right, set of causes right, final S within tolerance,
@@ -70,6 +76,11 @@ fn diagnose_names_the_hidden_effect() {
         if effect == Effect::Clean {
             clean_n += 1;
             clean_ok += usize::from(right);
+        } else if effect == Effect::ProcessChange {
+            // no plugin models it: `unexplained` must be among the causes (a registered cause
+            // that gains significantly may come first)
+            unexplained_n += 1;
+            unexplained_ok += usize::from(d.causes.iter().any(|c| c == "unexplained"));
         } else {
             effect_n += 1;
             effect_ok += usize::from(right);
@@ -85,7 +96,10 @@ fn diagnose_names_the_hidden_effect() {
                         f.error.as_deref().unwrap_or("")
                     )
                 });
-        if effect != Effect::Clean && effect != Effect::Oscillation {
+        if !matches!(
+            effect,
+            Effect::Clean | Effect::Oscillation | Effect::ProcessChange
+        ) {
             if let Some(f) = d.findings.iter().find(|f| f.cause == effect.cause()) {
                 if let Some(x) = &f.extended {
                     compared += 1;
@@ -153,6 +167,11 @@ fn diagnose_names_the_hidden_effect() {
             "valve-characteristic exactly in {set}/{n} characteristic loops (< 80 %)"
         );
     }
+    println!("process change: unexplained among the causes in {unexplained_ok}/{unexplained_n}");
+    assert!(
+        unexplained_ok * 2 >= unexplained_n,
+        "unexplained in {unexplained_ok}/{unexplained_n} process-change loops (< 50 %)"
+    );
     assert!(
         closer * 2 > compared,
         "extended S closer in only {closer}/{compared}"

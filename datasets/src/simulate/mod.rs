@@ -250,6 +250,7 @@ pub enum DisturbanceEntry {
 /// | `op_limits` | none | `[lo, hi]` OP clipping with conditional integration | `lo < hi` |
 /// | `sample_time` | 1 | seconds per sample, for the `t` column | `> 0` |
 /// | `characteristic` | none (linear valve) | the installed flow [`Characteristic`] between the valve position MV and the plant: `u = (100/a) (e^(a (MV - op_bias)/100) - 1)`, the same local gain as a linear valve at `op_bias` | see [`Characteristic`] |
+/// | `plant_change` | none | another plant from kept sample `at` on ([`PlantChange`]: a process that changes during the record, e.g. fouling; the signals carry over) | a valid plant, the loop stable with it |
 /// | `pv_compression` | none | the logged PV as a historian's swinging-door archive with this deviation (PV units), read back by linear interpolation ([`swinging_door`]); the loop itself runs on the true PV | `> 0` |
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -291,6 +292,20 @@ pub struct Scenario {
     /// The installed flow characteristic between MV and the plant (none: linear).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub characteristic: Option<Characteristic>,
+    /// A change of the process during the record (none: the plant never changes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plant_change: Option<PlantChange>,
+}
+
+/// The plant replaced by `plant` from kept sample `at` on; the past inputs, outputs and noise
+/// carry over (the process changes, the signals do not jump).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantChange {
+    /// First kept sample of the new plant.
+    pub at: usize,
+    /// The new plant.
+    pub plant: Plant,
 }
 
 /// An installed flow characteristic: a static monotone map from the valve position MV (% of
@@ -389,6 +404,7 @@ impl Default for Scenario {
             sample_time: 1.0,
             pv_compression: None,
             characteristic: None,
+            plant_change: None,
         }
     }
 }
@@ -517,6 +533,9 @@ impl Scenario {
         if let Some(c) = &self.characteristic {
             c.validate()?;
         }
+        if let Some(c) = &self.plant_change {
+            c.plant.validate()?;
+        }
         self.valve_init.validate()?;
         Ok(())
     }
@@ -527,6 +546,9 @@ impl Scenario {
         let plant = self.plant.plant();
         let Controller { kc, ki } = self.controller;
         plant.check_stability(kc, ki)?;
+        if let Some(c) = &self.plant_change {
+            c.plant.check_stability(kc, ki)?;
+        }
 
         let total = self.warmup + self.samples;
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
@@ -584,6 +606,10 @@ impl Scenario {
                 .zip(&levels)
                 .map(|(d, level)| d.value(kr, *level))
                 .sum();
+            let plant = match &self.plant_change {
+                Some(c) if kr >= c.at as i64 => &c.plant,
+                _ => &plant,
+            };
             let mut yk = e[k];
             for (i, ai) in plant.a.iter().enumerate().skip(1) {
                 if let Some(j) = k.checked_sub(i) {
@@ -870,6 +896,39 @@ mod tests {
             eq.pv[1],
             sim.pv[1]
         );
+    }
+
+    #[test]
+    fn a_plant_change_acts_from_its_sample_on_and_is_optional_in_json() {
+        let plain = Scenario {
+            samples: 600,
+            ..Scenario::default()
+        };
+        assert!(!plain.to_json().contains("plant_change"));
+        let changed = Scenario {
+            plant_change: Some(PlantChange {
+                at: 300,
+                plant: Plant::slow(),
+            }),
+            ..plain.clone()
+        };
+        let back = Scenario::from_json(&changed.to_json()).unwrap();
+        assert_eq!(back.plant_change, changed.plant_change);
+        let (a, b) = (plain.simulate().unwrap(), changed.simulate().unwrap());
+        assert_eq!(a.pv[..300], b.pv[..300]);
+        assert!(a.pv[300..].iter().zip(&b.pv[300..]).any(|(x, y)| x != y));
+        // a new plant that the controller cannot hold is refused, like the first
+        let unstable = Scenario {
+            plant_change: Some(PlantChange {
+                at: 10,
+                plant: Plant {
+                    b: Plant::slow().b.iter().map(|v| v * 40.0).collect(),
+                    ..Plant::slow()
+                },
+            }),
+            ..plain
+        };
+        assert!(unstable.simulate().is_err());
     }
 
     #[test]

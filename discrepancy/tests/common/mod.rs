@@ -30,6 +30,9 @@ pub enum Effect {
     /// An installed flow characteristic after the Kano valve: equal-percentage or
     /// quick-opening (`datasets::simulate::Characteristic`), rangeability 20-50.
     Characteristic,
+    /// The process dynamics change at 20-33 % of the record (the other preset's poles, gain
+    /// x0.6-1.0): no plugin models it, the right answer is `unexplained`.
+    ProcessChange,
 }
 
 impl Effect {
@@ -44,6 +47,7 @@ impl Effect {
             Effect::Oscillation => "no-stiction",
             Effect::DisturbanceDelay => "disturbance",
             Effect::Characteristic => "valve-characteristic",
+            Effect::ProcessChange => "unexplained",
         }
     }
 
@@ -122,6 +126,7 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
     let (mut ts, mut tj) = (s, j);
     let mut disturbances = Vec::new();
     let mut characteristic = None;
+    let mut plant_change = None;
     let mut setpoint = datasets::simulate::Setpoint::default();
     let what;
     match effect {
@@ -210,6 +215,27 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
                 gain *= 0.8;
             }
         }
+        Effect::ProcessChange => {
+            // the dynamics change at 20-33 % of the record: the other preset's poles and
+            // zeros, its B scaled to the current static gain times 0.6-1.0 (a slower or faster
+            // process, a little less gain), e.g. fouling
+            let factor = uniform(&mut rng, 0.6, 1.0);
+            let at = (uniform(&mut rng, 0.2, 0.33) * samples as f64) as usize;
+            let mut other = if slow { Plant::paper() } else { Plant::slow() };
+            let scale = factor * plant.static_gain() / other.static_gain();
+            other.b.iter_mut().for_each(|b| *b *= scale);
+            other.delay = plant.delay;
+            while plant.check_stability(gain, gain).is_err()
+                || other.check_stability(gain, gain).is_err()
+            {
+                gain *= 0.8;
+            }
+            what = format!(
+                "from sample {at} the {} plant's dynamics, gain x{factor:.2}",
+                if slow { "paper" } else { "slow" }
+            );
+            plant_change = Some(datasets::simulate::PlantChange { at, plant: other });
+        }
     }
     let sim_seed = rng.random::<u64>() % 1_000_000;
     let mut scenario = Scenario {
@@ -222,6 +248,7 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
         seed: sim_seed,
         characteristic,
         setpoint,
+        plant_change,
         ..Scenario::default()
     };
     let mut sim = scenario.simulate().expect("stable scenario");
