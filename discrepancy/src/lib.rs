@@ -924,9 +924,10 @@ fn coefficients(fit: &linear_id::LinearFit) -> usize {
 /// threshold for as many parameters as the refit re-estimates (ARX(2,2): 4, threshold 50).
 /// With a process that does not change, the recent window's model is the same model with a
 /// third of the data and predicts worse (LR below 0 on average); measured on the hidden-effect
-/// generator's loops (`examples/probe.rs`, six of each of clean, disturbance, dead time,
-/// asymmetric, characteristic, extra lag): at most 15.4. A process gain that changes during
-/// the record (`Effect::ProcessChange`): 63-448 in five of six.
+/// generator's loops (`examples/probe.rs`, 24 of each of clean, disturbance, dead time,
+/// asymmetric, characteristic): above the threshold in 3 of 120, clean at most 28. Dynamics
+/// that change during the record (`Effect::ProcessChange`): 63-448 in five of six
+/// (docs/DIAGNOSE.md has the suite's rates).
 ///
 /// Residual whiteness, the correlation with past MV and the low-frequency power are reported
 /// with the finding but do not decide: the paper's ARX(2,2) leaves coloured residuals on clean
