@@ -33,6 +33,9 @@ pub enum Effect {
     /// The process dynamics change at 20-33 % of the record (the other preset's poles, gain
     /// x0.6-1.0): no plugin models it, the right answer is `unexplained`.
     ProcessChange,
+    /// PV logged through a swinging-door archive (deviation 0.3-0.8 PV units) and read back by
+    /// linear interpolation: `compression`, named alone.
+    Compression,
 }
 
 impl Effect {
@@ -48,6 +51,7 @@ impl Effect {
             Effect::DisturbanceDelay => "disturbance",
             Effect::Characteristic => "valve-characteristic",
             Effect::ProcessChange => "unexplained",
+            Effect::Compression => "compression",
         }
     }
 
@@ -127,6 +131,7 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
     let mut disturbances = Vec::new();
     let mut characteristic = None;
     let mut plant_change = None;
+    let mut pv_compression = None;
     let mut setpoint = datasets::simulate::Setpoint::default();
     let what;
     match effect {
@@ -236,6 +241,11 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
             );
             plant_change = Some(datasets::simulate::PlantChange { at, plant: other });
         }
+        Effect::Compression => {
+            let deviation = uniform(&mut rng, 0.3, 0.8);
+            pv_compression = Some(deviation);
+            what = format!("PV through a swinging door of {deviation:.2}");
+        }
     }
     let sim_seed = rng.random::<u64>() % 1_000_000;
     let mut scenario = Scenario {
@@ -249,6 +259,7 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
         characteristic,
         setpoint,
         plant_change,
+        pv_compression,
         ..Scenario::default()
     };
     let mut sim = scenario.simulate().expect("stable scenario");
