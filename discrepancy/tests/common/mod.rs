@@ -27,6 +27,10 @@ pub enum Effect {
     Oscillation,
     /// A disturbance (as `Disturbance`) and an extra dead time (as `Delay`) at once.
     DisturbanceDelay,
+    /// A disturbance and an asymmetric valve (as `Asymmetric`) at once.
+    DisturbanceAsymmetric,
+    /// An extra dead time and an asymmetric valve at once.
+    DelayAsymmetric,
     /// An installed flow characteristic after the Kano valve: equal-percentage or
     /// quick-opening (`datasets::simulate::Characteristic`), rangeability 20-50.
     Characteristic,
@@ -48,7 +52,8 @@ impl Effect {
             Effect::Delay => "time-delay",
             Effect::Order => "process-order",
             Effect::Oscillation => "no-stiction",
-            Effect::DisturbanceDelay => "disturbance",
+            Effect::DisturbanceDelay | Effect::DisturbanceAsymmetric => "disturbance",
+            Effect::DelayAsymmetric => "time-delay",
             Effect::Characteristic => "valve-characteristic",
             Effect::ProcessChange => "unexplained",
             Effect::Compression => "compression",
@@ -60,6 +65,8 @@ impl Effect {
         match self {
             Effect::Clean => Vec::new(),
             Effect::DisturbanceDelay => vec!["disturbance", "time-delay"],
+            Effect::DisturbanceAsymmetric => vec!["asymmetric-stiction", "disturbance"],
+            Effect::DelayAsymmetric => vec!["asymmetric-stiction", "time-delay"],
             e => vec![e.cause()],
         }
     }
@@ -106,6 +113,32 @@ fn draw_disturbance(rng: &mut ChaCha8Rng, disturbances: &mut Vec<Disturbance>) -
     }
 }
 
+/// A kano-asym valve (slip jumps 2-4 apart by direction, deadband D 1-5) with its equivalent
+/// S and J and a description, drawn from `rng`.
+fn draw_asymmetric(rng: &mut ChaCha8Rng) -> (Box<dyn StictionModel>, f64, f64, String) {
+    let small = uniform(rng, 0.2, 1.0);
+    let big = small + uniform(rng, 2.0, 4.0);
+    let d = uniform(rng, 1.0, 5.0);
+    let (j_up, j_dn) = if rng.random::<f64>() < 0.5 {
+        (big, small)
+    } else {
+        (small, big)
+    };
+    let k = KanoAsym::params()
+        .d(d)
+        .j_up(j_up)
+        .j_dn(j_dn)
+        .check()
+        .expect("valid kano-asym");
+    let eq = k.equivalent();
+    (
+        Box::new(k),
+        eq.s,
+        eq.j,
+        format!("kano-asym D = {d:.2}, J_up = {j_up:.2}, J_dn = {j_dn:.2}"),
+    )
+}
+
 /// An extra dead time of 3-6 samples, shortened while the PI loop would be unstable.
 fn draw_delay(rng: &mut ChaCha8Rng, plant: &mut Plant, gain: &mut f64) -> String {
     let d = rng.random_range(3..=6usize);
@@ -138,25 +171,19 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
         Effect::Clean => what = "none".to_string(),
         Effect::Disturbance => what = draw_disturbance(&mut rng, &mut disturbances),
         Effect::Asymmetric => {
-            let small = uniform(&mut rng, 0.2, 1.0);
-            let big = small + uniform(&mut rng, 2.0, 4.0);
-            let d = uniform(&mut rng, 1.0, 5.0);
-            let (j_up, j_dn) = if rng.random::<f64>() < 0.5 {
-                (big, small)
-            } else {
-                (small, big)
-            };
-            let k = KanoAsym::params()
-                .d(d)
-                .j_up(j_up)
-                .j_dn(j_dn)
-                .check()
-                .expect("valid kano-asym");
-            let eq = k.equivalent();
-            ts = eq.s;
-            tj = eq.j;
-            valve = Box::new(k);
-            what = format!("kano-asym D = {d:.2}, J_up = {j_up:.2}, J_dn = {j_dn:.2}");
+            (valve, ts, tj, what) = draw_asymmetric(&mut rng);
+        }
+        Effect::DisturbanceAsymmetric => {
+            let a = draw_disturbance(&mut rng, &mut disturbances);
+            let b;
+            (valve, ts, tj, b) = draw_asymmetric(&mut rng);
+            what = format!("{a}; {b}");
+        }
+        Effect::DelayAsymmetric => {
+            let a = draw_delay(&mut rng, &mut plant, &mut gain);
+            let b;
+            (valve, ts, tj, b) = draw_asymmetric(&mut rng);
+            what = format!("{a}; {b}");
         }
         Effect::Delay => what = draw_delay(&mut rng, &mut plant, &mut gain),
         Effect::DisturbanceDelay => {
