@@ -6,7 +6,7 @@ use grid_search::estimate_delay;
 use linear_id::{find_identifier, IdError, LinearIdentifier};
 use stiction_models::find_model;
 
-use crate::eval::PatternSearch;
+use crate::eval::{LocalFit, PatternSearch};
 use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitted};
 
 /// Whether the extensions that refit the model on a grid (or from its (S, J)) keep the
@@ -181,34 +181,19 @@ impl Cause for AsymmetricStiction {
         let mut nodes = sym;
         nodes.extend(free);
         nodes.extend(sym2);
-        let count = nodes.len();
-        let result = grid_search::quantify_from_surface(
+        LocalFit {
             entry,
-            identifier.as_ref(),
-            ctx.problem,
-            &ctx.options.search,
-            nodes,
-            grid_search::GridPlan::Exhaustive { step: fine },
-            vec![format!(
-                "{count} nodes of a local search started at the baseline's estimate, not a full grid"
-            )],
-        )?;
-        let fitted = Fitted {
-            stiction: entry,
-            linear: linear.name,
+            linear,
             identifier,
-            delay: ctx.baseline.delay,
-            delay_scan: None,
-            result,
-            elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
-        };
-        let lr = ctx.lr(sym_fit, fitted.fit_val());
-        Ok(Extension {
-            fitted,
-            lr,
-            extra_params: 1,
-            reference: "best symmetric valve of the same search".into(),
-        })
+            started,
+        }
+        .extension(
+            ctx,
+            nodes,
+            "the baseline's estimate",
+            sym_fit,
+            "best symmetric valve of the same search",
+        )
     }
 }
 

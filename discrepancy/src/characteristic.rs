@@ -8,8 +8,8 @@ use grid_search::NodeFit;
 use linear_id::find_identifier;
 use stiction_models::{find_model, MAX_SHAPE};
 
-use crate::eval::{Admit, PatternSearch};
-use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitted};
+use crate::eval::{Admit, LocalFit, PatternSearch};
+use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension};
 
 /// Largest |a| the extension searches: `e^6 ≈ 400` is the gain ratio over the whole span, more
 /// than any installed valve (equal-percentage rangeability 50 is `a = 3.9`).
@@ -215,34 +215,13 @@ impl Cause for ValveCharacteristic {
             .map(|n| n.score(crit))
             .fold(lin_fit, f64::max)
             .max(ctx.baseline.fit_val());
-        let count = nodes.len();
-        let result = grid_search::quantify_from_surface(
+        LocalFit {
             entry,
-            identifier.as_ref(),
-            ctx.problem,
-            &ctx.options.search,
-            nodes,
-            grid_search::GridPlan::Exhaustive { step: fine },
-            vec![format!(
-                "{count} nodes of a local search started at the baseline's estimate (S, J, a = 0), not a full grid"
-            )],
-        )?;
-        let fitted = Fitted {
-            stiction: entry,
-            linear: linear.name,
+            linear,
             identifier,
-            delay: ctx.baseline.delay,
-            delay_scan: None,
-            result,
-            elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
-        };
-        let lr = ctx.lr(ref_fit, fitted.fit_val());
-        Ok(Extension {
-            fitted,
-            lr,
-            extra_params: 1,
-            reference: "best valve with a negligible characteristic (gain change <= 10 % over OP's range) of the same search".into(),
-        })
+            started,
+        }
+        .extension(ctx, nodes, "the baseline's estimate (S, J, a = 0)", ref_fit, "best valve with a negligible characteristic (gain change <= 10 % over OP's range) of the same search")
     }
 }
 

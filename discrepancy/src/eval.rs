@@ -6,11 +6,67 @@
 //! search's initialization → identification on `[valid_from, split)` → one-step prediction and
 //! free-run simulation scored by F_PV on `[split, N)`.
 
+use std::time::Instant;
+
 use grid_search::{evaluate_nodes, NodeFit, Problem, SearchOptions};
-use linear_id::LinearIdentifier;
+use linear_id::{IdentifierEntry, LinearIdentifier};
 use stiction_models::ModelEntry;
 
-use crate::DiagnoseError;
+use crate::{Context, DiagnoseError, Extension, Fitted};
+
+/// An extended model found by a local search rather than a grid: the stiction model, the
+/// identifier (the baseline's, at its dead time) and when the extension started.
+pub(crate) struct LocalFit {
+    pub entry: &'static ModelEntry,
+    pub linear: &'static IdentifierEntry,
+    pub identifier: Box<dyn LinearIdentifier>,
+    pub started: Instant,
+}
+
+impl LocalFit {
+    /// The extension from every node the searches visited: a quantification over `nodes`
+    /// (its notes say the search started at `start`, not a full grid), compared with the
+    /// nested reference's best validation fit `ref_fit` (one extra parameter).
+    pub fn extension(
+        self,
+        ctx: &Context<'_>,
+        nodes: Vec<NodeFit>,
+        start: &str,
+        ref_fit: f64,
+        reference: &str,
+    ) -> Result<Extension, DiagnoseError> {
+        let count = nodes.len();
+        let result = grid_search::quantify_from_surface(
+            self.entry,
+            self.identifier.as_ref(),
+            ctx.problem,
+            &ctx.options.search,
+            nodes,
+            grid_search::GridPlan::Exhaustive {
+                step: ctx.options.search.grid.step(),
+            },
+            vec![format!(
+                "{count} nodes of a local search started at {start}, not a full grid"
+            )],
+        )?;
+        let fitted = Fitted {
+            stiction: self.entry,
+            linear: self.linear.name,
+            identifier: self.identifier,
+            delay: ctx.baseline.delay,
+            delay_scan: None,
+            result,
+            elapsed_ms: self.started.elapsed().as_secs_f64() * 1e3,
+        };
+        let lr = ctx.lr(ref_fit, fitted.fit_val());
+        Ok(Extension {
+            fitted,
+            lr,
+            extra_params: 1,
+            reference: reference.into(),
+        })
+    }
+}
 
 /// Which parameter vectors a search may evaluate.
 pub(crate) type Admit = dyn Fn(&[f64]) -> bool + Sync;

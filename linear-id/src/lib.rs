@@ -147,6 +147,8 @@ mod order;
 mod parsim;
 mod recursive;
 mod registry;
+#[cfg(test)]
+mod test_data;
 
 pub use arx::{Arx, ArxParams, Centering};
 pub use arx_sums::{ArxOutputSums, GRAM_PIVOT_TOL};

@@ -725,40 +725,12 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
 
-    /// A sticky-valve-like input (held levels with jumps) through a second-order plant with
-    /// noise of amplitude `noise`.
-    fn valve_loop(len: usize, seed: u64, noise: f64) -> (Vec<f64>, Vec<f64>) {
-        let mut state = seed;
-        let mut rnd = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
-        let (mut u, mut y) = (vec![0.0; len], vec![0.0; len]);
-        let mut level = 50.0;
-        for k in 0..len {
-            if rnd() > 0.3 {
-                level += 2.0 * rnd();
-            }
-            u[k] = level;
-            let mut v = 40.0 + noise * rnd();
-            if k >= 2 {
-                v += 1.5 * (y[k - 1] - 40.0) - 0.7 * (y[k - 2] - 40.0)
-                    + 0.4 * (u[k - 1] - 50.0)
-                    + 0.1 * (u[k - 2] - 50.0);
-            }
-            y[k] = v;
-        }
-        (u, y)
-    }
-
     #[test]
     fn step2_gram_matches_the_qr() {
         let mut from_gram = 0;
         // noisy records take the Gram path; the noise-free one falls back to the QR
         for (seed, noise) in [(1, 3.0), (2, 2.0), (3, 4.0), (4, 1e-6)] {
-            let (u, y) = valve_loop(2000, seed, noise);
+            let (u, y) = crate::test_data::valve_loop(2000, seed, noise);
             for (n, f, p) in [(2, 10, 10), (2, 5, 8), (0, 6, 6)] {
                 let ss = ParsimK::params().n(n).f(f).p(p).check().unwrap();
                 let qr = ss.run(&u, &y, Step2::Qr).unwrap();
@@ -797,7 +769,7 @@ mod tests {
     #[test]
     fn step2_gram_refuses_a_rank_deficient_record() {
         // u constant after the first samples: the u shifts are collinear over the columns
-        let (mut u, y) = valve_loop(600, 5, 0.3);
+        let (mut u, y) = crate::test_data::valve_loop(600, 5, 0.3);
         u[10..].fill(51.0);
         let ncol = u.len() + 1 - 20;
         let cols: Vec<(bool, usize)> = (0..10)
