@@ -1,7 +1,8 @@
 //! The exhaustive kano × arx grid on the paper loop, fast path only, repeated: a target for
 //! `perf record` (`cargo run --release -p grid-search --example profile_exhaustive -- 20`;
 //! `BOTH=1` computes the free-run fits at every node, `SAMPLE=1` takes the sample path;
-//! `LINEAR=ss` (any identifier) with `COARSE=1` profiles the default coarse-to-fine grid of
+//! `MODEL=he` searches another stiction model; `LINEAR=ss` (any identifier) with `COARSE=1`
+//! profiles the default coarse-to-fine grid of
 //! `compare` for that identifier instead).
 
 use datasets::simulate::Scenario;
@@ -20,7 +21,8 @@ fn main() {
     }
     .simulate()
     .expect("simulates");
-    let kano = find_model("kano").expect("registered");
+    let kano =
+        find_model(&std::env::var("MODEL").unwrap_or_else(|_| "kano".into())).expect("registered");
     let linear = std::env::var("LINEAR").unwrap_or_else(|_| "arx".into());
     let arx = (find_identifier(&linear).expect("registered").build)(&[]).expect("default orders");
     let span = sim.op.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))

@@ -8,7 +8,7 @@ use linear_id::{fit_pv, LinearFit, LinearIdentifier};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stiction_models::{
-    run_valve_indexed, run_valve_with, Initialization, ModelEntry, OpIndex, StictionModel,
+    run_valve_indexed, run_valve_with, Initialization, ModelEntry, OpIndex, RunInfo, StictionModel,
     ValveScratch,
 };
 
@@ -444,6 +444,18 @@ struct Scratch {
     sim: Vec<f64>,
 }
 
+/// Per-thread buffers of [`Ctx::evaluate_batch`]: one MV and one prediction per node.
+#[derive(Default)]
+struct BatchScratch {
+    node: Scratch,
+    mvs: Vec<Vec<f64>>,
+    outs: Vec<Vec<f64>>,
+}
+
+/// Nodes per batch of [`Ctx::evaluate_batch`] (each batch is grouped by washout sample, then
+/// identified in lanes).
+const BATCH: usize = 64;
+
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     /// Evaluate one node; with `keep`, also return the model and the series.
     fn evaluate(
@@ -532,14 +544,11 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let Some(index) = &self.index else {
             return self.evaluate(params, scratch, false).map(|(f, _)| f);
         };
-        let model = (self.entry.build)(params)?;
-        let run = run_valve_indexed(model.as_ref(), index, &self.init, &mut scratch.valve)?;
+        let run = self.valve_at(params, index, &mut scratch.valve)?;
         let mv = &scratch.valve.mv;
-        let (op, pv) = (self.problem.op, self.problem.pv);
-        let n = op.len();
+        let pv = self.problem.pv;
         let k0 = run.valid_from;
         let ni = self.split_index;
-        self.identifiable(mv, k0)?;
         let mv_id = &mv[k0..ni];
         let from_sums = self
             .arx_sums
@@ -553,6 +562,100 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             None => self.identifier.identify(mv_id, &pv[k0..ni])?,
         };
         linear.check_stable(true)?;
+        self.node_fits(&linear, mv, run, None, &mut scratch.pred, &mut scratch.sim)
+    }
+
+    /// The valve at node `params` (MV left in `valve.mv`) and the checks before identifying.
+    fn valve_at(
+        &self,
+        params: &[f64],
+        index: &OpIndex,
+        valve: &mut ValveScratch,
+    ) -> Result<RunInfo, Skip> {
+        let model = (self.entry.build)(params)?;
+        let run = run_valve_indexed(model.as_ref(), index, &self.init, valve)?;
+        self.identifiable(&valve.mv, run.valid_from)?;
+        Ok(run)
+    }
+
+    /// [`Ctx::evaluate_fast`] for several nodes at once, for identifiers other than ARX: the
+    /// nodes whose valves wash out at the same sample share an output window and go to
+    /// [`LinearIdentifier::identify_predict_many`] together (the recursive identifiers run
+    /// them in SIMD lanes). Node by node the same results as
+    /// [`Ctx::evaluate_fast`] (the identifier's batch is bit for bit its one-at-a-time path).
+    fn evaluate_batch(
+        &self,
+        nodes: &[Vec<f64>],
+        scratch: &mut BatchScratch,
+    ) -> Vec<Result<Fits, Skip>> {
+        let Some(index) = &self.index else {
+            return nodes
+                .iter()
+                .map(|p| self.evaluate_fast(p, &mut scratch.node))
+                .collect();
+        };
+        let pv = self.problem.pv;
+        let ni = self.split_index;
+        let mut results: Vec<Option<Result<Fits, Skip>>> = (0..nodes.len()).map(|_| None).collect();
+        scratch.mvs.resize_with(nodes.len(), Vec::new);
+        let mut pending = Vec::with_capacity(nodes.len());
+        for (i, params) in nodes.iter().enumerate() {
+            match self.valve_at(params, index, &mut scratch.node.valve) {
+                Ok(run) => {
+                    scratch.mvs[i].clone_from(&scratch.node.valve.mv);
+                    pending.push((i, run));
+                }
+                Err(e) => results[i] = Some(Err(e)),
+            }
+        }
+        pending.sort_by_key(|(_, run)| run.valid_from);
+        for group in pending.chunk_by(|a, b| a.1.valid_from == b.1.valid_from) {
+            let k0 = group[0].1.valid_from;
+            let inputs: Vec<&[f64]> = group.iter().map(|(i, _)| &scratch.mvs[*i][k0..]).collect();
+            scratch.outs.resize_with(group.len(), Vec::new);
+            let identified = self.identifier.identify_predict_many(
+                &inputs,
+                &pv[k0..],
+                ni - k0,
+                &mut scratch.outs[..group.len()],
+            );
+            for ((&(i, run), id), out) in group.iter().zip(identified).zip(&scratch.outs) {
+                let fits = id.map_err(Skip::from).and_then(|id| {
+                    id.fit.check_stable(true)?;
+                    self.node_fits(
+                        &id.fit,
+                        &scratch.mvs[i],
+                        run,
+                        Some((out, id.prediction)),
+                        &mut scratch.node.pred,
+                        &mut scratch.node.sim,
+                    )
+                });
+                results[i] = Some(fits);
+            }
+        }
+        results
+            .into_iter()
+            .map(|r| r.expect("every node has a result"))
+            .collect()
+    }
+
+    /// The fits of an identified node (its model `linear` checked stable): the one-step
+    /// prediction's from `predicted` (the prediction over `mv[k0..]` and whether it came out)
+    /// or, when `None`, computed here; the free run's when every node gets it.
+    fn node_fits(
+        &self,
+        linear: &LinearFit,
+        mv: &[f64],
+        run: RunInfo,
+        predicted: Option<(&[f64], Result<(), linear_id::IdError>)>,
+        pred_buf: &mut Vec<f64>,
+        sim_buf: &mut Vec<f64>,
+    ) -> Result<Fits, Skip> {
+        let (op, pv) = (self.problem.op, self.problem.pv);
+        let n = op.len();
+        let k0 = run.valid_from;
+        let ni = self.split_index;
         let split = ni - k0;
         let first = linear.first_sample().min(split);
         // the denominators of F_PV: identification rows (per node), validation (per record)
@@ -563,25 +666,30 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 fit_from(sse(&est[split..], &pv[ni..]), ss.1),
             )
         };
-        let pred_fits =
-            match polynomial_prediction_fits(&linear, mv, pv, k0, ni, ss, &mut scratch.pred) {
+        let pred_fits = match predicted {
+            Some((pred, status)) => {
+                status?;
+                fits_of(pred)
+            }
+            None => match polynomial_prediction_fits(linear, mv, pv, k0, ni, ss, pred_buf) {
                 Some(f) => f,
                 None => {
                     // anything unusual (a model with C(q) or a bias, a non-finite prediction):
                     // the sample path's prediction, its errors included
-                    scratch.pred.resize(n - k0, 0.0);
-                    linear.predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)?;
-                    fits_of(&scratch.pred)
+                    pred_buf.resize(n - k0, 0.0);
+                    linear.predict_one_step_into(&mv[k0..], &pv[k0..], pred_buf)?;
+                    fits_of(pred_buf)
                 }
-            };
+            },
+        };
         let (sim_id, sim_val) = if self.simulate {
             let init_len = linear.first_sample().min(n - k0);
-            scratch.sim.resize(n - k0, 0.0);
+            sim_buf.resize(n - k0, 0.0);
             let sim_ok = linear
-                .simulate_blocked_into(&mv[k0..], &pv[k0..k0 + init_len], &mut scratch.sim)
+                .simulate_blocked_into(&mv[k0..], &pv[k0..k0 + init_len], sim_buf)
                 .is_ok();
             if sim_ok {
-                fits_of(&scratch.sim)
+                fits_of(sim_buf)
             } else {
                 (f64::NEG_INFINITY, f64::NEG_INFINITY)
             }
@@ -1045,6 +1153,37 @@ struct Prepared<'a, I: ?Sized> {
 
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     fn evaluate_all(&self, nodes: Vec<Vec<f64>>, tick: &(dyn Fn() + Sync)) -> Vec<NodeFit> {
+        let node_fit = |params: Vec<f64>, outcome: Result<Fits, Skip>| {
+            let eq = (self.entry.build)(&params)
+                .map(|m| m.equivalent())
+                .unwrap_or(stiction_models::Equivalent {
+                    s: f64::NAN,
+                    j: f64::NAN,
+                });
+            tick();
+            NodeFit {
+                params,
+                s: eq.s,
+                j: eq.j,
+                outcome,
+            }
+        };
+        // ARX keeps the node-by-node path: its fits come from sums, without a prediction
+        if self.path == NodePath::Fast && self.identifier.as_arx().is_none() {
+            let per_batch: Vec<Vec<NodeFit>> = nodes
+                .par_chunks(BATCH)
+                .map_init(BatchScratch::default, |scratch, batch| {
+                    let outcomes = self.evaluate_batch(batch, scratch);
+                    batch
+                        .iter()
+                        .cloned()
+                        .zip(outcomes)
+                        .map(|(p, o)| node_fit(p, o))
+                        .collect()
+                })
+                .collect();
+            return per_batch.into_iter().flatten().collect();
+        }
         nodes
             .into_par_iter()
             .map_init(Scratch::default, |scratch, params| {
@@ -1052,19 +1191,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                     NodePath::Fast => self.evaluate_fast(&params, scratch),
                     NodePath::Sample => self.evaluate(&params, scratch, false).map(|(f, _)| f),
                 };
-                let eq = (self.entry.build)(&params)
-                    .map(|m| m.equivalent())
-                    .unwrap_or(stiction_models::Equivalent {
-                        s: f64::NAN,
-                        j: f64::NAN,
-                    });
-                tick();
-                NodeFit {
-                    params,
-                    s: eq.s,
-                    j: eq.j,
-                    outcome,
-                }
+                node_fit(params, outcome)
             })
             .collect()
     }

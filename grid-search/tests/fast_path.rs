@@ -14,7 +14,7 @@ use datasets::simulate::{PlantPreset, PlantSpec, Scenario};
 use grid_search::{
     quantify_with, Criterion, GridPlan, NodeFits, NodePath, Problem, Quantification, SearchOptions,
 };
-use linear_id::{Arx, LinearIdentifier};
+use linear_id::{find_identifier, Arx, LinearIdentifier};
 use proptest::prelude::*;
 use stiction_models::{find_model, He, Initialization, Kano, KanoAsym, StictionModel};
 
@@ -39,7 +39,7 @@ fn compare(
     noise: f64,
     samples: usize,
     seed: u64,
-    arx: Arx,
+    id: &dyn LinearIdentifier,
     init: Initialization,
     criterion: Criterion,
     with_mv: bool,
@@ -76,7 +76,6 @@ fn compare(
         pv: &sim.pv,
         mv: with_mv.then_some(&sim.mv[..]),
     };
-    let id: &dyn LinearIdentifier = &arx;
     let fast = quantify_with(entry, id, problem, &opts, None, NodePath::Fast);
     let slow = quantify_with(entry, id, problem, &opts, None, NodePath::Sample);
     // the default: the free run only where the criterion needs it
@@ -250,7 +249,47 @@ proptest! {
         let arx = Arx::params().n(orders.0).m(orders.1).delay(orders.2).check().unwrap();
         let plant = if slow_plant { PlantPreset::Slow } else { PlantPreset::Paper };
         let criterion = if simulation { Criterion::Simulation } else { Criterion::Prediction };
-        compare(valve, searched, plant, noise, samples, seed, arx, init, criterion, with_mv)?;
+        compare(valve, searched, plant, noise, samples, seed, &arx, init, criterion, with_mv)?;
+    }
+}
+
+proptest! {
+    // a fifth of the cases: a recursive identification costs more than ARX from sums
+    #![proptest_config(ProptestConfig { cases: cases().div_ceil(5), ..ProptestConfig::default() })]
+
+    /// The identifiers other than ARX take the batched node path
+    /// (`LinearIdentifier::identify_predict_many`: the recursive ones in SIMD lanes, one
+    /// prediction per node shared with the fit's diagnostics): the same surface as the
+    /// sample path.
+    #[test]
+    fn batched_identifiers_equal_the_sample_path(
+        model in 0usize..2,
+        s in 0.5f64..12.0,
+        jf in 0.0f64..1.0,
+        noise in 0.02f64..0.3,
+        samples in 400usize..900,
+        seed in 0u64..1_000_000,
+        linear in prop_oneof![Just("armax"), Just("earx"), Just("earmax"), Just("ss")],
+        init in init(),
+        simulation in prop::bool::weighted(0.15),
+    ) {
+        let j = jf * s.min(4.0);
+        let valve = Box::new(Kano::params().s(s).j(j).check().unwrap());
+        let searched = if model == 0 { "kano" } else { "kano-asym" };
+        let id = (find_identifier(linear).unwrap().build)(&[]).unwrap();
+        let criterion = if simulation { Criterion::Simulation } else { Criterion::Prediction };
+        compare(
+            valve,
+            searched,
+            PlantPreset::Paper,
+            noise,
+            samples,
+            seed,
+            id.as_ref(),
+            init,
+            criterion,
+            false,
+        )?;
     }
 }
 
@@ -265,7 +304,7 @@ fn paper_loop_full_size() {
             0.1,
             3000,
             1,
-            Arx::params().check().unwrap(),
+            &Arx::params().check().unwrap(),
             Initialization::In3,
             Criterion::Prediction,
             false,

@@ -439,7 +439,21 @@ impl LinearFit {
         u: &[f64],
         y: &[f64],
     ) -> Result<LinearFit, IdError> {
-        let mut fit = LinearFit {
+        let mut fit = LinearFit::bare(kind, structure, u_mean, y_mean, bias);
+        fit.refresh_info(u, y)?;
+        Ok(fit)
+    }
+
+    /// A fit from its parts, its diagnostics not computed yet: [`LinearFit::refresh_info`] or
+    /// [`LinearFit::diagnose_from_prediction`] follows.
+    pub(crate) fn bare(
+        kind: &str,
+        structure: Structure,
+        u_mean: f64,
+        y_mean: f64,
+        bias: Option<BiasTracking>,
+    ) -> LinearFit {
+        LinearFit {
             kind: kind.to_string(),
             structure,
             u_mean,
@@ -447,7 +461,7 @@ impl LinearFit {
             bias,
             disturbance: None,
             info: FitInfo {
-                n_samples: u.len(),
+                n_samples: 0,
                 first_sample: 0,
                 residual_variance: f64::NAN,
                 fit_pv: f64::NAN,
@@ -455,9 +469,30 @@ impl LinearFit {
                 predictor_max_pole: f64::NAN,
                 singular_values: Vec::new(),
             },
-        };
-        fit.refresh_info(u, y)?;
-        Ok(fit)
+        }
+    }
+
+    /// The diagnostics of a fit identified on `(u[..split], y[..split])` after its one-step
+    /// prediction over all of `(u, y)` ran into `out` with outcome `predicted` (the error
+    /// [`LinearFit::predict_one_step_into`] gives): from the prediction's first `split`
+    /// samples when it came out (a prediction is causal, so they are the identification
+    /// window's own), otherwise by predicting that window again. For
+    /// [`crate::LinearIdentifier::identify_predict_many`].
+    pub(crate) fn diagnose_from_prediction(
+        mut self,
+        (u, y): (&[f64], &[f64]),
+        split: usize,
+        out: &[f64],
+        predicted: Result<(), IdError>,
+    ) -> Result<crate::Identified, IdError> {
+        match predicted {
+            Ok(()) => self.refresh_info_from(&y[..split], &out[..split]),
+            Err(_) => self.refresh_info(&u[..split], &y[..split])?,
+        }
+        Ok(crate::Identified {
+            fit: self,
+            prediction: predicted,
+        })
     }
 
     /// A fit whose one-step residual sum of squares `rss` over `[first_sample, n_samples)` and
@@ -503,12 +538,19 @@ impl LinearFit {
     }
 
     pub(crate) fn refresh_info(&mut self, u: &[f64], y: &[f64]) -> Result<(), IdError> {
-        let n0 = self.first_sample().min(y.len());
         let mut pred = vec![0.0; y.len()];
         let dist = self.predict_core(u, y, &mut pred)?;
         if self.bias.is_some() && self.disturbance.is_none() {
             self.disturbance = Some(dist);
         }
+        self.refresh_info_from(y, &pred);
+        Ok(())
+    }
+
+    /// [`LinearFit::refresh_info`] from the one-step prediction `pred` of `y`, already run
+    /// (the disturbance series aside, which it leaves as it is).
+    pub(crate) fn refresh_info_from(&mut self, y: &[f64], pred: &[f64]) {
+        let n0 = self.first_sample().min(y.len());
         let rss: f64 = y[n0..]
             .iter()
             .zip(&pred[n0..])
@@ -521,7 +563,6 @@ impl LinearFit {
         self.info.fit_pv = crate::fit::fit_pv(&y[n0..], &pred[n0..]);
         self.info.process_max_pole = la::max_modulus(&self.structure.poles());
         self.info.predictor_max_pole = la::max_modulus(&self.structure.predictor_poles());
-        Ok(())
     }
 
     /// Registered name of the identifier that produced the model.
@@ -633,88 +674,125 @@ impl LinearFit {
         check_finite("estimate", out)
     }
 
+    /// The one-step prediction of a polynomial model without its C(q) and bias terms: the
+    /// head (lags before sample 0 are the operating point, 0 after centering) complete, the
+    /// tail (every lag measured, from [`LinearFit::first_sample`]) as the A and B terms only,
+    /// centered, unless the model has neither C(q) nor a bias, when the tail is complete too.
+    /// Returns whether [`LinearFit::polynomial_recursion`] must still run over the tail.
+    /// Panics unless the structure is polynomial.
+    pub(crate) fn polynomial_terms(&self, u: &[f64], y: &[f64], out: &mut [f64]) -> bool {
+        let Structure::Polynomial { a, b, c, delay } = &self.structure else {
+            unreachable!("polynomial_terms of a state-space model")
+        };
+        let (um, ym) = (self.u_mean, self.y_mean);
+        let n_data = y.len();
+        let n0 = self.first_sample();
+        let na = a.len() - 1;
+        let nc = c.len() - 1;
+        for k in 0..n0.min(n_data) {
+            let mut v = 0.0;
+            for i in 1..=na.min(k) {
+                v -= a[i] * (y[k - i] - ym);
+            }
+            for (j, &bj) in b.iter().enumerate() {
+                let lag = delay + j + 1;
+                if k >= lag {
+                    v += bj * (u[k - lag] - um);
+                }
+            }
+            out[k] = v + ym;
+        }
+        // tail: every lag measured; centering folded into one constant. The A and B terms do
+        // not depend on earlier predictions: one vectorisable pass per coefficient, in the
+        // same order as the sample-by-sample sum (same bits).
+        if n0 >= n_data {
+            return false;
+        }
+        let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
+        let tail = &mut out[n0..n_data];
+        tail.iter_mut().for_each(|v| *v = kconst);
+        for (i, &ai) in a.iter().enumerate().skip(1) {
+            let lagged = &y[n0 - i..n_data - i];
+            for (v, yi) in tail.iter_mut().zip(lagged) {
+                *v -= ai * yi;
+            }
+        }
+        for (j, &bj) in b.iter().enumerate() {
+            let lag = delay + j + 1;
+            let lagged = &u[n0 - lag..n_data - lag];
+            for (v, uj) in tail.iter_mut().zip(lagged) {
+                *v += bj * uj;
+            }
+        }
+        if nc == 0 && self.bias.is_none() {
+            tail.iter_mut().for_each(|v| *v += ym);
+            return false;
+        }
+        true
+    }
+
+    /// The serial part of a polynomial model's one-step prediction over the tail: the C(q)
+    /// terms on the a-posteriori residuals `eps` (length of `y` when C(q) has terms) and the
+    /// bias recursion, pushing β to `betas` (bias models), on top of
+    /// [`LinearFit::polynomial_terms`]' A and B terms in `out`.
+    pub(crate) fn polynomial_recursion(
+        &self,
+        y: &[f64],
+        out: &mut [f64],
+        eps: &mut [f64],
+        betas: &mut Vec<f64>,
+    ) {
+        let Structure::Polynomial { c, .. } = &self.structure else {
+            unreachable!("polynomial_recursion of a state-space model")
+        };
+        let ym = self.y_mean;
+        let nc = c.len() - 1;
+        let mut beta = 0.0;
+        let mut pb = self.bias.map_or(0.0, |bt| bt.p0);
+        for k in self.first_sample()..y.len() {
+            let mut v = out[k];
+            if nc > 0 {
+                for (ci, ei) in c[1..].iter().zip(eps[k - nc..k].iter().rev()) {
+                    v += ci * ei;
+                }
+            }
+            let yc = y[k] - ym;
+            match self.bias {
+                Some(bt) => {
+                    out[k] = v + beta + ym;
+                    let kb = pb / (bt.lambda + pb);
+                    beta += kb * (yc - v - beta);
+                    pb = (1.0 - kb) * pb / bt.lambda;
+                    if nc > 0 {
+                        eps[k] = yc - v - beta;
+                    }
+                    betas.push(beta);
+                }
+                None => {
+                    out[k] = v + ym;
+                    if nc > 0 {
+                        eps[k] = yc - v;
+                    }
+                }
+            }
+        }
+    }
+
     /// Runs the predictor; returns the β series for bias models (empty otherwise).
     fn predict_core(&self, u: &[f64], y: &[f64], out: &mut [f64]) -> Result<Vec<f64>, IdError> {
         let (um, ym) = (self.u_mean, self.y_mean);
         let n_data = y.len();
         match &self.structure {
-            Structure::Polynomial { a, b, c, delay } => {
-                let n0 = self.first_sample();
-                let na = a.len() - 1;
+            Structure::Polynomial { c, .. } => {
                 let nc = c.len() - 1;
                 let mut eps = vec![0.0; if nc > 0 { n_data } else { 0 }];
                 let mut betas = Vec::new();
-                let mut beta = 0.0;
-                let mut pb = self.bias.map_or(0.0, |bt| bt.p0);
                 if self.bias.is_some() {
-                    betas.resize(n0.min(n_data), 0.0);
+                    betas.resize(self.first_sample().min(n_data), 0.0);
                     betas.reserve(n_data);
                 }
-                // head: lags before sample 0 are the operating point (0 after centering)
-                for k in 0..n0.min(n_data) {
-                    let mut v = 0.0;
-                    for i in 1..=na.min(k) {
-                        v -= a[i] * (y[k - i] - ym);
-                    }
-                    for (j, &bj) in b.iter().enumerate() {
-                        let lag = delay + j + 1;
-                        if k >= lag {
-                            v += bj * (u[k - lag] - um);
-                        }
-                    }
-                    out[k] = v + ym;
-                }
-                // tail: every lag measured; centering folded into one constant. The A and B
-                // terms do not depend on earlier predictions: one vectorisable pass per
-                // coefficient, in the same order as the sample-by-sample sum (same bits).
-                let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
-                if n0 < n_data {
-                    let tail = &mut out[n0..n_data];
-                    tail.iter_mut().for_each(|v| *v = kconst);
-                    for (i, &ai) in a.iter().enumerate().skip(1) {
-                        let lagged = &y[n0 - i..n_data - i];
-                        for (v, yi) in tail.iter_mut().zip(lagged) {
-                            *v -= ai * yi;
-                        }
-                    }
-                    for (j, &bj) in b.iter().enumerate() {
-                        let lag = delay + j + 1;
-                        let lagged = &u[n0 - lag..n_data - lag];
-                        for (v, uj) in tail.iter_mut().zip(lagged) {
-                            *v += bj * uj;
-                        }
-                    }
-                    if nc == 0 && self.bias.is_none() {
-                        tail.iter_mut().for_each(|v| *v += ym);
-                        return Ok(betas);
-                    }
-                }
-                for k in n0..n_data {
-                    let mut v = out[k];
-                    if nc > 0 {
-                        for (ci, ei) in c[1..].iter().zip(eps[k - nc..k].iter().rev()) {
-                            v += ci * ei;
-                        }
-                    }
-                    let yc = y[k] - ym;
-                    match self.bias {
-                        Some(bt) => {
-                            out[k] = v + beta + ym;
-                            let kb = pb / (bt.lambda + pb);
-                            beta += kb * (yc - v - beta);
-                            pb = (1.0 - kb) * pb / bt.lambda;
-                            if nc > 0 {
-                                eps[k] = yc - v - beta;
-                            }
-                            betas.push(beta);
-                        }
-                        None => {
-                            out[k] = v + ym;
-                            if nc > 0 {
-                                eps[k] = yc - v;
-                            }
-                        }
-                    }
+                if self.polynomial_terms(u, y, out) {
+                    self.polynomial_recursion(y, out, &mut eps, &mut betas);
                 }
                 Ok(betas)
             }

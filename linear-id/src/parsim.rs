@@ -622,7 +622,7 @@ impl ParsimK {
             return Err(svd_failed("PARSIM-K (non-finite estimate)"));
         }
         let structure = Structure::StateSpace { a, b, c, d, k, x0 };
-        let mut fit = LinearFit::new("ss", structure, u_mean, y_mean, None, u, y)?;
+        let mut fit = LinearFit::bare("ss", structure, u_mean, y_mean, None);
         fit.info.singular_values = sv;
         Ok(fit)
     }
@@ -651,7 +651,38 @@ impl LinearIdentifier for ParsimK {
     }
     fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
         check_data(u, y, self.min_samples())?;
-        self.run(u, y, Step2::Auto)
+        let mut fit = self.run(u, y, Step2::Auto)?;
+        fit.refresh_info(u, y)?;
+        Ok(fit)
+    }
+    /// One input at a time; the prediction over the identification window is shared with
+    /// the fit's diagnostics (one predictor run per input instead of two).
+    fn identify_predict_many(
+        &self,
+        inputs: &[&[f64]],
+        y: &[f64],
+        split: usize,
+        outs: &mut [Vec<f64>],
+    ) -> Vec<Result<crate::Identified, IdError>> {
+        let split = split.min(y.len());
+        inputs
+            .iter()
+            .zip(outs.iter_mut())
+            .map(|(&u, out)| {
+                if u.len() != y.len() {
+                    return Err(IdError::LengthMismatch {
+                        u: u.len(),
+                        y: y.len(),
+                    });
+                }
+                let (u_id, y_id) = (&u[..split], &y[..split]);
+                check_data(u_id, y_id, self.min_samples())?;
+                let fit = self.run(u_id, y_id, Step2::Auto)?;
+                out.resize(y.len(), 0.0);
+                let predicted = fit.predict_one_step_into(u, y, out);
+                fit.diagnose_from_prediction((u, y), split, out, predicted)
+            })
+            .collect()
     }
     fn box_clone(&self) -> Box<dyn LinearIdentifier> {
         Box::new(*self)
@@ -726,6 +757,13 @@ mod tests {
     use super::*;
 
     #[test]
+    fn identify_predict_many_equals_one_call_each() {
+        for n in [1, 3] {
+            crate::test_data::identify_predict_many_matches(&ParsimK::params().check().unwrap(), n);
+        }
+    }
+
+    #[test]
     fn step2_gram_matches_the_qr() {
         let mut from_gram = 0;
         // noisy records take the Gram path; the noise-free one falls back to the QR
@@ -733,8 +771,10 @@ mod tests {
             let (u, y) = crate::test_data::valve_loop(2000, seed, noise);
             for (n, f, p) in [(2, 10, 10), (2, 5, 8), (0, 6, 6)] {
                 let ss = ParsimK::params().n(n).f(f).p(p).check().unwrap();
-                let qr = ss.run(&u, &y, Step2::Qr).unwrap();
-                let auto = ss.run(&u, &y, Step2::Auto).unwrap();
+                let mut qr = ss.run(&u, &y, Step2::Qr).unwrap();
+                let mut auto = ss.run(&u, &y, Step2::Auto).unwrap();
+                qr.refresh_info(&u, &y).unwrap();
+                auto.refresh_info(&u, &y).unwrap();
                 let (f1, f2) = (qr.info().fit_pv, auto.info().fit_pv);
                 assert!(
                     (f1 - f2).abs() <= 1e-9 * f1.abs(),

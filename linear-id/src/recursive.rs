@@ -16,6 +16,8 @@
 
 use serde::{Deserialize, Serialize};
 
+mod lanes;
+
 use crate::arx::{MAX_DELAY, MAX_ORDER};
 use crate::error::{check_data, check_order, check_real};
 use crate::registry::resolve;
@@ -259,6 +261,13 @@ impl Recursive {
         let uc: Vec<f64> = u.iter().map(|v| v - u_mean).collect();
         let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
         let run = self.run(&uc, &yc)?;
+        let mut fit = self.fit_of(run, u_mean, y_mean);
+        fit.refresh_info(u, y)?;
+        Ok(fit)
+    }
+
+    /// The model of a finished recursion, its diagnostics not yet computed.
+    fn fit_of(&self, run: RlsRun, u_mean: f64, y_mean: f64) -> LinearFit {
         let (na, nb) = (self.na, self.nb);
         let mut a = vec![1.0];
         a.extend_from_slice(&run.theta[..na]);
@@ -274,7 +283,7 @@ impl Recursive {
             lambda: self.tuning.lambda_beta,
             p0: self.tuning.p_beta0,
         });
-        let mut fit = LinearFit {
+        LinearFit {
             kind: self.name.to_string(),
             structure,
             u_mean,
@@ -282,7 +291,7 @@ impl Recursive {
             bias,
             disturbance: self.bias.then_some(run.betas),
             info: crate::FitInfo {
-                n_samples: y.len(),
+                n_samples: 0,
                 first_sample: 0,
                 residual_variance: f64::NAN,
                 fit_pv: f64::NAN,
@@ -290,9 +299,7 @@ impl Recursive {
                 predictor_max_pole: f64::NAN,
                 singular_values: Vec::new(),
             },
-        };
-        fit.refresh_info(u, y)?;
-        Ok(fit)
+        }
     }
 }
 
@@ -448,6 +455,15 @@ macro_rules! recursive_identifier {
             }
             fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
                 self.inner.identify(u, y)
+            }
+            fn identify_predict_many(
+                &self,
+                inputs: &[&[f64]],
+                y: &[f64],
+                split: usize,
+                outs: &mut [Vec<f64>],
+            ) -> Vec<Result<crate::Identified, IdError>> {
+                self.inner.identify_predict_many(inputs, y, split, outs)
             }
             fn box_clone(&self) -> Box<dyn LinearIdentifier> {
                 Box::new(*self)

@@ -28,3 +28,47 @@ pub(crate) fn valve_loop(len: usize, seed: u64, noise: f64) -> (Vec<f64>, Vec<f6
     }
     (u, y)
 }
+
+/// [`crate::LinearIdentifier::identify_predict_many`] of `id` against `identify` +
+/// `predict_one_step_into`, input by input, compared bit for bit: `n` inputs, the third of
+/// them constant (an error in its place).
+pub(crate) fn identify_predict_many_matches(id: &dyn crate::LinearIdentifier, n: usize) {
+    let (u0, y) = valve_loop(900, 3, 0.3);
+    let inputs: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            if i == 2 {
+                vec![1.5; y.len()]
+            } else {
+                u0.iter()
+                    .enumerate()
+                    .map(|(k, v)| v * (1.0 + 0.07 * i as f64) + ((k * (i + 1)) % 7) as f64 * 0.01)
+                    .collect()
+            }
+        })
+        .collect();
+    let refs: Vec<&[f64]> = inputs.iter().map(Vec::as_slice).collect();
+    let split = 600;
+    let mut outs = vec![Vec::new(); n];
+    let many = id.identify_predict_many(&refs, &y, split, &mut outs);
+    assert_eq!(many.len(), n);
+    let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+    for (i, got) in many.into_iter().enumerate() {
+        let want = id.identify(&refs[i][..split], &y[..split]);
+        match (want, got) {
+            (Err(w), Err(g)) => assert_eq!(w.to_string(), g.to_string()),
+            (Ok(w), Ok(g)) => {
+                assert_eq!(
+                    format!("{:?}", w.structure()),
+                    format!("{:?}", g.fit.structure())
+                );
+                assert_eq!(format!("{:?}", w.info()), format!("{:?}", g.fit.info()));
+                assert_eq!(w.disturbance(), g.fit.disturbance());
+                let mut pred = vec![0.0; y.len()];
+                w.predict_one_step_into(refs[i], &y, &mut pred).unwrap();
+                g.prediction.unwrap();
+                assert_eq!(bits(&pred), bits(&outs[i]), "input {i}: predictions differ");
+            }
+            (w, g) => panic!("input {i}: {w:?} against {:?}", g.map(|g| g.fit)),
+        }
+    }
+}
