@@ -216,18 +216,19 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
         self.identify(u, prepared.y())
     }
 
-    /// For each input `u` of `inputs` (each as long as `y`): [`LinearIdentifier::identify`] on
-    /// `(u[..split], y[..split])`, then [`LinearFit::predict_one_step_into`] over all of `u`
-    /// and `y` into the matching buffer of `outs` (resized to `y.len()`), whatever the fit's
-    /// stability (`split` is clamped to the length); grid searches call it with the nodes that
-    /// share an output window. The results are bit for bit those of the two calls, which the
-    /// default makes. Overrides save work: the recursive identifiers run
-    /// four inputs side by side in SIMD lanes, and they and PARSIM-K take the
-    /// fit's diagnostics from the prediction's first `split` samples instead of predicting the
-    /// identification window twice.
+    /// For each input `(start, u)` of `inputs` (`u` as long as `y`):
+    /// [`LinearIdentifier::identify`] on `(u[start..split], y[start..split])`, then
+    /// [`LinearFit::predict_one_step_into`] over `(u[start..], y[start..])` into the matching
+    /// buffer of `outs` (resized to `y.len() - start`), whatever the fit's stability (`split`
+    /// and `start` are clamped to the length). Grid searches call it with the nodes that share
+    /// an output record, each from the sample its valve's initial state washed out. The
+    /// results are bit for bit those of the two calls, which the default makes. Overrides save
+    /// work: the recursive identifiers run four inputs side by side in SIMD lanes, and they
+    /// and PARSIM-K take the fit's diagnostics from the prediction's identification window
+    /// instead of predicting that window twice.
     fn identify_predict_many(
         &self,
-        inputs: &[&[f64]],
+        inputs: &[(usize, &[f64])],
         y: &[f64],
         split: usize,
         outs: &mut [Vec<f64>],
@@ -235,7 +236,7 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
         inputs
             .iter()
             .zip(outs.iter_mut())
-            .map(|(u, out)| identify_then_predict(self, u, y, split, out))
+            .map(|(&(start, u), out)| identify_then_predict(self, (start, u), y, split, out))
             .collect()
     }
 
@@ -263,7 +264,7 @@ pub struct Identified {
 /// The default of [`LinearIdentifier::identify_predict_many`] for one input.
 fn identify_then_predict<I: LinearIdentifier + ?Sized>(
     identifier: &I,
-    u: &[f64],
+    (start, u): (usize, &[f64]),
     y: &[f64],
     split: usize,
     out: &mut Vec<f64>,
@@ -275,9 +276,10 @@ fn identify_then_predict<I: LinearIdentifier + ?Sized>(
         });
     }
     let split = split.min(y.len());
-    let fit = identifier.identify(&u[..split], &y[..split])?;
-    out.resize(y.len(), 0.0);
-    let prediction = fit.predict_one_step_into(u, y, out);
+    let start = start.min(split);
+    let fit = identifier.identify(&u[start..split], &y[start..split])?;
+    out.resize(y.len() - start, 0.0);
+    let prediction = fit.predict_one_step_into(&u[start..], &y[start..], out);
     Ok(Identified { fit, prediction })
 }
 

@@ -659,7 +659,7 @@ impl LinearIdentifier for ParsimK {
     /// the fit's diagnostics (one predictor run per input instead of two).
     fn identify_predict_many(
         &self,
-        inputs: &[&[f64]],
+        inputs: &[(usize, &[f64])],
         y: &[f64],
         split: usize,
         outs: &mut [Vec<f64>],
@@ -668,19 +668,21 @@ impl LinearIdentifier for ParsimK {
         inputs
             .iter()
             .zip(outs.iter_mut())
-            .map(|(&u, out)| {
+            .map(|(&(start, u), out)| {
                 if u.len() != y.len() {
                     return Err(IdError::LengthMismatch {
                         u: u.len(),
                         y: y.len(),
                     });
                 }
-                let (u_id, y_id) = (&u[..split], &y[..split]);
+                let start = start.min(split);
+                let (u, y) = (&u[start..], &y[start..]);
+                let (u_id, y_id) = (&u[..split - start], &y[..split - start]);
                 check_data(u_id, y_id, self.min_samples())?;
                 let fit = self.run(u_id, y_id, Step2::Auto)?;
                 out.resize(y.len(), 0.0);
                 let predicted = fit.predict_one_step_into(u, y, out);
-                fit.diagnose_from_prediction((u, y), split, out, predicted)
+                fit.diagnose_from_prediction((u, y), split - start, out, predicted)
             })
             .collect()
     }

@@ -458,7 +458,7 @@ macro_rules! recursive_identifier {
             }
             fn identify_predict_many(
                 &self,
-                inputs: &[&[f64]],
+                inputs: &[(usize, &[f64])],
                 y: &[f64],
                 split: usize,
                 outs: &mut [Vec<f64>],

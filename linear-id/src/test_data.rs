@@ -30,30 +30,34 @@ pub(crate) fn valve_loop(len: usize, seed: u64, noise: f64) -> (Vec<f64>, Vec<f6
 }
 
 /// [`crate::LinearIdentifier::identify_predict_many`] of `id` against `identify` +
-/// `predict_one_step_into`, input by input, compared bit for bit: `n` inputs, the third of
-/// them constant (an error in its place).
+/// `predict_one_step_into`, input by input, compared bit for bit: `n` inputs starting at
+/// different samples, the third of them constant (an error in its place).
 pub(crate) fn identify_predict_many_matches(id: &dyn crate::LinearIdentifier, n: usize) {
     let (u0, y) = valve_loop(900, 3, 0.3);
-    let inputs: Vec<Vec<f64>> = (0..n)
+    let inputs: Vec<(usize, Vec<f64>)> = (0..n)
         .map(|i| {
+            let start = [0, 40, 3, 0, 170, 12, 12, 90, 1][i % 9];
             if i == 2 {
-                vec![1.5; y.len()]
+                (start, vec![1.5; y.len()])
             } else {
-                u0.iter()
+                let u = u0
+                    .iter()
                     .enumerate()
                     .map(|(k, v)| v * (1.0 + 0.07 * i as f64) + ((k * (i + 1)) % 7) as f64 * 0.01)
-                    .collect()
+                    .collect();
+                (start, u)
             }
         })
         .collect();
-    let refs: Vec<&[f64]> = inputs.iter().map(Vec::as_slice).collect();
+    let refs: Vec<(usize, &[f64])> = inputs.iter().map(|(s, u)| (*s, u.as_slice())).collect();
     let split = 600;
     let mut outs = vec![Vec::new(); n];
     let many = id.identify_predict_many(&refs, &y, split, &mut outs);
     assert_eq!(many.len(), n);
     let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
     for (i, got) in many.into_iter().enumerate() {
-        let want = id.identify(&refs[i][..split], &y[..split]);
+        let (start, u) = refs[i];
+        let want = id.identify(&u[start..split], &y[start..split]);
         match (want, got) {
             (Err(w), Err(g)) => assert_eq!(w.to_string(), g.to_string()),
             (Ok(w), Ok(g)) => {
@@ -63,8 +67,9 @@ pub(crate) fn identify_predict_many_matches(id: &dyn crate::LinearIdentifier, n:
                 );
                 assert_eq!(format!("{:?}", w.info()), format!("{:?}", g.fit.info()));
                 assert_eq!(w.disturbance(), g.fit.disturbance());
-                let mut pred = vec![0.0; y.len()];
-                w.predict_one_step_into(refs[i], &y, &mut pred).unwrap();
+                let mut pred = vec![0.0; y.len() - start];
+                w.predict_one_step_into(&u[start..], &y[start..], &mut pred)
+                    .unwrap();
                 g.prediction.unwrap();
                 assert_eq!(bits(&pred), bits(&outs[i]), "input {i}: predictions differ");
             }

@@ -34,31 +34,32 @@ fn each(mut f: impl FnMut(usize) -> f64) -> Lanes {
     out
 }
 
-/// One input checked and centered, ready for a lane.
-struct Centered<'a> {
+/// One input checked, ready for a lane: its record is `u[start..]`, `y[start..]`, its
+/// identification window ends at the common `split`.
+struct Ready<'a> {
     index: usize,
+    start: usize,
     u: &'a [f64],
     u_mean: f64,
-    uc: Vec<f64>,
+    y_mean: f64,
 }
 
 impl Recursive {
     /// See [`crate::LinearIdentifier::identify_predict_many`]: the inputs that pass
-    /// [`check_data`] run [`LANES`] at a time (the last group padded with copies of its
-    /// first input, whose results are dropped).
+    /// [`check_data`], sorted by start, run [`LANES`] at a time (the last group padded with
+    /// copies of its last input, whose results are dropped).
     pub(super) fn identify_predict_many(
         &self,
-        inputs: &[&[f64]],
+        inputs: &[(usize, &[f64])],
         y: &[f64],
         split: usize,
         outs: &mut [Vec<f64>],
     ) -> Vec<Result<Identified, IdError>> {
         let split = split.min(y.len());
-        let y_id = &y[..split];
         let mut results: Vec<Option<Result<Identified, IdError>>> =
             (0..inputs.len()).map(|_| None).collect();
         let mut ready = Vec::with_capacity(inputs.len());
-        for (index, u) in inputs.iter().enumerate() {
+        for (index, &(start, u)) in inputs.iter().enumerate() {
             if u.len() != y.len() {
                 results[index] = Some(Err(IdError::LengthMismatch {
                     u: u.len(),
@@ -66,72 +67,80 @@ impl Recursive {
                 }));
                 continue;
             }
-            let u_id = &u[..split];
+            let start = start.min(split);
+            let (u_id, y_id) = (&u[start..split], &y[start..split]);
             if let Err(e) = check_data(u_id, y_id, self.min_samples()) {
                 results[index] = Some(Err(e));
                 continue;
             }
-            let u_mean = mean(u_id);
-            ready.push(Centered {
+            ready.push(Ready {
                 index,
+                start,
                 u,
-                u_mean,
-                uc: u_id.iter().map(|v| v - u_mean).collect(),
+                u_mean: mean(u_id),
+                y_mean: mean(y_id),
             });
         }
-        let y_mean = mean(y_id);
-        let yc: Vec<f64> = y_id.iter().map(|v| v - y_mean).collect();
+        // lanes that start together idle least
+        ready.sort_by_key(|r| r.start);
         for group in ready.chunks(LANES) {
-            let lane = |l: usize| &group[l.min(group.len() - 1)];
-            let ucs: [&[f64]; LANES] = std::array::from_fn(|l| lane(l).uc.as_slice());
-            let runs = self.run_lanes(ucs, &yc);
+            let lanes: [&Ready; LANES] = std::array::from_fn(|l| &group[l.min(group.len() - 1)]);
+            let runs = self.run_lanes(lanes, y, split);
             let mut fits: Vec<Result<LinearFit, IdError>> = runs
                 .into_iter()
-                .take(group.len())
                 .zip(group)
-                .map(|(run, c)| run.map(|run| self.fit_of(run, c.u_mean, y_mean)))
+                .map(|(run, r)| run.map(|run| self.fit_of(run, r.u_mean, r.y_mean)))
                 .collect();
             // the predictions: A and B terms per input (vectorised over samples), then the
             // C(q) and bias recursion of the fits that need it in lanes
-            let mut status: Vec<Result<(), IdError>> = Vec::with_capacity(group.len());
+            let mut checked: Vec<Result<(), IdError>> = Vec::with_capacity(group.len());
             let mut serial = Vec::new();
-            for (g, (c, fit)) in group.iter().zip(&mut fits).enumerate() {
-                let Ok(fit) = fit else {
-                    status.push(Ok(()));
-                    continue;
-                };
-                let out = &mut outs[c.index];
-                out.resize(y.len(), 0.0);
-                let checked = check_finite("u", c.u).and_then(|()| check_finite("y", y));
-                if checked.is_ok() && fit.polynomial_terms(c.u, y, out) {
-                    serial.push(g);
+            for (g, (r, fit)) in group.iter().zip(&mut fits).enumerate() {
+                let out = &mut outs[r.index];
+                out.resize(y.len() - r.start, 0.0);
+                let (u, y) = (&r.u[r.start..], &y[r.start..]);
+                let ok = check_finite("u", u).and_then(|()| check_finite("y", y));
+                if let (Ok(()), Ok(fit)) = (&ok, fit) {
+                    if fit.polynomial_terms(u, y, out) {
+                        serial.push(g);
+                    }
                 }
-                status.push(checked);
+                checked.push(ok);
             }
             for part in serial.chunks(LANES) {
-                let lanes: [usize; LANES] = std::array::from_fn(|l| part[l.min(part.len() - 1)]);
-                let lane_fits: [&LinearFit; LANES] = std::array::from_fn(|l| {
-                    fits[lanes[l]]
+                let members: [usize; LANES] = std::array::from_fn(|l| part[l.min(part.len() - 1)]);
+                let lane_fits: [(&LinearFit, usize); LANES] = std::array::from_fn(|l| {
+                    let fit = fits[members[l]]
                         .as_ref()
-                        .expect("only fits enter the recursion")
+                        .expect("only fits enter the recursion");
+                    (fit, group[members[l]].start)
                 });
+                // lane l's prediction in the record's time frame: sample t is its t - start
                 let mut buf: Vec<Lanes> = (0..y.len())
-                    .map(|k| each(|l| outs[group[lanes[l]].index][k]))
+                    .map(|t| {
+                        each(|l| {
+                            let r = &group[members[l]];
+                            t.checked_sub(r.start).map_or(0.0, |k| outs[r.index][k])
+                        })
+                    })
                     .collect();
                 recursion_lanes(lane_fits, y, &mut buf);
+                let n0 = lane_fits[0].0.first_sample();
                 for (l, &g) in part.iter().enumerate() {
-                    for (v, b) in outs[group[g].index].iter_mut().zip(&buf) {
+                    let r = &group[g];
+                    let tail = (r.start + n0).min(y.len());
+                    for (v, b) in outs[r.index][tail - r.start..].iter_mut().zip(&buf[tail..]) {
                         *v = b[l];
                     }
                 }
             }
-            for ((c, fit), checked) in group.iter().zip(fits).zip(status) {
-                let out = &outs[c.index];
-                let predicted = checked.and_then(|()| check_finite("estimate", out));
-                results[c.index] =
-                    Some(fit.and_then(|fit| {
-                        fit.diagnose_from_prediction((c.u, y), split, out, predicted)
-                    }));
+            for ((r, fit), ok) in group.iter().zip(fits).zip(checked) {
+                let out = &outs[r.index];
+                let predicted = ok.and_then(|()| check_finite("estimate", out));
+                let record = (&r.u[r.start..], &y[r.start..]);
+                results[r.index] = Some(fit.and_then(|fit| {
+                    fit.diagnose_from_prediction(record, split - r.start, out, predicted)
+                }));
             }
         }
         results
@@ -140,54 +149,105 @@ impl Recursive {
             .collect()
     }
 
-    /// [`Recursive::run`] for [`LANES`] inputs and one output; dimensions above 8 run one
-    /// input at a time.
-    fn run_lanes(&self, uc: [&[f64]; LANES], yc: &[f64]) -> [Result<RlsRun, IdError>; LANES] {
+    /// [`Recursive::run`] for [`LANES`] inputs of one output, each on its own window
+    /// `[start, split)`; dimensions above 8 run one input at a time.
+    fn run_lanes(
+        &self,
+        lanes: [&Ready; LANES],
+        y: &[f64],
+        split: usize,
+    ) -> [Result<RlsRun, IdError>; LANES] {
         macro_rules! fixed {
             ($($d:literal)*) => {
                 match self.dim() {
-                    $($d => return self.run_lanes_fixed::<$d>(uc, yc),)*
+                    $($d => return self.run_lanes_dispatch::<$d>(lanes, y, split),)*
                     _ => {}
                 }
             };
         }
         fixed!(1 2 3 4 5 6 7 8);
-        uc.map(|u| self.run(u, yc))
+        lanes.map(|r| {
+            let uc: Vec<f64> = r.u[r.start..split].iter().map(|v| v - r.u_mean).collect();
+            let yc: Vec<f64> = y[r.start..split].iter().map(|v| v - r.y_mean).collect();
+            self.run(&uc, &yc)
+        })
     }
 
-    /// [`Recursive::run_with`] lane by lane: the same operations in the same order.
+    /// [`Recursive::run_lanes_fixed`] compiled for the best instruction set the processor has
+    /// (pulp's runtime dispatch, through faer: with AVX2, four lanes per instruction instead of two). The
+    /// IEEE operations are the same, so are the bits: the compiler fuses no multiply-add
+    /// unless asked to.
+    fn run_lanes_dispatch<const D: usize>(
+        &self,
+        lanes: [&Ready; LANES],
+        y: &[f64],
+        split: usize,
+    ) -> [Result<RlsRun, IdError>; LANES] {
+        struct Run<'a, const D: usize> {
+            rls: &'a Recursive,
+            lanes: [&'a Ready<'a>; LANES],
+            y: &'a [f64],
+            split: usize,
+        }
+        impl<const D: usize> faer::traits::pulp::WithSimd for Run<'_, D> {
+            type Output = [Result<RlsRun, IdError>; LANES];
+            #[inline(always)]
+            fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> Self::Output {
+                self.rls
+                    .run_lanes_fixed::<D>(self.lanes, self.y, self.split)
+            }
+        }
+        faer::traits::pulp::Arch::new().dispatch(Run::<D> {
+            rls: self,
+            lanes,
+            y,
+            split,
+        })
+    }
+
+    /// [`Recursive::run_with`] lane by lane: the same operations in the same order. The
+    /// lanes run in the record's time frame, lane `l` from its own `start`: until a lane's
+    /// first regression row, its state is held at the initial one (theta 0, P = p0 I, λ_θ,
+    /// P_β and β at their initial values, residuals 0).
+    #[inline(always)]
     fn run_lanes_fixed<const D: usize>(
         &self,
-        uc: [&[f64]; LANES],
-        yc: &[f64],
+        lanes: [&Ready; LANES],
+        y: &[f64],
+        split: usize,
     ) -> [Result<RlsRun, IdError>; LANES] {
         let (na, nb, nc, delay) = (self.na, self.nb, self.nc, self.delay);
         let t = &self.tuning;
-        let len = yc.len();
         let n0 = self.n0();
+        let starts: [usize; LANES] = lanes.map(|r| r.start);
+        let (um, ym) = (lanes.map(|r| r.u_mean), lanes.map(|r| r.y_mean));
+        let u = lanes.map(|r| r.u);
+        let first = starts.iter().min().copied().unwrap_or(0) + n0;
+        let all_active = starts.iter().max().copied().unwrap_or(0) + n0;
         let mut theta = [[0.0; LANES]; D];
         let mut p = [[[0.0; LANES]; D]; D];
         for (i, row) in p.iter_mut().enumerate() {
             row[i] = [t.p0; LANES];
         }
-        let mut lam = t.lambda_theta0;
+        let mut lam = [t.lambda_theta0; LANES];
         let mut beta = [0.0; LANES];
-        let mut pb = t.p_beta0;
-        let mut eps = vec![[0.0; LANES]; len];
-        let mut betas = vec![[0.0; LANES]; if self.bias { len } else { 0 }];
+        let mut pb = [t.p_beta0; LANES];
+        let mut eps = vec![[0.0; LANES]; split];
+        let mut betas = vec![[0.0; LANES]; if self.bias { split } else { 0 }];
         let mut diverged: [Option<usize>; LANES] = [None; LANES];
         let mut phi = [[0.0; LANES]; D];
-        for k in n0..len {
+        for k in first..split {
             for i in 0..na {
-                phi[i] = [-yc[k - 1 - i]; LANES];
+                phi[i] = each(|l| -(y[k - 1 - i] - ym[l]));
             }
             for j in 0..nb {
-                phi[na + j] = each(|l| uc[l][k - 1 - delay - j]);
+                phi[na + j] = each(|l| u[l][k - 1 - delay - j] - um[l]);
             }
             for i in 0..nc {
                 phi[na + nb + i] = eps[k - 1 - i];
             }
-            let z = each(|l| yc[k] - beta[l]);
+            let yc = each(|l| y[k] - ym[l]);
+            let z = each(|l| yc[l] - beta[l]);
             let mut pphi = [[0.0; LANES]; D];
             let mut quad = [0.0; LANES];
             for r in 0..D {
@@ -197,7 +257,7 @@ impl Recursive {
                     quad[l] += phi[r][l] * v[l];
                 }
             }
-            let den = each(|l| lam + quad[l]);
+            let den = each(|l| lam[l] + quad[l]);
             let pred = dot(&phi, &theta);
             let err = each(|l| z[l] - pred[l]);
             let inv = each(|l| 1.0 / den[l]);
@@ -206,11 +266,11 @@ impl Recursive {
                     theta[r][l] += pphi[r][l] * inv[l] * err[l];
                 }
             }
-            let inv_lam = 1.0 / lam;
+            let inv_lam = each(|l| 1.0 / lam[l]);
             let mut trace = [0.0; LANES];
             for r in 0..D {
                 for c in r..D {
-                    let v = each(|l| (p[r][c][l] - pphi[r][l] * pphi[c][l] * inv[l]) * inv_lam);
+                    let v = each(|l| (p[r][c][l] - pphi[r][l] * pphi[c][l] * inv[l]) * inv_lam[l]);
                     p[r][c] = v;
                     p[c][r] = v;
                 }
@@ -226,21 +286,41 @@ impl Recursive {
                     }
                 }
             }
-            lam = t.lambda_rate * lam + (1.0 - t.lambda_rate);
+            lam = each(|l| t.lambda_rate * lam[l] + (1.0 - t.lambda_rate));
             let lti = dot(&phi, &theta);
             if self.bias {
-                let r = each(|l| yc[k] - lti[l]);
-                let kb = pb / (t.lambda_beta + pb);
+                let r = each(|l| yc[l] - lti[l]);
+                let kb = each(|l| pb[l] / (t.lambda_beta + pb[l]));
                 for l in 0..LANES {
-                    beta[l] += kb * (r[l] - beta[l]);
+                    beta[l] += kb[l] * (r[l] - beta[l]);
                 }
-                pb = (1.0 - kb) * pb / t.lambda_beta;
+                pb = each(|l| (1.0 - kb[l]) * pb[l] / t.lambda_beta);
                 betas[k] = beta;
             }
-            eps[k] = each(|l| yc[k] - lti[l] - beta[l]);
+            eps[k] = each(|l| yc[l] - lti[l] - beta[l]);
+            if k < all_active {
+                for l in 0..LANES {
+                    if k < starts[l] + n0 {
+                        theta.iter_mut().for_each(|v| v[l] = 0.0);
+                        for (i, row) in p.iter_mut().enumerate() {
+                            for (c, v) in row.iter_mut().enumerate() {
+                                v[l] = if i == c { t.p0 } else { 0.0 };
+                            }
+                        }
+                        (lam[l], beta[l], pb[l]) = (t.lambda_theta0, 0.0, t.p_beta0);
+                        eps[k][l] = 0.0;
+                        if self.bias {
+                            betas[k][l] = 0.0;
+                        }
+                    }
+                }
+            }
             for l in 0..LANES {
-                if diverged[l].is_none() && !(eps[k][l].is_finite() && trace[l].is_finite()) {
-                    diverged[l] = Some(k);
+                if diverged[l].is_none()
+                    && k >= starts[l] + n0
+                    && !(eps[k][l].is_finite() && trace[l].is_finite())
+                {
+                    diverged[l] = Some(k - starts[l]);
                 }
             }
         }
@@ -251,7 +331,10 @@ impl Recursive {
             }),
             None => Ok(RlsRun {
                 theta: theta.iter().map(|v| v[l]).collect(),
-                betas: betas.iter().map(|v| v[l]).collect(),
+                betas: betas[starts[l].min(betas.len())..]
+                    .iter()
+                    .map(|v| v[l])
+                    .collect(),
             }),
         })
     }
@@ -269,21 +352,27 @@ fn dot<const D: usize>(a: &[Lanes; D], b: &[Lanes; D]) -> Lanes {
     v
 }
 
-/// [`LinearFit::polynomial_recursion`] for [`LANES`] fits of one identifier (same orders and
-/// bias tuning), `out[k][l]` holding lane `l`'s A and B terms on entry and its prediction on
-/// return.
-fn recursion_lanes(fits: [&LinearFit; LANES], y: &[f64], out: &mut [Lanes]) {
-    let first = fits[0];
-    let cs: [&[f64]; LANES] = std::array::from_fn(|l| match &fits[l].structure {
+/// [`LinearFit::polynomial_recursion`] for [`LANES`] fits `(fit, start)` of one identifier
+/// (same orders and bias tuning), in the record's time frame: `out[t][l]` holds lane `l`'s
+/// A and B terms at its sample `t - start` on entry and its prediction from its first
+/// sample with measured lags on. Until then a lane's state is held at the initial one.
+fn recursion_lanes(fits: [(&LinearFit, usize); LANES], y: &[f64], out: &mut [Lanes]) {
+    let first = fits[0].0;
+    let cs: [&[f64]; LANES] = fits.map(|(fit, _)| match &fit.structure {
         crate::Structure::Polynomial { c, .. } => &c[1..],
         crate::Structure::StateSpace { .. } => unreachable!("a recursive fit is polynomial"),
     });
+    let starts = fits.map(|(_, start)| start);
     let nc = cs[0].len();
-    let ym = each(|l| fits[l].y_mean);
+    let n0 = first.first_sample();
+    let ym = fits.map(|(fit, _)| fit.y_mean);
     let mut eps = vec![[0.0; LANES]; if nc > 0 { y.len() } else { 0 }];
     let mut beta = [0.0; LANES];
-    let mut pb = first.bias.map_or(0.0, |bt| bt.p0);
-    for k in first.first_sample()..y.len() {
+    let p0 = first.bias.map_or(0.0, |bt| bt.p0);
+    let mut pb = [p0; LANES];
+    let from = starts.iter().min().copied().unwrap_or(0) + n0;
+    let all_active = starts.iter().max().copied().unwrap_or(0) + n0;
+    for k in from..y.len() {
         let mut v = out[k];
         for i in 0..nc {
             for l in 0..LANES {
@@ -294,11 +383,11 @@ fn recursion_lanes(fits: [&LinearFit; LANES], y: &[f64], out: &mut [Lanes]) {
         match first.bias {
             Some(bt) => {
                 out[k] = each(|l| v[l] + beta[l] + ym[l]);
-                let kb = pb / (bt.lambda + pb);
+                let kb = each(|l| pb[l] / (bt.lambda + pb[l]));
                 for l in 0..LANES {
-                    beta[l] += kb * (yc[l] - v[l] - beta[l]);
+                    beta[l] += kb[l] * (yc[l] - v[l] - beta[l]);
                 }
-                pb = (1.0 - kb) * pb / bt.lambda;
+                pb = each(|l| (1.0 - kb[l]) * pb[l] / bt.lambda);
                 if nc > 0 {
                     eps[k] = each(|l| yc[l] - v[l] - beta[l]);
                 }
@@ -307,6 +396,16 @@ fn recursion_lanes(fits: [&LinearFit; LANES], y: &[f64], out: &mut [Lanes]) {
                 out[k] = each(|l| v[l] + ym[l]);
                 if nc > 0 {
                     eps[k] = each(|l| yc[l] - v[l]);
+                }
+            }
+        }
+        if k < all_active {
+            for l in 0..LANES {
+                if k < starts[l] + n0 {
+                    (beta[l], pb[l]) = (0.0, p0);
+                    if nc > 0 {
+                        eps[k][l] = 0.0;
+                    }
                 }
             }
         }
