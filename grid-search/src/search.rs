@@ -452,10 +452,11 @@ struct BatchScratch {
     outs: Vec<Vec<f64>>,
 }
 
-/// Nodes per batch of [`Ctx::evaluate_batch`]: large enough that the recursive identifiers'
-/// lanes start at nearby samples (64 took 12 % less time than 16 on the paper loop's earmax
-/// grid), small enough for two threads to share a coarse grid's batches.
-const BATCH: usize = 64;
+/// Nodes per batch of [`Ctx::evaluate_batch`]: a batch is the unit of parallel work, and
+/// the recursive identifiers' lanes are formed within it (sorted by washout sample). On the
+/// paper loop's earmax grid 16 and 64 took the same time (1.09-1.14 s of CPU for 20
+/// searches, `perf stat` on `examples/profile_exhaustive`); 16 shares small grids better.
+const BATCH: usize = 16;
 
 impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     /// Evaluate one node; with `keep`, also return the model and the series.
