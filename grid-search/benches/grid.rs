@@ -9,12 +9,16 @@
 //! - `compare_paper/<path>`: all ten cells of `stiction compare --example paper` in a row, on
 //!   the fast and on the sample node path in the same run.
 //! - `fleet`: generated loops (3000 samples each, seeds 1.., Kano valves with S, J drawn per
-//!   loop) x the ten combinations, fast path, progress on stderr. `STICTION_FLEET_LOOPS` sets
+//!   loop) x the ten combinations, fast path, loops side by side (as `stiction batch` runs
+//!   registrations), progress on stderr. `STICTION_FLEET_LOOPS` sets
 //!   the number of loops (default 20; the fleet is 1000).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use datasets::simulate::Scenario;
 use grid_search::{quantify, quantify_with, GridPlan, NodeFits, NodePath, Problem, SearchOptions};
 use linear_id::find_identifier;
+use rayon::prelude::*;
 use stiction_models::{find_model, Kano};
 
 fn main() {
@@ -175,19 +179,23 @@ fn fleet(bencher: divan::Bencher) {
         .collect();
     bencher.bench(|| {
         let start = std::time::Instant::now();
-        let mut found = 0;
-        for (i, (op, pv)) in data.iter().enumerate() {
-            found += compare_cells(op, pv, NodePath::Fast);
-            if (i + 1) % 10 == 0 || i + 1 == data.len() {
-                eprintln!(
-                    "fleet: {}/{} loops, {:.1} s",
-                    i + 1,
-                    data.len(),
-                    start.elapsed().as_secs_f64()
-                );
-            }
-        }
-        found
+        let done = AtomicUsize::new(0);
+        // loops side by side, as `stiction batch` runs registrations (each search is itself
+        // parallel over its nodes; rayon shares the cores between both levels)
+        data.par_iter()
+            .map(|(op, pv)| {
+                let found = compare_cells(op, pv, NodePath::Fast);
+                let i = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if i % 10 == 0 || i == data.len() {
+                    eprintln!(
+                        "fleet: {i}/{} loops, {:.1} s",
+                        data.len(),
+                        start.elapsed().as_secs_f64()
+                    );
+                }
+                found
+            })
+            .sum::<usize>()
     });
 }
 
