@@ -4,7 +4,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use linear_id::{fit_pv, LinearFit, LinearIdentifier};
+use linear_id::{fit_pv, LinearFit, LinearIdentifier, WindowStats};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stiction_models::{
@@ -399,9 +399,12 @@ fn erf(x: f64) -> f64 {
 #[serde(rename_all = "lowercase")]
 pub enum NodePath {
     /// Events and segment sums (default): the valve run interval by interval
-    /// ([`stiction_models::run_valve_indexed`]), ARX from normal equations assembled from
-    /// prefix sums and per-node MV sums (with a per-node QR fallback when poorly conditioned),
-    /// the free run in independent chunks, the fits in vectorised sums.
+    /// ([`stiction_models::run_valve_indexed`]); MV's window statistics in one pass (the
+    /// "hardly moves" check and ARX's input mean); ARX from normal equations assembled from
+    /// prefix sums and two fused passes over the node's rows (with a per-node QR fallback
+    /// when poorly conditioned), whose residual pass also gives the identification fit
+    /// ([`linear_id::ArxOutputSums::identify_window_with`]); the validation fit in one
+    /// vectorised pass; the free run in independent chunks.
     #[default]
     Fast,
     /// Sample by sample, as before issue 16: every node's valve stepped sample by sample, the
@@ -511,17 +514,21 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
 
     /// The skip reasons both node paths check before identifying, in this order: too few
     /// identification samples after the valve's initial state washed out (`k0`), or an
-    /// estimated MV that hardly moves in the identification window.
-    fn identifiable(&self, mv: &[f64], k0: usize) -> Result<(), Skip> {
+    /// estimated MV that hardly moves in the identification window. Returns the statistics
+    /// of MV over that window (`None` if it holds a NaN), which the fast path hands on to the
+    /// identification.
+    fn identifiable(&self, mv: &[f64], k0: usize) -> Result<Option<WindowStats>, Skip> {
         let ni = self.split_index;
         let needed = self.identifier.min_samples().max(10);
         if ni <= k0 || ni - k0 < needed {
             return Err(Skip::InitialState { valid_from: k0 });
         }
-        if !three_distinct(&mv[k0..ni]) {
+        let window = &mv[k0..ni];
+        let stats = WindowStats::of(window);
+        if !three_distinct(window, stats.as_ref()) {
             return Err(Skip::ValveHardlyMoves);
         }
-        Ok(())
+        Ok(stats)
     }
 }
 
@@ -539,15 +546,17 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let n = op.len();
         let k0 = run.valid_from;
         let ni = self.split_index;
-        self.identifiable(mv, k0)?;
+        let mv_stats = self.identifiable(mv, k0)?;
         let mv_id = &mv[k0..ni];
         let from_sums = self
             .arx_sums
             .as_ref()
-            .and_then(|s| s.identify_window(mv, k0, ni));
+            .zip(mv_stats)
+            .and_then(|(s, stats)| s.identify_window_with(mv, k0, ni, &stats));
         if self.arx_sums.is_some() {
             self.gram_count[usize::from(from_sums.is_none())].fetch_add(1, Ordering::Relaxed);
         }
+        let sums_fit = from_sums.is_some();
         let linear = match from_sums {
             Some(fit) => fit,
             None => self.identifier.identify(mv_id, &pv[k0..ni])?,
@@ -555,25 +564,38 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         linear.check_stable(true)?;
         let split = ni - k0;
         let first = linear.first_sample().min(split);
-        // the denominators of F_PV: identification rows (per node), validation (per record)
-        let ss = (ss_about_mean(&pv[k0 + first..ni]), self.val_ss);
         let fits_of = |est: &[f64]| {
             (
-                fit_from(sse(&est[first..split], &pv[k0 + first..ni]), ss.0),
-                fit_from(sse(&est[split..], &pv[ni..]), ss.1),
+                fit_from(
+                    sse(&est[first..split], &pv[k0 + first..ni]),
+                    ss_about_mean(&pv[k0 + first..ni]),
+                ),
+                fit_from(sse(&est[split..], &pv[ni..]), self.val_ss),
             )
         };
-        let pred_fits =
-            match polynomial_prediction_fits(&linear, mv, pv, k0, ni, ss, &mut scratch.pred) {
-                Some(f) => f,
-                None => {
-                    // anything unusual (a model with C(q) or a bias, a non-finite prediction):
-                    // the sample path's prediction, its errors included
-                    scratch.pred.resize(n - k0, 0.0);
-                    linear.predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)?;
-                    fits_of(&scratch.pred)
-                }
-            };
+        // the identification rows' fit: ARX from sums computed it from the data (its
+        // `FitInfo` is the one-step prediction's over these very rows), otherwise a pass
+        let id_fit = |buf: &mut Vec<f64>| {
+            if sums_fit {
+                Some(linear.info().fit_pv)
+            } else {
+                let lo = k0 + first;
+                polynomial_prediction_sse(&linear, mv, pv, lo, ni, buf)
+                    .map(|e| fit_from(e, ss_about_mean(&pv[lo..ni])))
+            }
+        };
+        let pred_fits = match polynomial_prediction_sse(&linear, mv, pv, ni, n, &mut scratch.pred)
+            .and_then(|e| Some((id_fit(&mut scratch.pred)?, fit_from(e, self.val_ss))))
+        {
+            Some(f) => f,
+            None => {
+                // anything unusual (a model with C(q) or a bias, a non-finite prediction): the
+                // sample path's prediction, its errors included
+                scratch.pred.resize(n - k0, 0.0);
+                linear.predict_one_step_into(&mv[k0..], &pv[k0..], &mut scratch.pred)?;
+                fits_of(&scratch.pred)
+            }
+        };
         let (sim_id, sim_val) = if self.simulate {
             let init_len = linear.first_sample().min(n - k0);
             scratch.sim.resize(n - k0, 0.0);
@@ -607,58 +629,46 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     }
 }
 
-/// The one-step prediction's F_PV on the identification rows `[k0 + first, ni)` and on the
-/// validation window `[ni, n)` of a polynomial model without C(q) or bias, in one vectorised
-/// pass: each prediction is `predict_one_step`'s tail formula term by term (the same bits),
-/// only the sums of squares are lane-wise. `None` for other models or a non-finite result.
-fn polynomial_prediction_fits(
+/// The one-step prediction's sum of squared errors over `[lo, hi)` of a polynomial model
+/// without C(q) or bias, in one vectorised pass: each prediction is `predict_one_step`'s tail
+/// formula term by term (the same bits), only the sum of squares is lane-wise. `None` for
+/// other models, an empty range or a non-finite result.
+fn polynomial_prediction_sse(
     linear: &LinearFit,
     u: &[f64],
     y: &[f64],
-    k0: usize,
-    ni: usize,
-    (id_ss, val_ss): (f64, f64),
+    lo: usize,
+    hi: usize,
     buf: &mut Vec<f64>,
-) -> Option<(f64, f64)> {
+) -> Option<f64> {
     const L: usize = 8;
     let linear_id::Structure::Polynomial { a, b, c, delay } = linear.structure() else {
         return None;
     };
-    if c.len() != 1 || linear.bias_tracking().is_some() {
+    if c.len() != 1 || linear.bias_tracking().is_some() || lo >= hi || hi > y.len() {
         return None;
     }
     let (um, ym) = linear.means();
-    let n = y.len();
-    let first = linear.first_sample().min(ni - k0);
     let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
-    let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
-    let fit = fit_from;
-    if let Some(r) = fixed_order_sse(a, b, *delay, kconst, ym, u, y, k0 + first, ni) {
-        let (sse_id, sse_val) = r;
-        let (lo, hi) = (k0 + first, ni);
-        if lo >= hi || ni >= n || !(sse_id.is_finite() && sse_val.is_finite()) {
-            return None;
-        }
-        return Some((fit(sse_id, id_ss), fit(sse_val, val_ss)));
-    }
-    // predictions over [lo, n) coefficient by coefficient (vectorised), in `buf`
-    let sse_from = |buf: &mut Vec<f64>, lo: usize| -> (f64, f64) {
-        buf.clear();
-        buf.resize(n - lo, kconst);
-        for (i, &ai) in a.iter().enumerate().skip(1) {
-            for (v, yi) in buf.iter_mut().zip(&y[lo - i..n - i]) {
-                *v -= ai * yi;
+    let sse = match fixed_order_sse(a, b, *delay, kconst, ym, u, y, lo, hi) {
+        Some(sse) => sse,
+        None => {
+            // predictions over [lo, hi) coefficient by coefficient (vectorised), in `buf`
+            buf.clear();
+            buf.resize(hi - lo, kconst);
+            for (i, &ai) in a.iter().enumerate().skip(1) {
+                for (v, yi) in buf.iter_mut().zip(&y[lo - i..hi - i]) {
+                    *v -= ai * yi;
+                }
             }
-        }
-        for (j, &bj) in b.iter().enumerate() {
-            let lag = delay + j + 1;
-            for (v, uj) in buf.iter_mut().zip(&u[lo - lag..n - lag]) {
-                *v += bj * uj;
+            for (j, &bj) in b.iter().enumerate() {
+                let lag = delay + j + 1;
+                for (v, uj) in buf.iter_mut().zip(&u[lo - lag..hi - lag]) {
+                    *v += bj * uj;
+                }
             }
-        }
-        let sq = |p: &[f64], m: &[f64]| {
             let mut acc = [0.0; L];
-            let (pc, mc) = (p.chunks_exact(L), m.chunks_exact(L));
+            let (pc, mc) = (buf.chunks_exact(L), y[lo..hi].chunks_exact(L));
             let (pr, mr) = (pc.remainder(), mc.remainder());
             for (pp, mm) in pc.zip(mc) {
                 for l in 0..L {
@@ -666,30 +676,20 @@ fn polynomial_prediction_fits(
                     acc[l] += e * e;
                 }
             }
-            let mut s = lanes(acc);
+            let mut s = lanes8(acc);
             for (pp, mm) in pr.iter().zip(mr) {
                 let e = (pp + ym) - mm;
                 s += e * e;
             }
             s
-        };
-        let split = ni - lo;
-        (sq(&buf[..split], &y[lo..ni]), sq(&buf[split..], &y[ni..]))
+        }
     };
-    let (lo, hi) = (k0 + first, ni);
-    if lo >= hi || ni >= n {
-        return None;
-    }
-    let (sse_id, sse_val) = sse_from(buf, lo);
-    if !(sse_id.is_finite() && sse_val.is_finite()) {
-        return None;
-    }
-    Some((fit(sse_id, id_ss), fit(sse_val, val_ss)))
+    sse.is_finite().then_some(sse)
 }
 
-/// The squared one-step residuals summed over `[lo, ni)` and `[ni, n)`, for orders up to
-/// (3, 3) as compile-time constants: one fused pass, each prediction summed in
-/// `predict_one_step`'s order (`kconst`, then the A terms, then the B terms, then `ym`).
+/// The squared one-step residuals summed over `[lo, hi)`, for orders up to (3, 3) as
+/// compile-time constants: one fused pass, each prediction summed in `predict_one_step`'s
+/// order (`kconst`, then the A terms, then the B terms, then `ym`).
 #[allow(clippy::too_many_arguments)]
 fn fixed_order_sse(
     a: &[f64],
@@ -700,8 +700,8 @@ fn fixed_order_sse(
     u: &[f64],
     y: &[f64],
     lo: usize,
-    ni: usize,
-) -> Option<(f64, f64)> {
+    hi: usize,
+) -> Option<f64> {
     fn run<const NA: usize, const NB: usize>(
         a: &[f64],
         b: &[f64],
@@ -799,15 +799,12 @@ fn fixed_order_sse(
             }
             Some(s)
         };
-        return Some((sse22(lo, ni)?, sse22(ni, n)?));
+        return sse22(lo, hi);
     }
     macro_rules! fixed {
         ($(($na:literal, $nb:literal))*) => {
             match (a.len(), b.len()) {
-                $(($na, $nb) => Some((
-                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, lo, ni)?,
-                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, ni, n)?,
-                )),)*
+                $(($na, $nb) => run::<$na, $nb>(a, b, delay, kconst, ym, u, y, lo, hi),)*
                 _ => None,
             }
         };
@@ -869,12 +866,15 @@ fn fit_from(num: f64, den: f64) -> f64 {
     }
 }
 
-/// `distinct_at_least(x, 3) >= 3`, in two vectorised passes: finite values take at least
+/// `distinct_at_least(x, 3) >= 3` given `stats = WindowStats::of(x)`, in one more vectorised
+/// pass: finite values take at least
 /// three distinct values iff one lies strictly between their minimum and maximum (a NaN, which
 /// equals nothing, takes the counting path).
-fn three_distinct(x: &[f64]) -> bool {
-    match linear_id::extremes(x) {
-        Some((min, max)) => min < max && x.iter().any(|&v| v > min && v < max),
+fn three_distinct(x: &[f64], stats: Option<&WindowStats>) -> bool {
+    match stats {
+        Some(&WindowStats { min, max, .. }) => {
+            min < max && x.iter().any(|&v| v > min && v < max)
+        }
         None => distinct_at_least(x, 3) >= 3,
     }
 }
@@ -1528,7 +1528,12 @@ mod tests {
             let len = next() % 40;
             let k = 1 + next() % alphabet.len();
             let x: Vec<f64> = (0..len).map(|_| alphabet[next() % k]).collect();
-            assert_eq!(three_distinct(&x), distinct_at_least(&x, 3) >= 3, "{x:?}");
+            let stats = WindowStats::of(&x);
+            assert_eq!(
+                three_distinct(&x, stats.as_ref()),
+                distinct_at_least(&x, 3) >= 3,
+                "{x:?}"
+            );
         }
     }
 }
