@@ -4,7 +4,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use linear_id::{fit_pv, LinearFit, LinearIdentifier};
+use linear_id::{fit_pv, LinearFit, LinearIdentifier, WindowStats};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use stiction_models::{
@@ -399,9 +399,12 @@ fn erf(x: f64) -> f64 {
 #[serde(rename_all = "lowercase")]
 pub enum NodePath {
     /// Events and segment sums (default): the valve run interval by interval
-    /// ([`stiction_models::run_valve_indexed`]), ARX from normal equations assembled from
-    /// prefix sums and per-node MV sums (with a per-node QR fallback when poorly conditioned),
-    /// the free run in independent chunks, the fits in vectorised sums.
+    /// ([`stiction_models::run_valve_indexed`]); MV's window statistics in one pass (the
+    /// "hardly moves" check and ARX's input mean); ARX from normal equations assembled from
+    /// prefix sums and two fused passes over the node's rows (with a per-node QR fallback
+    /// when poorly conditioned), whose residual pass also gives the identification fit
+    /// ([`linear_id::ArxOutputSums::identify_window_with`]); the validation fit in one
+    /// vectorised pass; the free run in independent chunks.
     #[default]
     Fast,
     /// Sample by sample, as before issue 16: every node's valve stepped sample by sample, the
@@ -442,6 +445,15 @@ struct Scratch {
     valve: ValveScratch,
     pred: Vec<f64>,
     sim: Vec<f64>,
+}
+
+/// Where [`Ctx::node_fits`] takes the one-step prediction from.
+enum Predicted<'a> {
+    /// Already run over `mv[k0..]` (the identifier's batch), with whether it came out.
+    Given(&'a [f64], Result<(), linear_id::IdError>),
+    /// Computed there; `sums_fit`: the model came from ARX sums, whose `FitInfo` already
+    /// holds the identification rows' one-step fit.
+    Here { sums_fit: bool },
 }
 
 /// Per-thread buffers of [`Ctx::evaluate_batch`]: one MV and one prediction per node.
@@ -525,17 +537,21 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
 
     /// The skip reasons both node paths check before identifying, in this order: too few
     /// identification samples after the valve's initial state washed out (`k0`), or an
-    /// estimated MV that hardly moves in the identification window.
-    fn identifiable(&self, mv: &[f64], k0: usize) -> Result<(), Skip> {
+    /// estimated MV that hardly moves in the identification window. Returns the statistics
+    /// of MV over that window (`None` if it holds a NaN), which the fast path hands on to the
+    /// identification.
+    fn identifiable(&self, mv: &[f64], k0: usize) -> Result<Option<WindowStats>, Skip> {
         let ni = self.split_index;
         let needed = self.identifier.min_samples().max(10);
         if ni <= k0 || ni - k0 < needed {
             return Err(Skip::InitialState { valid_from: k0 });
         }
-        if !three_distinct(&mv[k0..ni]) {
+        let window = &mv[k0..ni];
+        let stats = WindowStats::of(window);
+        if !three_distinct(window, stats.as_ref()) {
             return Err(Skip::ValveHardlyMoves);
         }
-        Ok(())
+        Ok(stats)
     }
 }
 
@@ -546,7 +562,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let Some(index) = &self.index else {
             return self.evaluate(params, scratch, false).map(|(f, _)| f);
         };
-        let run = self.valve_at(params, index, &mut scratch.valve)?;
+        let (run, mv_stats) = self.valve_at(params, index, &mut scratch.valve)?;
         let mv = &scratch.valve.mv;
         let pv = self.problem.pv;
         let k0 = run.valid_from;
@@ -555,29 +571,40 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let from_sums = self
             .arx_sums
             .as_ref()
-            .and_then(|s| s.identify_window(mv, k0, ni));
+            .zip(mv_stats)
+            .and_then(|(s, stats)| s.identify_window_with(mv, k0, ni, &stats));
         if self.arx_sums.is_some() {
             self.gram_count[usize::from(from_sums.is_none())].fetch_add(1, Ordering::Relaxed);
         }
+        let sums_fit = from_sums.is_some();
         let linear = match from_sums {
             Some(fit) => fit,
             None => self.identifier.identify(mv_id, &pv[k0..ni])?,
         };
         linear.check_stable(true)?;
-        self.node_fits(&linear, mv, run, None, &mut scratch.pred, &mut scratch.sim)
+        let computed = Predicted::Here { sums_fit };
+        self.node_fits(
+            &linear,
+            mv,
+            run,
+            computed,
+            &mut scratch.pred,
+            &mut scratch.sim,
+        )
     }
 
-    /// The valve at node `params` (MV left in `valve.mv`) and the checks before identifying.
+    /// The valve at node `params` (MV left in `valve.mv`) and the checks before identifying
+    /// (with MV's statistics over the identification window, see [`Ctx::identifiable`]).
     fn valve_at(
         &self,
         params: &[f64],
         index: &OpIndex,
         valve: &mut ValveScratch,
-    ) -> Result<RunInfo, Skip> {
+    ) -> Result<(RunInfo, Option<WindowStats>), Skip> {
         let model = (self.entry.build)(params)?;
         let run = run_valve_indexed(model.as_ref(), index, &self.init, valve)?;
-        self.identifiable(&valve.mv, run.valid_from)?;
-        Ok(run)
+        let stats = self.identifiable(&valve.mv, run.valid_from)?;
+        Ok((run, stats))
     }
 
     /// [`Ctx::evaluate_fast`] for several nodes at once, for identifiers other than ARX: the
@@ -603,7 +630,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let mut pending = Vec::with_capacity(nodes.len());
         for (i, params) in nodes.iter().enumerate() {
             match self.valve_at(params, index, &mut scratch.node.valve) {
-                Ok(run) => {
+                Ok((run, _)) => {
                     scratch.mvs[i].clone_from(&scratch.node.valve.mv);
                     pending.push((i, run));
                 }
@@ -624,7 +651,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                     &id.fit,
                     &scratch.mvs[i],
                     run,
-                    Some((out, id.prediction)),
+                    Predicted::Given(out, id.prediction),
                     &mut scratch.node.pred,
                     &mut scratch.node.sim,
                 )
@@ -638,14 +665,13 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     }
 
     /// The fits of an identified node (its model `linear` checked stable): the one-step
-    /// prediction's from `predicted` (the prediction over `mv[k0..]` and whether it came out)
-    /// or, when `None`, computed here; the free run's when every node gets it.
+    /// prediction's from `predicted`; the free run's when every node gets it.
     fn node_fits(
         &self,
         linear: &LinearFit,
         mv: &[f64],
         run: RunInfo,
-        predicted: Option<(&[f64], Result<(), linear_id::IdError>)>,
+        predicted: Predicted<'_>,
         pred_buf: &mut Vec<f64>,
         sim_buf: &mut Vec<f64>,
     ) -> Result<Fits, Skip> {
@@ -655,29 +681,46 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         let ni = self.split_index;
         let split = ni - k0;
         let first = linear.first_sample().min(split);
-        // the denominators of F_PV: identification rows (per node), validation (per record)
-        let ss = (ss_about_mean(&pv[k0 + first..ni]), self.val_ss);
         let fits_of = |est: &[f64]| {
             (
-                fit_from(sse(&est[first..split], &pv[k0 + first..ni]), ss.0),
-                fit_from(sse(&est[split..], &pv[ni..]), ss.1),
+                fit_from(
+                    sse(&est[first..split], &pv[k0 + first..ni]),
+                    ss_about_mean(&pv[k0 + first..ni]),
+                ),
+                fit_from(sse(&est[split..], &pv[ni..]), self.val_ss),
             )
         };
         let pred_fits = match predicted {
-            Some((pred, status)) => {
+            Predicted::Given(pred, status) => {
                 status?;
                 fits_of(pred)
             }
-            None => match polynomial_prediction_fits(linear, mv, pv, k0, ni, ss, pred_buf) {
-                Some(f) => f,
-                None => {
-                    // anything unusual (a model with C(q) or a bias, a non-finite prediction):
-                    // the sample path's prediction, its errors included
-                    pred_buf.resize(n - k0, 0.0);
-                    linear.predict_one_step_into(&mv[k0..], &pv[k0..], pred_buf)?;
-                    fits_of(pred_buf)
+            Predicted::Here { sums_fit } => {
+                // the identification rows' fit: ARX from sums computed it from the data (its
+                // `FitInfo` is the one-step prediction's over these very rows), otherwise a
+                // pass
+                let id_fit = |buf: &mut Vec<f64>| {
+                    if sums_fit {
+                        Some(linear.info().fit_pv)
+                    } else {
+                        let lo = k0 + first;
+                        polynomial_prediction_sse(linear, mv, pv, lo, ni, buf)
+                            .map(|e| fit_from(e, ss_about_mean(&pv[lo..ni])))
+                    }
+                };
+                match polynomial_prediction_sse(linear, mv, pv, ni, n, pred_buf)
+                    .and_then(|e| Some((id_fit(pred_buf)?, fit_from(e, self.val_ss))))
+                {
+                    Some(f) => f,
+                    None => {
+                        // anything unusual (a model with C(q) or a bias, a non-finite
+                        // prediction): the sample path's prediction, its errors included
+                        pred_buf.resize(n - k0, 0.0);
+                        linear.predict_one_step_into(&mv[k0..], &pv[k0..], pred_buf)?;
+                        fits_of(pred_buf)
+                    }
                 }
-            },
+            }
         };
         let (sim_id, sim_val) = if self.simulate {
             let init_len = linear.first_sample().min(n - k0);
@@ -712,58 +755,46 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
     }
 }
 
-/// The one-step prediction's F_PV on the identification rows `[k0 + first, ni)` and on the
-/// validation window `[ni, n)` of a polynomial model without C(q) or bias, in one vectorised
-/// pass: each prediction is `predict_one_step`'s tail formula term by term (the same bits),
-/// only the sums of squares are lane-wise. `None` for other models or a non-finite result.
-fn polynomial_prediction_fits(
+/// The one-step prediction's sum of squared errors over `[lo, hi)` of a polynomial model
+/// without C(q) or bias, in one vectorised pass: each prediction is `predict_one_step`'s tail
+/// formula term by term (the same bits), only the sum of squares is lane-wise. `None` for
+/// other models, an empty range or a non-finite result.
+fn polynomial_prediction_sse(
     linear: &LinearFit,
     u: &[f64],
     y: &[f64],
-    k0: usize,
-    ni: usize,
-    (id_ss, val_ss): (f64, f64),
+    lo: usize,
+    hi: usize,
     buf: &mut Vec<f64>,
-) -> Option<(f64, f64)> {
+) -> Option<f64> {
     const L: usize = 8;
     let linear_id::Structure::Polynomial { a, b, c, delay } = linear.structure() else {
         return None;
     };
-    if c.len() != 1 || linear.bias_tracking().is_some() {
+    if c.len() != 1 || linear.bias_tracking().is_some() || lo >= hi || hi > y.len() {
         return None;
     }
     let (um, ym) = linear.means();
-    let n = y.len();
-    let first = linear.first_sample().min(ni - k0);
     let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
-    let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
-    let fit = fit_from;
-    if let Some(r) = fixed_order_sse(a, b, *delay, kconst, ym, u, y, k0 + first, ni) {
-        let (sse_id, sse_val) = r;
-        let (lo, hi) = (k0 + first, ni);
-        if lo >= hi || ni >= n || !(sse_id.is_finite() && sse_val.is_finite()) {
-            return None;
-        }
-        return Some((fit(sse_id, id_ss), fit(sse_val, val_ss)));
-    }
-    // predictions over [lo, n) coefficient by coefficient (vectorised), in `buf`
-    let sse_from = |buf: &mut Vec<f64>, lo: usize| -> (f64, f64) {
-        buf.clear();
-        buf.resize(n - lo, kconst);
-        for (i, &ai) in a.iter().enumerate().skip(1) {
-            for (v, yi) in buf.iter_mut().zip(&y[lo - i..n - i]) {
-                *v -= ai * yi;
+    let sse = match fixed_order_sse(a, b, *delay, kconst, ym, u, y, lo, hi) {
+        Some(sse) => sse,
+        None => {
+            // predictions over [lo, hi) coefficient by coefficient (vectorised), in `buf`
+            buf.clear();
+            buf.resize(hi - lo, kconst);
+            for (i, &ai) in a.iter().enumerate().skip(1) {
+                for (v, yi) in buf.iter_mut().zip(&y[lo - i..hi - i]) {
+                    *v -= ai * yi;
+                }
             }
-        }
-        for (j, &bj) in b.iter().enumerate() {
-            let lag = delay + j + 1;
-            for (v, uj) in buf.iter_mut().zip(&u[lo - lag..n - lag]) {
-                *v += bj * uj;
+            for (j, &bj) in b.iter().enumerate() {
+                let lag = delay + j + 1;
+                for (v, uj) in buf.iter_mut().zip(&u[lo - lag..hi - lag]) {
+                    *v += bj * uj;
+                }
             }
-        }
-        let sq = |p: &[f64], m: &[f64]| {
             let mut acc = [0.0; L];
-            let (pc, mc) = (p.chunks_exact(L), m.chunks_exact(L));
+            let (pc, mc) = (buf.chunks_exact(L), y[lo..hi].chunks_exact(L));
             let (pr, mr) = (pc.remainder(), mc.remainder());
             for (pp, mm) in pc.zip(mc) {
                 for l in 0..L {
@@ -771,30 +802,20 @@ fn polynomial_prediction_fits(
                     acc[l] += e * e;
                 }
             }
-            let mut s = lanes(acc);
+            let mut s = lanes8(acc);
             for (pp, mm) in pr.iter().zip(mr) {
                 let e = (pp + ym) - mm;
                 s += e * e;
             }
             s
-        };
-        let split = ni - lo;
-        (sq(&buf[..split], &y[lo..ni]), sq(&buf[split..], &y[ni..]))
+        }
     };
-    let (lo, hi) = (k0 + first, ni);
-    if lo >= hi || ni >= n {
-        return None;
-    }
-    let (sse_id, sse_val) = sse_from(buf, lo);
-    if !(sse_id.is_finite() && sse_val.is_finite()) {
-        return None;
-    }
-    Some((fit(sse_id, id_ss), fit(sse_val, val_ss)))
+    sse.is_finite().then_some(sse)
 }
 
-/// The squared one-step residuals summed over `[lo, ni)` and `[ni, n)`, for orders up to
-/// (3, 3) as compile-time constants: one fused pass, each prediction summed in
-/// `predict_one_step`'s order (`kconst`, then the A terms, then the B terms, then `ym`).
+/// The squared one-step residuals summed over `[lo, hi)`, for orders up to (3, 3) as
+/// compile-time constants: one fused pass, each prediction summed in `predict_one_step`'s
+/// order (`kconst`, then the A terms, then the B terms, then `ym`).
 #[allow(clippy::too_many_arguments)]
 fn fixed_order_sse(
     a: &[f64],
@@ -805,8 +826,8 @@ fn fixed_order_sse(
     u: &[f64],
     y: &[f64],
     lo: usize,
-    ni: usize,
-) -> Option<(f64, f64)> {
+    hi: usize,
+) -> Option<f64> {
     fn run<const NA: usize, const NB: usize>(
         a: &[f64],
         b: &[f64],
@@ -904,15 +925,12 @@ fn fixed_order_sse(
             }
             Some(s)
         };
-        return Some((sse22(lo, ni)?, sse22(ni, n)?));
+        return sse22(lo, hi);
     }
     macro_rules! fixed {
         ($(($na:literal, $nb:literal))*) => {
             match (a.len(), b.len()) {
-                $(($na, $nb) => Some((
-                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, lo, ni)?,
-                    run::<$na, $nb>(a, b, delay, kconst, ym, u, y, ni, n)?,
-                )),)*
+                $(($na, $nb) => run::<$na, $nb>(a, b, delay, kconst, ym, u, y, lo, hi),)*
                 _ => None,
             }
         };
@@ -974,12 +992,13 @@ fn fit_from(num: f64, den: f64) -> f64 {
     }
 }
 
-/// `distinct_at_least(x, 3) >= 3`, in two vectorised passes: finite values take at least
+/// `distinct_at_least(x, 3) >= 3` given `stats = WindowStats::of(x)`, in one more vectorised
+/// pass: finite values take at least
 /// three distinct values iff one lies strictly between their minimum and maximum (a NaN, which
 /// equals nothing, takes the counting path).
-fn three_distinct(x: &[f64]) -> bool {
-    match linear_id::extremes(x) {
-        Some((min, max)) => min < max && x.iter().any(|&v| v > min && v < max),
+fn three_distinct(x: &[f64], stats: Option<&WindowStats>) -> bool {
+    match stats {
+        Some(&WindowStats { min, max, .. }) => min < max && x.iter().any(|&v| v > min && v < max),
         None => distinct_at_least(x, 3) >= 3,
     }
 }
@@ -1652,7 +1671,12 @@ mod tests {
             let len = next() % 40;
             let k = 1 + next() % alphabet.len();
             let x: Vec<f64> = (0..len).map(|_| alphabet[next() % k]).collect();
-            assert_eq!(three_distinct(&x), distinct_at_least(&x, 3) >= 3, "{x:?}");
+            let stats = WindowStats::of(&x);
+            assert_eq!(
+                three_distinct(&x, stats.as_ref()),
+                distinct_at_least(&x, 3) >= 3,
+                "{x:?}"
+            );
         }
     }
 }

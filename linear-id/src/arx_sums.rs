@@ -3,10 +3,39 @@
 //!
 //! Per record ([`Arx::output_sums`]): compensated prefix sums of the output and of its lagged
 //! products `y(t) y(t-l)`, `l = 0..=n`, so every output block of the normal equations of any
-//! window costs O(1). Per input ([`ArxOutputSums::identify_window`]): the input sums and the
-//! input-input and input-output products over the window's regression rows (vectorised dot
-//! products), the centered Gram matrix (the intercept of [`Centering::OperatingPoint`]),
-//! scaled to unit diagonal, and a Cholesky factorization.
+//! window costs O(1), and a min/max segment tree of the output for the constancy test.
+//!
+//! Per input ([`ArxOutputSums::identify_window`]), over the regression rows
+//! `t ∈ [from + n0, to)`, with `yc = y - shift` (the record mean) and
+//! `u_j(t) = u(t - delay - j) - ū` (the window mean, from [`WindowStats`], which a caller
+//! that scanned the window already hands on: [`ArxOutputSums::identify_window_with`]):
+//!
+//! 1. *Lag products, one fused pass.* Only the first row of each input block is summed
+//!    over the rows: `Σ yc(t-i) u_1` (`i = 0..=n`), `Σ yc(t) u_j` (`j = 2..=m`),
+//!    `Σ u_1 u_j` (`j = 1..=m`) and `Σ u_1`. Every other entry is the entry one lag up-left
+//!    shifted one row back, `Σ_t f(t-1) = Σ_t f(t) + f(r0-1) - f(r1-1)`: e.g.
+//!    `Σ yc(t-i) u_j = Σ yc(t-i+1) u_{j-1} + yc(r0-i) u_j(r0) - yc(r1-i) u_j(r1)` (two
+//!    products per entry, exact up to their rounding). For ARX(2, 2) that is 6 products per
+//!    row instead of the 9 of one dot product per entry.
+//! 2. The centered Gram matrix (the intercept of [`Centering::OperatingPoint`]), scaled to
+//!    unit diagonal, and a Cholesky factorization.
+//! 3. *Residual, one fused pass.* The one-step residual `r` of the solution (with the
+//!    intercept the centering implies, so `Σ r ≈ 0`) from the data: `Σ r`, `Σ r²` and the
+//!    products `X' r`. They give one step of iterative refinement, always taken (the pass is
+//!    needed for the SSE anyway), so a residual small against the output (noise-free data)
+//!    does not cost cond² · eps; and the residual sum of squares after the step without a
+//!    second pass: with the centered residual `r_c`, the scaled centered regressors `Z`
+//!    (`Z'Z = A = L L'`) and the step `dx` (`A dx = Z' r_c`),
+//!    `‖r_c - Z dx‖² = ‖r_c‖² - 2 dx' Z' r_c + ‖L' dx‖²`. Every term is a sum from the data or
+//!    a small quadratic form in the step, so it has the accuracy of a direct sum of squared
+//!    residuals (no `y'y - θ'X'y` cancellation; test `the_sse_is_the_direct_one`). The fit's
+//!    [`crate::FitInfo`] (`fit_pv`, `residual_variance`) is this one-step prediction's over
+//!    the rows, as the QR path's; grid searches read the identification fit from it.
+//!
+//! The two passes hold their products in four lanes (one AVX register; pulp's runtime
+//! dispatch as in `la.rs`, with a plain-array twin elsewhere that gives the same bits, test
+//! `passes_give_the_same_bits_everywhere`); orders above (3, 3) take one dot product per
+//! product instead of a fused pass.
 //!
 //! Normal equations square the condition number, so the solve is only trusted when every
 //! column keeps at least 1e-3 of its sum of squares through the centering (otherwise it is
@@ -14,14 +43,11 @@
 //! scaled Cholesky factor satisfies `L_ii² >= GRAM_PIVOT_TOL` = 1e-4 (`L_ii` is the
 //! column-equilibrated QR's relative pivot, so this asks for QR pivots >= 1e-2, eight decades
 //! above the QR's own rank threshold 1e-10; with 1e-6 the grid-search fits differed from the
-//! QR path's by up to 5e-9 relative on noise-free loops). When a squared pivot is below 1e-2
-//! one step of iterative refinement follows, with the residual computed from the data, so a
-//! residual small against the output does not cost cond² · eps. Otherwise, and in every case
-//! the QR path treats specially (constant output, a dropped intercept), it returns `None` and
-//! the caller takes [`LinearIdentifier::identify`]. The model built here equals the QR's to
-//! round-off (test `gram_fit_matches_the_qr` and the grid-search equivalence tests, where
-//! surface fits agree to 1e-9 relative; measured 1e-12 to 8.5e-10 on the paper loop and the
-//! plant data).
+//! QR path's by up to 5e-9 relative on noise-free loops). Otherwise, and in every case the QR
+//! path treats specially (constant output or input, a dropped intercept), it returns `None`
+//! and the caller takes [`LinearIdentifier::identify`]. The model built here equals the QR's
+//! to round-off (test `gram_fit_matches_the_qr` and the grid-search equivalence tests; on
+//! the paper loop the surface fits agree with the sample path's to 3.3e-15 relative).
 //!
 //! [`LinearIdentifier::identify`]: crate::LinearIdentifier::identify
 
@@ -29,7 +55,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::arx::{Arx, Centering};
+use crate::error::WindowStats;
 use crate::{LinearFit, Structure};
+use faer::traits::pulp::{bytemuck, Arch, Simd, WithSimd};
 
 /// Smallest accepted squared pivot of the unit-diagonal Cholesky factor (see the module
 /// documentation).
@@ -39,10 +67,6 @@ pub const GRAM_PIVOT_TOL: f64 = 1e-4;
 /// `identify_window`).
 const CENTERING_LOSS: f64 = 1e-3;
 
-/// Iterative refinement runs when the smallest squared pivot is below this (see
-/// `identify_window`).
-const REFINE_BELOW: f64 = 1e-2;
-
 /// Largest `n + m` handled from sums (the Gram matrix lives on the stack).
 const MAX_COLS: usize = 12;
 
@@ -50,12 +74,16 @@ const MAX_COLS: usize = 12;
 #[derive(Debug, Clone)]
 pub struct ArxOutputSums {
     arx: Arx,
-    y: Vec<f64>,
+    /// The output minus `shift`.
+    yc: Vec<f64>,
     /// Global mean subtracted before the products.
     shift: f64,
     /// `prefix[l][s] = Σ_{l <= r < s} yc(r) yc(r - l)` (hi and lo parts), `l = 0..=n`; `l = n+1`
     /// holds `Σ_{r < s} yc(r)`.
     prefix: Vec<Vec<(f64, f64)>>,
+    /// Segment tree of the output's `[min, max]`: leaf `len + k` is sample `k`, node `p` covers
+    /// its children `2p` and `2p + 1` (the constancy test of a window in O(log len)).
+    extremes: Vec<[f64; 2]>,
 }
 
 /// Neumaier's compensated running sum: `(hi, lo)` after every term.
@@ -78,41 +106,390 @@ fn range(p: &[(f64, f64)], a: usize, b: usize) -> f64 {
     (p[b].0 - p[a].0) + (p[b].1 - p[a].1)
 }
 
-/// Lane-wise dot product of `(x - sx)` and `(y - sy)`.
+/// Lane-wise dot product of `x` and `(y - sy)`.
 #[inline]
-fn dot_shifted(x: &[f64], sx: f64, y: &[f64], sy: f64) -> f64 {
+fn dot_shifted(x: &[f64], y: &[f64], sy: f64) -> f64 {
     const L: usize = 8;
     let mut acc = [0.0; L];
     let (xc, yc) = (x.chunks_exact(L), y.chunks_exact(L));
     let (xr, yr) = (xc.remainder(), yc.remainder());
     for (a, b) in xc.zip(yc) {
         for l in 0..L {
-            acc[l] += (a[l] - sx) * (b[l] - sy);
+            acc[l] += a[l] * (b[l] - sy);
         }
     }
     let mut s = ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
     for (a, b) in xr.iter().zip(yr) {
-        s += (a - sx) * (b - sy);
+        s += a * (b - sy);
     }
     s
 }
 
-#[inline]
-fn sum_shifted(x: &[f64], sx: f64) -> f64 {
-    const L: usize = 8;
-    let mut acc = [0.0; L];
-    let xc = x.chunks_exact(L);
-    let xr = xc.remainder();
-    for a in xc {
-        for l in 0..L {
-            acc[l] += a[l] - sx;
+/// The lag products of the regression rows `t ∈ [r0, r1)` that the input blocks of the
+/// normal equations are assembled from (module documentation), with `yc` the shifted output
+/// and `u_j(t) = u(t - delay - j) - u_mean`.
+#[derive(Debug, Default)]
+struct LagProducts {
+    /// `Σ yc(t - i) u_1(t)`, `i = 0..=n`.
+    yu: [f64; MAX_COLS + 1],
+    /// `Σ yc(t) u_{1+l}(t)` at `l`, `l = 1..m` (`l = 0` is `yu[0]`, not stored).
+    y0u: [f64; MAX_COLS],
+    /// `Σ u_1(t) u_{1+l}(t)`, `l = 0..m`.
+    uu: [f64; MAX_COLS],
+    /// `Σ u_1(t)`.
+    u: f64,
+}
+
+/// The one-step residual `r(t) = yc(t) - c + Σ a_i yc(t - i) - Σ b_j u_j(t)` of a solution
+/// over the regression rows, and its products with the columns.
+#[derive(Debug, Default)]
+struct ResidualProducts {
+    /// `Σ r`.
+    sum: f64,
+    /// `Σ r²`.
+    sq: f64,
+    /// `Σ r yc(t - i)` at `i - 1` (`i = 1..=n`), then `Σ r u_j` at `n + j - 1` (`j = 1..=m`).
+    cols: [f64; MAX_COLS],
+}
+
+/// The regression rows' lagged columns, each resliced to the rows' count: `ys[i] = yc(t - i)`
+/// for `i < NY` and `us[j] = u(t - delay - 1 - j)` for `j < NU`, `t ∈ [r0, r1)`.
+#[allow(clippy::type_complexity)]
+fn lagged<'a, const NY: usize, const NU: usize>(
+    yc: &'a [f64],
+    u: &'a [f64],
+    delay: usize,
+    (r0, r1): (usize, usize),
+) -> ([&'a [f64]; NY], [&'a [f64]; NU]) {
+    let len = r1 - r0;
+    (
+        std::array::from_fn(|i| &yc[r0 - i..][..len]),
+        std::array::from_fn(|j| &u[r0 - delay - 1 - j..][..len]),
+    )
+}
+
+/// Four rows side by side, and their arithmetic: the fused passes are written once against
+/// this, and run either on an AVX register ([`Native`]) or on a plain array ([`Portable`]),
+/// element-wise with the same operations in the same order (no fused multiply-add), so both
+/// give the same bits. Four accumulators per product also keep the additions' latency hidden.
+trait Quad: Copy {
+    /// Four `f64`.
+    type V: Copy;
+    fn splat(self, v: f64) -> Self::V;
+    /// The four samples of `x` (of length 4).
+    fn load(self, x: &[f64]) -> Self::V;
+    fn add(self, a: Self::V, b: Self::V) -> Self::V;
+    fn sub(self, a: Self::V, b: Self::V) -> Self::V;
+    fn mul(self, a: Self::V, b: Self::V) -> Self::V;
+    fn lanes(self, a: Self::V) -> [f64; 4];
+
+    /// The sum of the lanes, pairwise.
+    #[inline(always)]
+    fn sum(self, a: Self::V) -> f64 {
+        let x = self.lanes(a);
+        (x[0] + x[2]) + (x[1] + x[3])
+    }
+
+    /// `acc + a · b`, rounded twice.
+    #[inline(always)]
+    fn add_mul(self, acc: Self::V, a: Self::V, b: Self::V) -> Self::V {
+        self.add(acc, self.mul(a, b))
+    }
+}
+
+/// [`Quad`] on `[f64; 4]`.
+#[derive(Debug, Clone, Copy)]
+struct Portable;
+
+impl Quad for Portable {
+    type V = [f64; 4];
+    #[inline(always)]
+    fn splat(self, v: f64) -> [f64; 4] {
+        [v; 4]
+    }
+    #[inline(always)]
+    fn load(self, x: &[f64]) -> [f64; 4] {
+        let mut a = [0.0; 4];
+        a.copy_from_slice(x);
+        a
+    }
+    #[inline(always)]
+    fn add(self, a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+        std::array::from_fn(|l| a[l] + b[l])
+    }
+    #[inline(always)]
+    fn sub(self, a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+        std::array::from_fn(|l| a[l] - b[l])
+    }
+    #[inline(always)]
+    fn mul(self, a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+        std::array::from_fn(|l| a[l] * b[l])
+    }
+    #[inline(always)]
+    fn lanes(self, a: [f64; 4]) -> [f64; 4] {
+        a
+    }
+}
+
+/// [`Quad`] on an instruction set whose `f64` vectors have four lanes (AVX2: pulp's `V3`);
+/// only built when `S::F64_LANES == 4`.
+#[derive(Debug, Clone, Copy)]
+struct Native<S>(S);
+
+impl<S: Simd> Quad for Native<S> {
+    type V = S::f64s;
+    #[inline(always)]
+    fn splat(self, v: f64) -> S::f64s {
+        self.0.splat_f64s(v)
+    }
+    #[inline(always)]
+    fn load(self, x: &[f64]) -> S::f64s {
+        // one vector load (assembling it from scalars lets the compiler share the samples of
+        // overlapping lags, and shuffle them into place)
+        bytemuck::pod_read_unaligned(bytemuck::cast_slice(x))
+    }
+    #[inline(always)]
+    fn add(self, a: S::f64s, b: S::f64s) -> S::f64s {
+        self.0.add_f64s(a, b)
+    }
+    #[inline(always)]
+    fn sub(self, a: S::f64s, b: S::f64s) -> S::f64s {
+        self.0.sub_f64s(a, b)
+    }
+    #[inline(always)]
+    fn mul(self, a: S::f64s, b: S::f64s) -> S::f64s {
+        self.0.mul_f64s(a, b)
+    }
+    #[inline(always)]
+    fn lanes(self, a: S::f64s) -> [f64; 4] {
+        bytemuck::cast(a)
+    }
+}
+
+/// Rows `[k, k + 4)` of the lagged columns, the input centered; rows past the rows' count
+/// are zeros in both.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn rows_at<Q: Quad, const NY: usize, const NU: usize>(
+    q: Q,
+    ys: &[&[f64]; NY],
+    us: &[&[f64]; NU],
+    u_mean: f64,
+    k: usize,
+) -> ([Q::V; NY], [Q::V; NU]) {
+    let load = |x: &[f64], fill: f64| -> Q::V {
+        match x.get(k..k + 4) {
+            Some(four) => q.load(four),
+            None => q.load(&std::array::from_fn::<_, 4, _>(|l| {
+                x.get(k + l).copied().unwrap_or(fill)
+            })),
+        }
+    };
+    let um = q.splat(u_mean);
+    (
+        std::array::from_fn(|i| load(ys[i], 0.0)),
+        std::array::from_fn(|j| q.sub(load(us[j], u_mean), um)),
+    )
+}
+
+/// [`LagProducts`] in one pass over the rows, for `n = NY - 1` and `m = NU` known at compile
+/// time (so the products stay in registers). Inlined into [`Dispatch`].
+#[inline(always)]
+fn lag_products_fixed<Q: Quad, const NY: usize, const NU: usize>(
+    q: Q,
+    yc: &[f64],
+    u: &[f64],
+    u_mean: f64,
+    delay: usize,
+    rows: (usize, usize),
+) -> LagProducts {
+    let (ys, us) = lagged::<NY, NU>(yc, u, delay, rows);
+    let zero = q.splat(0.0);
+    let (mut yu, mut y0u, mut uu, mut su) = ([zero; NY], [zero; NU], [zero; NU], zero);
+    // the padding of the last block adds zeros
+    for k in (0..rows.1 - rows.0).step_by(4) {
+        let (y, v) = rows_at(q, &ys, &us, u_mean, k);
+        su = q.add(su, v[0]);
+        for i in 0..NY {
+            yu[i] = q.add_mul(yu[i], y[i], v[0]);
+        }
+        for j in 1..NU {
+            y0u[j] = q.add_mul(y0u[j], y[0], v[j]);
+        }
+        for j in 0..NU {
+            uu[j] = q.add_mul(uu[j], v[0], v[j]);
         }
     }
-    let mut s = ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
-    for a in xr {
-        s += a - sx;
+    let mut p = LagProducts {
+        u: q.sum(su),
+        ..LagProducts::default()
+    };
+    for i in 0..NY {
+        p.yu[i] = q.sum(yu[i]);
     }
-    s
+    for j in 0..NU {
+        p.y0u[j] = q.sum(y0u[j]);
+        p.uu[j] = q.sum(uu[j]);
+    }
+    p
+}
+
+/// [`ResidualProducts`] in one pass over the rows, for `n = NY - 1` and `m = NU` known at
+/// compile time; `x` holds `a_1..a_n, b_1..b_m`. Inlined into [`Dispatch`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn residual_products_fixed<Q: Quad, const NY: usize, const NU: usize>(
+    q: Q,
+    yc: &[f64],
+    u: &[f64],
+    u_mean: f64,
+    delay: usize,
+    rows: (usize, usize),
+    x: &[f64; MAX_COLS],
+    c: f64,
+) -> ResidualProducts {
+    let (ys, us) = lagged::<NY, NU>(yc, u, delay, rows);
+    let len = rows.1 - rows.0;
+    let a: [Q::V; NY] = std::array::from_fn(|i| q.splat(if i == 0 { 1.0 } else { x[i - 1] }));
+    let b: [Q::V; NU] = std::array::from_fn(|j| q.splat(x[NY - 1 + j]));
+    let (cv, zero) = (q.splat(c), q.splat(0.0));
+    let (mut sum, mut sq, mut ry, mut ru) = (zero, zero, [zero; NY], [zero; NU]);
+    for k in (0..len).step_by(4) {
+        let (y, v) = rows_at(q, &ys, &us, u_mean, k);
+        let mut r = q.sub(y[0], cv);
+        for i in 1..NY {
+            r = q.add_mul(r, a[i], y[i]);
+        }
+        for j in 0..NU {
+            r = q.sub(r, q.mul(b[j], v[j]));
+        }
+        if k + 4 > len {
+            // the padding's residual is -c: not a row
+            let mut lanes = q.lanes(r);
+            lanes[len - k..].fill(0.0);
+            r = q.load(&lanes);
+        }
+        sum = q.add(sum, r);
+        sq = q.add_mul(sq, r, r);
+        for i in 1..NY {
+            ry[i] = q.add_mul(ry[i], r, y[i]);
+        }
+        for j in 0..NU {
+            ru[j] = q.add_mul(ru[j], r, v[j]);
+        }
+    }
+    let mut p = ResidualProducts {
+        sum: q.sum(sum),
+        sq: q.sum(sq),
+        cols: [0.0; MAX_COLS],
+    };
+    for i in 1..NY {
+        p.cols[i - 1] = q.sum(ry[i]);
+    }
+    for j in 0..NU {
+        p.cols[NY - 1 + j] = q.sum(ru[j]);
+    }
+    p
+}
+
+/// Calls `$fixed::<n + 1, m>($args)` for the orders up to (3, 3), `$general` otherwise.
+macro_rules! by_orders {
+    ($n:expr, $m:expr, $fixed:ident($($arg:expr),*), $general:expr) => {
+        match ($n, $m) {
+            (0, 1) => $fixed::<_, 1, 1>($($arg),*),
+            (0, 2) => $fixed::<_, 1, 2>($($arg),*),
+            (0, 3) => $fixed::<_, 1, 3>($($arg),*),
+            (1, 1) => $fixed::<_, 2, 1>($($arg),*),
+            (1, 2) => $fixed::<_, 2, 2>($($arg),*),
+            (1, 3) => $fixed::<_, 2, 3>($($arg),*),
+            (2, 1) => $fixed::<_, 3, 1>($($arg),*),
+            (2, 2) => $fixed::<_, 3, 2>($($arg),*),
+            (2, 3) => $fixed::<_, 3, 3>($($arg),*),
+            (3, 1) => $fixed::<_, 4, 1>($($arg),*),
+            (3, 2) => $fixed::<_, 4, 2>($($arg),*),
+            (3, 3) => $fixed::<_, 4, 3>($($arg),*),
+            _ => $general,
+        }
+    };
+}
+
+/// A pass over the regression rows, written against [`Quad`].
+trait RowsPass {
+    type Output;
+    fn run<Q: Quad>(self, q: Q) -> Self::Output;
+}
+
+/// A [`RowsPass`] compiled for the best instruction set of the machine (pulp's runtime
+/// dispatch, as `la.rs`): on four `f64` lanes (AVX2) a [`Quad`] is one register, elsewhere an
+/// array; the same bits either way.
+struct Dispatch<P>(P);
+
+impl<P: RowsPass> WithSimd for Dispatch<P> {
+    type Output = P::Output;
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) -> P::Output {
+        if S::F64_LANES == 4 {
+            self.0.run(Native(simd))
+        } else {
+            self.0.run(Portable)
+        }
+    }
+}
+
+/// The [`LagProducts`] of an input over the rows.
+struct LagPass<'a> {
+    sums: &'a ArxOutputSums,
+    u: &'a [f64],
+    u_mean: f64,
+    rows: (usize, usize),
+}
+
+impl RowsPass for LagPass<'_> {
+    type Output = LagProducts;
+    #[inline(always)]
+    fn run<Q: Quad>(self, q: Q) -> LagProducts {
+        let LagPass {
+            sums,
+            u,
+            u_mean,
+            rows,
+        } = self;
+        let (n, m, delay) = sums.arx.orders_tuple();
+        by_orders!(
+            n,
+            m,
+            lag_products_fixed(q, &sums.yc, u, u_mean, delay, rows),
+            sums.lag_products(u, u_mean, rows)
+        )
+    }
+}
+
+/// The [`ResidualProducts`] of solution `x` with intercept `c` over the rows.
+struct ResidualPass<'a> {
+    lags: LagPass<'a>,
+    x: &'a [f64; MAX_COLS],
+    c: f64,
+}
+
+impl RowsPass for ResidualPass<'_> {
+    type Output = ResidualProducts;
+    #[inline(always)]
+    fn run<Q: Quad>(self, q: Q) -> ResidualProducts {
+        let ResidualPass { lags, x, c } = self;
+        let LagPass {
+            sums,
+            u,
+            u_mean,
+            rows,
+        } = lags;
+        let (n, m, delay) = sums.arx.orders_tuple();
+        by_orders!(
+            n,
+            m,
+            residual_products_fixed(q, &sums.yc, u, u_mean, delay, rows, x, c),
+            sums.residual_products(u, u_mean, rows, x, c)
+        )
+    }
 }
 
 impl Arx {
@@ -140,19 +517,47 @@ impl Arx {
         let mut p = Vec::with_capacity(y.len() + 1);
         compensated_prefix(yc.iter().copied(), &mut p);
         prefix.push(p);
+        let len = y.len();
+        let mut extremes = vec![[0.0; 2]; 2 * len];
+        for (e, &v) in extremes[len..].iter_mut().zip(y) {
+            *e = [v, v];
+        }
+        for p in (1..len).rev() {
+            let (a, b) = (extremes[2 * p], extremes[2 * p + 1]);
+            extremes[p] = [a[0].min(b[0]), a[1].max(b[1])];
+        }
         Some(ArxOutputSums {
             arx: *self,
-            y: y.to_vec(),
+            yc,
             shift,
             prefix,
+            extremes,
         })
     }
 }
 
 impl ArxOutputSums {
-    /// The output record.
-    pub fn y(&self) -> &[f64] {
-        &self.y
+    /// The output is constant over `[from, to)` to [`crate::CONSTANT_SPREAD`] (the QR path's
+    /// test), from the segment tree.
+    fn output_constant(&self, from: usize, to: usize) -> bool {
+        let len = self.yc.len();
+        let (mut lo, mut hi) = (from + len, to + len);
+        let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+        while lo < hi {
+            if lo % 2 == 1 {
+                min = min.min(self.extremes[lo][0]);
+                max = max.max(self.extremes[lo][1]);
+                lo += 1;
+            }
+            if hi % 2 == 1 {
+                hi -= 1;
+                min = min.min(self.extremes[hi][0]);
+                max = max.max(self.extremes[hi][1]);
+            }
+            lo /= 2;
+            hi /= 2;
+        }
+        crate::error::spread_is_constant(min, max)
     }
 
     /// `identify(&u[from..to], &y[from..to])` from sums, where `u` is an input over the whole
@@ -160,10 +565,31 @@ impl ArxOutputSums {
     /// the Gram matrix is poorly conditioned (a pivot below [`GRAM_PIVOT_TOL`]), the window is
     /// too short, the output is constant there, the input is not finite, or the QR path would
     /// drop the intercept.
+    ///
+    /// The fit's diagnostics ([`LinearFit::info`]: `fit_pv`, `residual_variance`) are the
+    /// one-step prediction's over the regression rows `[from + n0, to)`, from a pass over the
+    /// data (module documentation), as the QR path's.
     pub fn identify_window(&self, u: &[f64], from: usize, to: usize) -> Option<LinearFit> {
+        if to > u.len() || from >= to {
+            return None;
+        }
+        let stats = WindowStats::of(&u[from..to])?;
+        self.identify_window_with(u, from, to, &stats)
+    }
+
+    /// [`identify_window`](Self::identify_window) with the input window's statistics
+    /// `stats = WindowStats::of(&u[from..to])` already at hand (a caller that scans the window
+    /// for checks of its own saves the pass).
+    pub fn identify_window_with(
+        &self,
+        u: &[f64],
+        from: usize,
+        to: usize,
+        stats: &WindowStats,
+    ) -> Option<LinearFit> {
         let (n, m, delay) = self.arx.orders_tuple();
-        let y = &self.y;
-        if u.len() != y.len() || to > y.len() || from >= to {
+        let yc = &self.yc;
+        if u.len() != yc.len() || to > yc.len() || from >= to {
             return None;
         }
         let n0 = n.max(m + delay);
@@ -171,18 +597,20 @@ impl ArxOutputSums {
         if len < n0 + n + m + 1 {
             return None;
         }
-        let (uw, yw) = (&u[from..to], &y[from..to]);
-        if uw.iter().any(|v| !v.is_finite()) {
-            return None;
-        }
-        if crate::error::numerically_constant(yw) || crate::error::numerically_constant(uw) {
+        debug_assert_eq!(
+            WindowStats::of(&u[from..to]).as_ref(),
+            Some(stats),
+            "statistics of another window"
+        );
+        if !stats.is_finite() || stats.is_constant() || self.output_constant(from, to) {
             return None;
         }
         let d = n + m;
-        let (r0, r1) = (from + n0, to);
-        let rows = (r1 - r0) as f64;
-        let u_mean = crate::la::sum(uw) / len as f64;
-        let y_mean = crate::la::sum(yw) / len as f64;
+        let rows = (from + n0, to);
+        let (r0, r1) = rows;
+        let nrows = (r1 - r0) as f64;
+        let u_mean = stats.sum / len as f64;
+        let y_mean = self.shift + range(&self.prefix[n + 1], from, to) / len as f64;
         // column sums and centered products; column 0 is y(t), columns 1..=n are y(t-i),
         // n+1..=n+m are u(t-delay-j). y sums are of yc = y - shift, u sums of u - u_mean.
         let mut sums = [0.0; MAX_COLS + 1];
@@ -197,17 +625,34 @@ impl ArxOutputSums {
                 g[i][i2] = range(&self.prefix[l], r0 - i, r1 - i);
             }
         }
-        let yc_slice = |i: usize| &y[r0 - i..r1 - i];
-        let u_slice = |j: usize| &u[r0 - delay - j..r1 - delay - j];
-        for j in 1..=m {
-            sums[n + j] = sum_shifted(u_slice(j), u_mean);
+        // the input blocks: the first row of each from the data, the rest by shifting the
+        // rows one sample back (module documentation)
+        let lags = || LagPass {
+            sums: self,
+            u,
+            u_mean,
+            rows,
+        };
+        let p = Arch::new().dispatch(Dispatch(lags()));
+        let uc = |k: usize| u[k] - u_mean;
+        sums[n + 1] = p.u;
+        for i in 0..=n {
+            g[i][n + 1] = p.yu[i];
         }
         for j in 1..=m {
-            for j2 in j..=m {
-                g[n + j][n + j2] = dot_shifted(u_slice(j), u_mean, u_slice(j2), u_mean);
+            g[n + 1][n + j] = p.uu[j - 1];
+        }
+        for j in 2..=m {
+            let (head, tail) = (r0 - delay - j, r1 - delay - j);
+            sums[n + j] = sums[n + j - 1] + uc(head) - uc(tail);
+            g[0][n + j] = p.y0u[j - 1];
+            for i in 1..=n {
+                g[i][n + j] = g[i - 1][n + j - 1] + yc[r0 - i] * uc(head) - yc[r1 - i] * uc(tail);
             }
-            for i in 0..=n {
-                g[i][n + j] = dot_shifted(yc_slice(i), self.shift, u_slice(j), u_mean);
+            for j2 in j..=m {
+                let (head2, tail2) = (r0 - delay - j2, r1 - delay - j2);
+                g[n + j][n + j2] =
+                    g[n + j - 1][n + j2 - 1] + uc(head) * uc(head2) - uc(tail) * uc(tail2);
             }
         }
         // center (the intercept) and symmetrise; a diagonal that loses more than three digits
@@ -215,14 +660,14 @@ impl ArxOutputSums {
         // to the QR, which reports what it makes of it
         for a in 0..=d {
             let raw = g[a][a];
-            let c = raw - sums[a] * sums[a] / rows;
+            let c = raw - sums[a] * sums[a] / nrows;
             if !(c > CENTERING_LOSS * raw) {
                 return None;
             }
         }
         for a in 0..=d {
             for b in a..=d {
-                let c = g[a][b] - sums[a] * sums[b] / rows;
+                let c = g[a][b] - sums[a] * sums[b] / nrows;
                 g[a][b] = c;
                 g[b][a] = c;
             }
@@ -247,7 +692,6 @@ impl ArxOutputSums {
             rhs[p] = sign(p + 1) * g[p + 1][0] * scale[p];
         }
         // Cholesky A = L L', in place (lower triangle)
-        let mut min_pivot = f64::INFINITY;
         for j in 0..d {
             let mut v = a[j][j];
             for k in 0..j {
@@ -256,7 +700,6 @@ impl ArxOutputSums {
             if !(v >= GRAM_PIVOT_TOL) {
                 return None;
             }
-            min_pivot = min_pivot.min(v);
             let ljj = v.sqrt();
             a[j][j] = ljj;
             for i in j + 1..d {
@@ -267,47 +710,40 @@ impl ArxOutputSums {
                 a[i][j] = w / ljj;
             }
         }
-        // L z = rhs, L' x = z
-        let mut z = [0.0; MAX_COLS];
-        for i in 0..d {
-            let mut v = rhs[i];
-            for k in 0..i {
-                v -= a[i][k] * z[k];
-            }
-            z[i] = v / a[i][i];
-        }
-        let mut x = [0.0; MAX_COLS];
-        for i in (0..d).rev() {
-            let mut v = z[i];
-            for k in i + 1..d {
-                v -= a[k][i] * x[k];
-            }
-            x[i] = v / a[i][i];
-        }
+        let mut x = cholesky_solve(&a, &rhs, d);
         for k in 0..d {
             x[k] *= scale[k];
         }
-        // one step of iterative refinement with the residual computed from the data (not from
-        // the sums): the solve then has the accuracy of the QR's even when the residual is
-        // small against the output (noise-free data), where plain normal equations lose
-        // cond² · eps
-        if min_pivot < REFINE_BELOW {
-            self.refine(&mut x, &a, &scale, &sums, u, u_mean, (r0, r1), rows);
-        }
-        // residual sum of squares and the output's about its mean over the rows
-        let y_ss = g[0][0];
-        let mut explained = 0.0;
+        // the residual over the rows from the data: one step of iterative refinement, and
+        // the identification SSE after it (module documentation)
+        let intercept = (sums[0]
+            - (0..d)
+                .map(|k| x[k] * sign(k + 1) * sums[k + 1])
+                .sum::<f64>())
+            / nrows;
+        let res = Arch::new().dispatch(Dispatch(ResidualPass {
+            lags: lags(),
+            x: &x,
+            c: intercept,
+        }));
+        let mut rhs2 = [0.0; MAX_COLS];
         for k in 0..d {
-            explained += x[k] * sign(k + 1) * g[k + 1][0];
+            // centered: the intercept absorbs the residual's mean
+            rhs2[k] = sign(k + 1) * (res.cols[k] - sums[k + 1] * res.sum / nrows) * scale[k];
         }
-        let rss = (y_ss - explained).max(0.0);
+        let dx = cholesky_solve(&a, &rhs2, d);
+        for k in 0..d {
+            x[k] += dx[k] * scale[k];
+        }
+        let rss = refined_sse(&res, nrows, &a, &dx, &rhs2, d).max(0.0);
+        let y_ss = g[0][0];
         // intercept, as the QR path folds it (`arx.rs`): the column means over the rows, in
         // the QR path's coordinates (y centered by y_mean, u by u_mean)
         let col_mean = |a: usize| {
             if a <= n {
-                sums[a] / rows + self.shift - y_mean
+                sums[a] / nrows + self.shift - y_mean
             } else {
-                sums[a] / rows
+                sums[a] / nrows
             }
         };
         let c0 = col_mean(0)
@@ -340,80 +776,109 @@ impl ArxOutputSums {
             "arx", structure, um, ym, len, n0, rss, y_ss,
         ))
     }
-}
 
-impl ArxOutputSums {
-    /// One step of iterative refinement of `x` (see `identify_window`).
-    #[allow(clippy::too_many_arguments)]
-    fn refine(
+    /// [`LagProducts`] for orders without a fused pass: one dot product per product.
+    fn lag_products(&self, u: &[f64], u_mean: f64, (r0, r1): (usize, usize)) -> LagProducts {
+        let (n, m, delay) = self.arx.orders_tuple();
+        let y = |i: usize| &self.yc[r0 - i..r1 - i];
+        let u_lag = |j: usize| &u[r0 - delay - j..r1 - delay - j];
+        let mut p = LagProducts::default();
+        for i in 0..=n {
+            p.yu[i] = dot_shifted(y(i), u_lag(1), u_mean);
+        }
+        let u1: Vec<f64> = u_lag(1).iter().map(|v| v - u_mean).collect();
+        p.u = crate::la::sum(&u1);
+        for l in 0..m {
+            if l > 0 {
+                p.y0u[l] = dot_shifted(y(0), u_lag(1 + l), u_mean);
+            }
+            p.uu[l] = dot_shifted(&u1, u_lag(1 + l), u_mean);
+        }
+        p
+    }
+
+    /// [`ResidualProducts`] for orders without a fused pass: the residual in a buffer, then
+    /// one dot product per column.
+    fn residual_products(
         &self,
-        x: &mut [f64; MAX_COLS],
-        a: &[[f64; MAX_COLS]; MAX_COLS],
-        scale: &[f64; MAX_COLS],
-        sums: &[f64; MAX_COLS + 1],
         u: &[f64],
         u_mean: f64,
         (r0, r1): (usize, usize),
-        rows: f64,
-    ) {
+        x: &[f64; MAX_COLS],
+        c: f64,
+    ) -> ResidualProducts {
         let (n, m, delay) = self.arx.orders_tuple();
-        let d = n + m;
-        let y = &self.y;
-        let sign = |a: usize| if (1..=n).contains(&a) { -1.0 } else { 1.0 };
-        let yc_slice = |i: usize| &y[r0 - i..r1 - i];
-        let u_slice = |j: usize| &u[r0 - delay - j..r1 - delay - j];
-        let nrows = r1 - r0;
-        let mut gr = [0.0; MAX_COLS];
-        let mut r_sum = 0.0;
-        crate::la::with_buffer(nrows, |res| {
-            // res = yc(t) - Σ x_k col_k(t), columns in the shifted coordinates of the sums
-            res.copy_from_slice(&y[r0..r1]);
-            res.iter_mut().for_each(|v| *v -= self.shift);
+        let y = |i: usize| &self.yc[r0 - i..r1 - i];
+        let u_lag = |j: usize| &u[r0 - delay - j..r1 - delay - j];
+        let mut p = ResidualProducts::default();
+        crate::la::with_buffer(r1 - r0, |res| {
+            res.iter_mut().zip(y(0)).for_each(|(r, v)| *r = v - c);
             for i in 1..=n {
-                let xi = x[i - 1];
-                for (v, &yy) in res.iter_mut().zip(yc_slice(i)) {
-                    *v += xi * (yy - self.shift);
+                for (r, v) in res.iter_mut().zip(y(i)) {
+                    *r += x[i - 1] * v;
                 }
             }
             for j in 1..=m {
-                let xj = x[n + j - 1];
-                for (v, &uu) in res.iter_mut().zip(u_slice(j)) {
-                    *v -= xj * (uu - u_mean);
+                for (r, v) in res.iter_mut().zip(u_lag(j)) {
+                    *r -= x[n + j - 1] * (v - u_mean);
                 }
             }
-            r_sum = sum_shifted(res, 0.0);
+            p.sum = crate::la::sum(res);
+            p.sq = dot_shifted(res, res, 0.0);
             for i in 1..=n {
-                gr[i - 1] = -dot_shifted(yc_slice(i), self.shift, res, 0.0);
+                p.cols[i - 1] = dot_shifted(res, y(i), 0.0);
             }
             for j in 1..=m {
-                gr[n + j - 1] = dot_shifted(u_slice(j), u_mean, res, 0.0);
+                p.cols[n + j - 1] = dot_shifted(res, u_lag(j), u_mean);
             }
         });
-        let mut rhs2 = [0.0; MAX_COLS];
-        for k in 0..d {
-            // centered: the intercept absorbs the residual's mean
-            rhs2[k] = (gr[k] - sign(k + 1) * sums[k + 1] * r_sum / rows) * scale[k];
-        }
-        let mut z2 = [0.0; MAX_COLS];
-        for i in 0..d {
-            let mut v = rhs2[i];
-            for k in 0..i {
-                v -= a[i][k] * z2[k];
-            }
-            z2[i] = v / a[i][i];
-        }
-        let mut dx = [0.0; MAX_COLS];
-        for i in (0..d).rev() {
-            let mut v = z2[i];
-            for k in i + 1..d {
-                v -= a[k][i] * dx[k];
-            }
-            dx[i] = v / a[i][i];
-        }
-        for k in 0..d {
-            x[k] += dx[k] * scale[k];
-        }
+        p
     }
+}
+
+/// Solve `L L' x = rhs` (`L` the lower triangle of `l`, order `d`).
+fn cholesky_solve(
+    l: &[[f64; MAX_COLS]; MAX_COLS],
+    rhs: &[f64; MAX_COLS],
+    d: usize,
+) -> [f64; MAX_COLS] {
+    let mut z = [0.0; MAX_COLS];
+    for i in 0..d {
+        let mut v = rhs[i];
+        for k in 0..i {
+            v -= l[i][k] * z[k];
+        }
+        z[i] = v / l[i][i];
+    }
+    let mut x = [0.0; MAX_COLS];
+    for i in (0..d).rev() {
+        let mut v = z[i];
+        for k in i + 1..d {
+            v -= l[k][i] * x[k];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+/// The residual sum of squares over the rows after the refinement step `dx` (scaled
+/// coordinates), from the residual before it: with the centered residual `r_c` and the
+/// centered, scaled regressors `Z` (`Z'Z = A = L L'`, `Z' r_c = rhs2`),
+/// `‖r_c - Z dx‖² = ‖r_c‖² - 2 dx'rhs2 + ‖L' dx‖²`, and `‖r_c‖² = Σ r² - (Σ r)² / rows`.
+fn refined_sse(
+    res: &ResidualProducts,
+    rows: f64,
+    l: &[[f64; MAX_COLS]; MAX_COLS],
+    dx: &[f64; MAX_COLS],
+    rhs2: &[f64; MAX_COLS],
+    d: usize,
+) -> f64 {
+    let mut sse = res.sq - res.sum * res.sum / rows;
+    for i in 0..d {
+        let ltdx: f64 = (i..d).map(|k| l[k][i] * dx[k]).sum();
+        sse += ltdx * ltdx - 2.0 * dx[i] * rhs2[i];
+    }
+    sse
 }
 
 #[cfg(test)]
@@ -478,5 +943,107 @@ mod tests {
         // Centering::Mean is not handled from sums
         let mean = Arx::params().centering(Centering::Mean).check().unwrap();
         assert!(mean.output_sums(&y).is_none());
+    }
+
+    /// The identification SSE from the residual pass and the refinement step equals the sum
+    /// of squared one-step residuals of the returned model, computed directly, also on
+    /// noise-free data (where `y'y - θ'X'y` would be round-off).
+    #[test]
+    fn the_sse_is_the_direct_one() {
+        for noise in [0.3, 0.0] {
+            let (u, y) = crate::test_data::valve_loop(3000, 5, noise);
+            for (n, m, delay) in [(2, 2, 0), (1, 3, 2), (4, 1, 0), (3, 3, 5)] {
+                let arx = Arx::params().n(n).m(m).delay(delay).check().unwrap();
+                let sums = arx.output_sums(&y).unwrap();
+                let (from, to) = (137, 2000);
+                let fit = sums.identify_window(&u, from, to).unwrap();
+                let (uw, yw) = (&u[from..to], &y[from..to]);
+                let pred = fit.predict_one_step(uw, yw).unwrap();
+                let n0 = fit.info().first_sample;
+                let direct: f64 = yw[n0..]
+                    .iter()
+                    .zip(&pred[n0..])
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum();
+                let rss = fit.info().residual_variance * (yw.len() - n0) as f64;
+                // relative to the residual, or to the output's variation where the residual
+                // is round-off (the exact orders on noise-free data)
+                let mean = yw[n0..].iter().sum::<f64>() / (yw.len() - n0) as f64;
+                let y_ss: f64 = yw[n0..].iter().map(|v| (v - mean) * (v - mean)).sum();
+                assert!(
+                    (rss - direct).abs() <= 1e-10 * direct + 1e-15 * y_ss,
+                    "{noise} {n} {m} {delay}: {rss} vs {direct}"
+                );
+                let fit_direct = crate::fit_pv(&yw[n0..], &pred[n0..]);
+                assert!(
+                    (fit.info().fit_pv - fit_direct).abs() <= 1e-10,
+                    "{} vs {fit_direct}",
+                    fit.info().fit_pv
+                );
+            }
+        }
+    }
+
+    /// The fused passes: the AVX register and the plain array give the same bits, and both
+    /// equal one dot product per product (the path of the larger orders) to round-off.
+    #[test]
+    fn passes_give_the_same_bits_everywhere() {
+        let (u, y) = data(1003, 6);
+        for n in 0..=3 {
+            for m in 1..=3 {
+                for delay in [0, 2] {
+                    let arx = Arx::params().n(n).m(m).delay(delay).check().unwrap();
+                    let sums = arx.output_sums(&y).unwrap();
+                    let rows = (17 + n.max(m + delay), 1003 - 2);
+                    let u_mean = 49.5;
+                    let lags = || LagPass {
+                        sums: &sums,
+                        u: &u,
+                        u_mean,
+                        rows,
+                    };
+                    let native = Arch::new().dispatch(Dispatch(lags()));
+                    let portable = lags().run(Portable);
+                    let dots = sums.lag_products(&u, u_mean, rows);
+                    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(1.0);
+                    assert!(close(native.u, dots.u));
+                    assert_eq!(native.u.to_bits(), portable.u.to_bits());
+                    for (p, q, r) in [
+                        (&native.yu[..], &portable.yu[..], &dots.yu[..]),
+                        (&native.y0u[..], &portable.y0u[..], &dots.y0u[..]),
+                        (&native.uu[..], &portable.uu[..], &dots.uu[..]),
+                    ] {
+                        for k in 0..p.len() {
+                            assert_eq!(p[k].to_bits(), q[k].to_bits(), "{n} {m} {delay}");
+                            assert!(close(p[k], r[k]), "{n} {m} {delay}: {} vs {}", p[k], r[k]);
+                        }
+                    }
+                    let mut x = [0.0; MAX_COLS];
+                    for (k, v) in x.iter_mut().take(n + m).enumerate() {
+                        *v = 0.3 - 0.2 * k as f64;
+                    }
+                    let res = || ResidualPass {
+                        lags: lags(),
+                        x: &x,
+                        c: 0.7,
+                    };
+                    let native = Arch::new().dispatch(Dispatch(res()));
+                    let portable = res().run(Portable);
+                    let dots = sums.residual_products(&u, u_mean, rows, &x, 0.7);
+                    let all = |p: &ResidualProducts| {
+                        let mut v = vec![p.sum, p.sq];
+                        v.extend_from_slice(&p.cols[..n + m]);
+                        v
+                    };
+                    for ((p, q), r) in all(&native).iter().zip(all(&portable)).zip(all(&dots)) {
+                        assert_eq!(p.to_bits(), q.to_bits(), "{n} {m} {delay}");
+                        assert!(
+                            (p - r).abs() <= 1e-11 * p.abs().max(1.0),
+                            "{n} {m} {delay}: {p} vs {r}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }

@@ -149,33 +149,70 @@ pub(crate) fn check_data(u: &[f64], y: &[f64], needed: usize) -> Result<(), IdEr
 /// were round-off that two exact solvers disagreed on (grid-search's `fast_path` test).
 pub const CONSTANT_SPREAD: f64 = 1e-10;
 
-/// `(min, max)` of `x`, lane-wise (vectorised); `None` when `x` is empty or holds a NaN.
-pub fn extremes(x: &[f64]) -> Option<(f64, f64)> {
-    const L: usize = 8;
-    let &first = x.first()?;
-    let (mut lo, mut hi, mut nan) = ([first; L], [first; L], first.is_nan());
-    let chunks = x.chunks_exact(L);
-    let rest = chunks.remainder();
-    for c in chunks {
-        for l in 0..L {
-            lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
-            hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
-            nan |= c[l].is_nan();
+/// Minimum, maximum and sum of a signal, from one lane-wise (vectorised) pass: what the
+/// constancy test ([`WindowStats::is_constant`]) and the input mean of an identification
+/// window need, so a caller that scans a window anyway can hand it on (grid-search's node
+/// checks to [`crate::ArxOutputSums::identify_window_with`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowStats {
+    /// Smallest sample.
+    pub min: f64,
+    /// Largest sample.
+    pub max: f64,
+    /// Sum of the samples, in eight partial sums combined pairwise (`la::sum`'s order).
+    pub sum: f64,
+}
+
+impl WindowStats {
+    /// The statistics of `x`; `None` when `x` is empty or holds a NaN.
+    pub fn of(x: &[f64]) -> Option<WindowStats> {
+        const L: usize = 8;
+        let &first = x.first()?;
+        let (mut lo, mut hi, mut nan) = ([first; L], [first; L], first.is_nan());
+        let mut acc = [0.0; L];
+        let chunks = x.chunks_exact(L);
+        let rest = chunks.remainder();
+        for c in chunks {
+            for l in 0..L {
+                lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
+                hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
+                nan |= c[l].is_nan();
+                acc[l] += c[l];
+            }
         }
+        if nan || rest.iter().any(|v| v.is_nan()) {
+            return None;
+        }
+        let (mut min, mut max) = (first, first);
+        for l in 0..L {
+            min = min.min(lo[l]);
+            max = max.max(hi[l]);
+        }
+        let mut sum =
+            ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]));
+        for &v in rest {
+            min = min.min(v);
+            max = max.max(v);
+            sum += v;
+        }
+        Some(WindowStats { min, max, sum })
     }
-    if nan || rest.iter().any(|v| v.is_nan()) {
-        return None;
+
+    /// Every sample is finite (a NaN has no statistics; an infinity is an extreme).
+    pub fn is_finite(&self) -> bool {
+        self.min.is_finite() && self.max.is_finite()
     }
-    let (mut min, mut max) = (first, first);
-    for l in 0..L {
-        min = min.min(lo[l]);
-        max = max.max(hi[l]);
+
+    /// The signal is constant to [`CONSTANT_SPREAD`] of its largest magnitude (which is at
+    /// one of the extremes).
+    pub fn is_constant(&self) -> bool {
+        spread_is_constant(self.min, self.max)
     }
-    for &v in rest {
-        min = min.min(v);
-        max = max.max(v);
-    }
-    Some((min, max))
+}
+
+/// `[min, max]` is constant to [`CONSTANT_SPREAD`] of its largest magnitude.
+pub(crate) fn spread_is_constant(min: f64, max: f64) -> bool {
+    max - min <= CONSTANT_SPREAD * min.abs().max(max.abs())
 }
 
 /// True when `x` (finite) is constant to [`CONSTANT_SPREAD`] of its largest magnitude (an
@@ -184,9 +221,8 @@ pub(crate) fn numerically_constant(x: &[f64]) -> bool {
     let Some(&first) = x.first() else {
         return false;
     };
-    match extremes(x) {
-        // the largest magnitude is at one of the extremes
-        Some((min, max)) => max - min <= CONSTANT_SPREAD * min.abs().max(max.abs()),
+    match WindowStats::of(x) {
+        Some(stats) => stats.is_constant(),
         // a NaN: the fold, whose `min`/`max` skip it
         None => {
             let (lo, hi, big) = x.iter().fold((first, first, 0.0_f64), |(lo, hi, big), &v| {
@@ -273,6 +309,32 @@ mod tests {
             let k = 1 + next() % values.len();
             let x: Vec<f64> = (0..len).map(|_| values[next() % k]).collect();
             assert_eq!(numerically_constant(&x), fold(&x), "{x:?}");
+        }
+    }
+
+    /// One pass gives the fold's extremes and `la::sum`'s bits.
+    #[test]
+    fn window_stats_equal_the_separate_passes() {
+        let mut state = 7u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for len in 0..40 {
+            let x: Vec<f64> = (0..len).map(|_| 100.0 * next() - 30.0).collect();
+            let Some(stats) = WindowStats::of(&x) else {
+                assert!(x.is_empty());
+                continue;
+            };
+            let min = x.iter().copied().fold(f64::INFINITY, f64::min);
+            let max = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            assert_eq!((stats.min, stats.max), (min, max));
+            assert_eq!(stats.sum.to_bits(), crate::la::sum(&x).to_bits());
+            let mut with_nan = x.clone();
+            with_nan[len / 2] = f64::NAN;
+            assert_eq!(WindowStats::of(&with_nan), None);
         }
     }
 }

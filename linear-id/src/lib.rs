@@ -152,7 +152,7 @@ mod test_data;
 
 pub use arx::{Arx, ArxParams, Centering};
 pub use arx_sums::{ArxOutputSums, GRAM_PIVOT_TOL};
-pub use error::{extremes, IdError, CONSTANT_SPREAD};
+pub use error::{IdError, WindowStats, CONSTANT_SPREAD};
 pub use fit::{
     e_g, fit_mv, fit_percent_unsquared, fit_pv, frequency_grid, polynomial_frequency_response,
     E_G_GRID_POINTS,
