@@ -164,8 +164,23 @@ pub struct WindowStats {
 }
 
 impl WindowStats {
-    /// The statistics of `x`; `None` when `x` is empty or holds a NaN.
+    /// The statistics of `x`; `None` when `x` is empty or holds a NaN. Compiled for the best
+    /// instruction set the processor has (pulp's dispatch, through faer); the same bits on
+    /// every one (the same IEEE operations in the same order).
     pub fn of(x: &[f64]) -> Option<WindowStats> {
+        struct Of<'a>(&'a [f64]);
+        impl faer::traits::pulp::WithSimd for Of<'_> {
+            type Output = Option<WindowStats>;
+            #[inline(always)]
+            fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> Self::Output {
+                WindowStats::of_scalar(self.0)
+            }
+        }
+        faer::traits::pulp::Arch::new().dispatch(Of(x))
+    }
+
+    #[inline(always)]
+    fn of_scalar(x: &[f64]) -> Option<WindowStats> {
         const L: usize = 8;
         let &first = x.first()?;
         let (mut lo, mut hi, mut nan) = ([first; L], [first; L], first.is_nan());
