@@ -120,8 +120,75 @@ impl He {
     }
 }
 
+impl He {
+    /// [`crate::kano::lockstep`] of four starts with the four states in the lanes of
+    /// `[f64; 4]` arrays: each lane performs [`HeState::advance`]'s operations (both branches
+    /// computed, one selected, which changes no value), so the same MV bit for bit, while the
+    /// four dependent chains advance together instead of one after another (test
+    /// `four_lanes_equal_lockstep`). After the merge, run 0 alone, as in `lockstep`.
+    fn four_in_lanes(
+        &self,
+        op: &[f64],
+        starts: &[InitialState; 4],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError> {
+        crate::check_finite(op)?;
+        let n = op.len();
+        for o in out.iter_mut().take(4) {
+            o.resize(n, 0.0);
+        }
+        let Some(&op0) = op.first() else {
+            return Ok(0);
+        };
+        let mut states = [HeState::default(); 4];
+        for (st, init) in states.iter_mut().zip(starts) {
+            *st = self.start_state(op0, init)?;
+        }
+        for (o, st) in out.iter_mut().zip(&states) {
+            o[0] = st.mv_prev;
+        }
+        let all_same = |s: &[HeState; 4]| s[1..].iter().all(|b| s[0].same(b));
+        let (fs, fd) = (self.fs, self.fd);
+        let mut u_r = states.map(|s| s.u_r);
+        let mut mv_prev = states.map(|s| s.mv_prev);
+        let mut u_prev = op0;
+        let mut k = 1;
+        let mut merge = if all_same(&states) { 1 } else { n };
+        while k < n && merge == n {
+            let u = op[k];
+            let mut mv = [0.0; 4];
+            for l in 0..4 {
+                let cum = u_r[l] + (u - u_prev);
+                let sign = if cum > 0.0 { 1.0 } else { -1.0 };
+                let slip = cum.abs() > fs;
+                u_r[l] = if slip { sign * fd } else { cum };
+                mv[l] = if slip { u - sign * fd } else { mv_prev[l] };
+            }
+            mv_prev = mv;
+            u_prev = u;
+            for (o, &m) in out.iter_mut().zip(&mv) {
+                o[k] = m;
+            }
+            k += 1;
+            if (1..4).all(|l| u_r[l] == u_r[0] && mv_prev[l] == mv_prev[0]) {
+                merge = k;
+            }
+        }
+        let mut st = HeState {
+            u_r: u_r[0],
+            u_prev,
+            mv_prev: mv_prev[0],
+            ..states[0]
+        };
+        for (m, &u) in out[0][k..].iter_mut().zip(&op[k..]) {
+            *m = st.advance(u);
+        }
+        Ok(merge)
+    }
+}
+
 /// Simulation state of He's model.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct HeState {
     fs: f64,
     fd: f64,
@@ -148,6 +215,13 @@ impl HeState {
         self.u_prev = u;
         self.mv_prev = mv;
         mv
+    }
+}
+
+impl HeState {
+    /// Same future for any input (what [`crate::kano::lockstep`] merges on).
+    fn same(&self, other: &HeState) -> bool {
+        self.u_r == other.u_r && self.u_prev == other.u_prev && self.mv_prev == other.mv_prev
     }
 }
 
@@ -197,19 +271,24 @@ impl StictionModel for He {
         }
         Ok(())
     }
+    /// Four starts (In.2/In.3) run side by side, one per SIMD lane ([`He::four_in_lanes`]);
+    /// other counts by [`crate::kano::lockstep`]. The same MV and merge sample either way.
     fn simulate_starts(
         &self,
         op: &[f64],
         starts: &[InitialState],
         out: &mut [Vec<f64>],
     ) -> Result<usize, StictionError> {
+        if let (Ok(four), true) = (<&[InitialState; 4]>::try_from(starts), out.len() >= 4) {
+            return self.four_in_lanes(op, four, out);
+        }
         crate::kano::lockstep(
             op,
             starts,
             out,
             |op0, s| self.start_state(op0, s),
             HeState::advance,
-            |a, b| a.u_r == b.u_r && a.u_prev == b.u_prev && a.mv_prev == b.mv_prev,
+            HeState::same,
         )
     }
     fn box_clone(&self) -> Box<dyn StictionModel> {
@@ -250,5 +329,69 @@ inventory::submit! {
         params: &HE_PARAMS,
         constraints: &[Constraint::AtMost { param: "fd", bound: "fs" }],
         build: build_he,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::Direction;
+
+    /// The four lanes against the generic lockstep, bit for bit: random-walk OP, several
+    /// frictions, the In.2/In.3 starts and starts with given positions.
+    #[test]
+    fn four_lanes_equal_lockstep() {
+        let mut state = 11u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let given = |direction, stuck, position| InitialState {
+            direction,
+            stuck,
+            stuck_at: None,
+            position: Some(position),
+        };
+        for (s, j) in [(0.5, 0.0), (3.0, 1.0), (9.0, 3.0), (2.0, 2.0)] {
+            let he = He::from_sj(s, j).unwrap();
+            for len in [0, 1, 2, 50, 700] {
+                let mut level = 50.0;
+                let op: Vec<f64> = (0..len)
+                    .map(|_| {
+                        level += 2.0 * next();
+                        level
+                    })
+                    .collect();
+                let mixed = [
+                    given(Direction::Up, true, 48.0),
+                    given(Direction::Down, false, 51.0),
+                    given(Direction::Up, false, 50.0),
+                    given(Direction::Down, true, 49.5),
+                ];
+                for starts in [InitialState::four_variants(), mixed] {
+                    let mut lanes = vec![Vec::new(); 4];
+                    let mut generic = vec![Vec::new(); 4];
+                    let m1 = he.four_in_lanes(&op, &starts, &mut lanes).unwrap();
+                    let m2 = crate::kano::lockstep(
+                        &op,
+                        &starts,
+                        &mut generic,
+                        |op0, s| he.start_state(op0, s),
+                        HeState::advance,
+                        HeState::same,
+                    )
+                    .unwrap();
+                    assert_eq!(m1, m2, "merge, S {s} J {j} len {len}");
+                    for (a, b) in lanes.iter().zip(&generic) {
+                        let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(bits(&a[..m1]), bits(&b[..m1]), "S {s} J {j} len {len}");
+                    }
+                    assert_eq!(lanes[0], generic[0]);
+                }
+            }
+        }
     }
 }
