@@ -551,16 +551,16 @@ impl LinearFit {
     /// (the disturbance series aside, which it leaves as it is).
     pub(crate) fn refresh_info_from(&mut self, y: &[f64], pred: &[f64]) {
         let n0 = self.first_sample().min(y.len());
-        let rss: f64 = y[n0..]
-            .iter()
-            .zip(&pred[n0..])
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum();
+        // one pass: the residual sum of squares is F_PV's numerator
+        let (rss, fit_pv) = match crate::fit::pv_sums(&y[n0..], &pred[n0..]) {
+            Some((num, den)) => (num, crate::fit::fit_of_sums(num, den)),
+            None => (0.0, f64::NEG_INFINITY),
+        };
         let cnt = (y.len() - n0).max(1) as f64;
         self.info.n_samples = y.len();
         self.info.first_sample = n0;
         self.info.residual_variance = rss / cnt;
-        self.info.fit_pv = crate::fit::fit_pv(&y[n0..], &pred[n0..]);
+        self.info.fit_pv = fit_pv;
         self.info.process_max_pole = la::max_modulus(&self.structure.poles());
         self.info.predictor_max_pole = la::max_modulus(&self.structure.predictor_poles());
     }

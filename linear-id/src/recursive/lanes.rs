@@ -83,6 +83,8 @@ impl Recursive {
         }
         // lanes that start together idle least
         ready.sort_by_key(|r| r.start);
+        // one check of the common output (per input only to name the sample when it fails)
+        let y_finite = crate::la::all_finite(y);
         for group in ready.chunks(LANES) {
             let lanes: [&Ready; LANES] = std::array::from_fn(|l| &group[l.min(group.len() - 1)]);
             let runs = self.run_lanes(lanes, y, split);
@@ -99,7 +101,13 @@ impl Recursive {
                 let out = &mut outs[r.index];
                 out.resize(y.len() - r.start, 0.0);
                 let (u, y) = (&r.u[r.start..], &y[r.start..]);
-                let ok = check_finite("u", u).and_then(|()| check_finite("y", y));
+                let ok = check_finite("u", u).and_then(|()| {
+                    if y_finite {
+                        Ok(())
+                    } else {
+                        check_finite("y", y)
+                    }
+                });
                 if let (Ok(()), Ok(fit)) = (&ok, fit) {
                     if fit.polynomial_terms(u, y, out) {
                         serial.push(g);
@@ -116,14 +124,13 @@ impl Recursive {
                     (fit, group[members[l]].start)
                 });
                 // lane l's prediction in the record's time frame: sample t is its t - start
-                let mut buf: Vec<Lanes> = (0..y.len())
-                    .map(|t| {
-                        each(|l| {
-                            let r = &group[members[l]];
-                            t.checked_sub(r.start).map_or(0.0, |k| outs[r.index][k])
-                        })
-                    })
-                    .collect();
+                let mut buf = vec![[0.0; LANES]; y.len()];
+                for (l, &g) in members.iter().enumerate() {
+                    let r = &group[g];
+                    for (b, &v) in buf[r.start..].iter_mut().zip(&outs[r.index]) {
+                        b[l] = v;
+                    }
+                }
                 recursion_lanes(lane_fits, y, &mut buf);
                 let n0 = lane_fits[0].0.first_sample();
                 for (l, &g) in part.iter().enumerate() {
