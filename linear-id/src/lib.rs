@@ -142,6 +142,7 @@ mod arx_sums;
 mod error;
 mod fit;
 mod la;
+mod lanes;
 mod model;
 mod order;
 mod parsim;

@@ -8,22 +8,9 @@
 //! same order (`model.rs`'s `ss_run`), so the same bits (test in `parsim.rs`). The lanes run
 //! in the record's time frame: a lane whose record starts later holds its `x0` until then.
 
+pub(super) use crate::lanes::LANES;
+use crate::lanes::{each, Lanes};
 use crate::{LinearFit, Structure};
-
-/// Fits predicted side by side.
-pub(super) const LANES: usize = 4;
-
-type Lanes = [f64; LANES];
-
-/// `f(l)` for every lane.
-#[inline(always)]
-fn each(mut f: impl FnMut(usize) -> f64) -> Lanes {
-    let mut out = [0.0; LANES];
-    for (l, v) in out.iter_mut().enumerate() {
-        *v = f(l);
-    }
-    out
-}
 
 /// One lane: a state-space fit of order `N`, its input record and its start in `y`.
 pub(super) struct Lane<'a> {

@@ -17,22 +17,8 @@
 
 use super::{Recursive, RlsRun};
 use crate::error::{check_data, check_finite};
+use crate::lanes::{each, Lanes, LANES};
 use crate::{mean, IdError, Identified, LinearFit};
-
-/// Inputs run side by side (four doubles: one AVX register, two SSE2 registers).
-pub(crate) const LANES: usize = 4;
-
-type Lanes = [f64; LANES];
-
-/// `f(l)` for every lane.
-#[inline(always)]
-fn each(mut f: impl FnMut(usize) -> f64) -> Lanes {
-    let mut out = [0.0; LANES];
-    for (l, v) in out.iter_mut().enumerate() {
-        *v = f(l);
-    }
-    out
-}
 
 /// One input checked, ready for a lane: its record is `u[start..]`, `y[start..]`, its
 /// identification window ends at the common `split`.
