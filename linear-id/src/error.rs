@@ -114,6 +114,57 @@ pub(crate) fn check_finite(signal: &'static str, x: &[f64]) -> Result<(), IdErro
     }
 }
 
+/// The output's part of [`check_data`], for inputs that share an output window (computed once
+/// per window, [`check_shared`] per input).
+#[derive(Debug, Clone)]
+pub(crate) struct OutputChecks {
+    len: usize,
+    finite: Result<(), IdError>,
+    /// `Some(first sample)` when the output is numerically constant.
+    constant: Option<f64>,
+}
+
+impl OutputChecks {
+    pub(crate) fn of(y: &[f64]) -> OutputChecks {
+        let finite = check_finite("y", y);
+        OutputChecks {
+            len: y.len(),
+            constant: (finite.is_ok() && numerically_constant(y))
+                .then(|| y.first().copied().unwrap_or(0.0)),
+            finite,
+        }
+    }
+}
+
+/// [`check_data`] of `u` against an output window checked once ([`OutputChecks`]): the same
+/// checks in the same order, so the same error.
+pub(crate) fn check_shared(u: &[f64], y: &OutputChecks, needed: usize) -> Result<(), IdError> {
+    if u.len() != y.len {
+        return Err(IdError::LengthMismatch {
+            u: u.len(),
+            y: y.len,
+        });
+    }
+    if u.len() < needed {
+        return Err(IdError::TooFewSamples {
+            needed,
+            got: u.len(),
+        });
+    }
+    check_finite("u", u)?;
+    y.finite.clone()?;
+    if numerically_constant(u) {
+        return Err(IdError::ConstantInput {
+            signal: "u",
+            value: u.first().copied().unwrap_or(0.0),
+        });
+    }
+    match y.constant {
+        Some(value) => Err(IdError::ConstantInput { signal: "y", value }),
+        None => Ok(()),
+    }
+}
+
 /// Common input checks: equal lengths, finite, enough samples, non-constant input.
 pub(crate) fn check_data(u: &[f64], y: &[f64], needed: usize) -> Result<(), IdError> {
     if u.len() != y.len() {
@@ -324,6 +375,30 @@ mod tests {
             let k = 1 + next() % values.len();
             let x: Vec<f64> = (0..len).map(|_| values[next() % k]).collect();
             assert_eq!(numerically_constant(&x), fold(&x), "{x:?}");
+        }
+    }
+
+    /// The shared checks give `check_data`'s error, case by case.
+    #[test]
+    fn shared_checks_equal_check_data() {
+        let ramp: Vec<f64> = (0..20).map(f64::from).collect();
+        let flat = [3.0; 20];
+        let mut nan = ramp.clone();
+        nan[7] = f64::NAN;
+        let signals = [&ramp[..], &flat[..], &nan[..], &ramp[..5]];
+        for u in signals {
+            for y in signals {
+                for needed in [3, 10] {
+                    // compared as text: a NaN in an error is not equal to itself
+                    let shared = check_shared(u, &OutputChecks::of(y), needed);
+                    let direct = check_data(u, y, needed);
+                    assert_eq!(
+                        format!("{shared:?}"),
+                        format!("{direct:?}"),
+                        "{u:?} / {y:?}"
+                    );
+                }
+            }
         }
     }
 

@@ -16,7 +16,7 @@
 //! single recursion returns at that sample, and its later (meaningless) values are dropped.
 
 use super::{Recursive, RlsRun};
-use crate::error::{check_data, check_finite};
+use crate::error::{check_finite, check_shared, OutputChecks};
 use crate::lanes::{each, Lanes, LANES};
 use crate::{mean, IdError, Identified, LinearFit};
 
@@ -32,7 +32,7 @@ struct Ready<'a> {
 
 impl Recursive {
     /// See [`crate::LinearIdentifier::identify_predict_many`]: the inputs that pass
-    /// [`check_data`], sorted by start, run [`LANES`] at a time (the last group padded with
+    /// the checks of `check_data`, sorted by start, run [`LANES`] at a time (the last group padded with
     /// copies of its last input, whose results are dropped).
     pub(super) fn identify_predict_many(
         &self,
@@ -45,6 +45,8 @@ impl Recursive {
         let mut results: Vec<Option<Result<Identified, IdError>>> =
             (0..inputs.len()).map(|_| None).collect();
         let mut ready = Vec::with_capacity(inputs.len());
+        // the output window's checks and mean, once per start (nodes share a few)
+        let mut windows: Vec<(usize, OutputChecks, f64)> = Vec::new();
         for (index, &(start, u)) in inputs.iter().enumerate() {
             if u.len() != y.len() {
                 results[index] = Some(Err(IdError::LengthMismatch {
@@ -55,7 +57,14 @@ impl Recursive {
             }
             let start = start.min(split);
             let (u_id, y_id) = (&u[start..split], &y[start..split]);
-            if let Err(e) = check_data(u_id, y_id, self.min_samples()) {
+            let w = match windows.iter().position(|w| w.0 == start) {
+                Some(w) => w,
+                None => {
+                    windows.push((start, OutputChecks::of(y_id), mean(y_id)));
+                    windows.len() - 1
+                }
+            };
+            if let Err(e) = check_shared(u_id, &windows[w].1, self.min_samples()) {
                 results[index] = Some(Err(e));
                 continue;
             }
@@ -64,7 +73,7 @@ impl Recursive {
                 start,
                 u,
                 u_mean: mean(u_id),
-                y_mean: mean(y_id),
+                y_mean: windows[w].2,
             });
         }
         // lanes that start together idle least
