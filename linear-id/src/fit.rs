@@ -51,25 +51,27 @@ pub fn fit_mv(measured: &[f64], estimate: &[f64]) -> f64 {
     let lanes = |x: [f64; L]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
     let (mc, ec) = (measured.chunks_exact(L), estimate.chunks_exact(L));
     let (mr, er) = (mc.remainder(), ec.remainder());
-    let mut acc = [0.0; L];
-    for c in mc.clone() {
+    // pass 1: the sum (for the mean) and the squared errors; pass 2: the squares about the mean
+    let (mut sum, mut num) = ([0.0; L], [0.0; L]);
+    for (m, e) in mc.clone().zip(ec) {
         for l in 0..L {
-            acc[l] += c[l];
+            sum[l] += m[l];
+            num[l] += (e[l] - m[l]) * (e[l] - m[l]);
         }
     }
-    let mean = (lanes(acc) + mr.iter().sum::<f64>()) / measured.len() as f64;
-    let (mut num, mut den) = ([0.0; L], [0.0; L]);
-    for (m, e) in mc.zip(ec) {
+    let (mut sum, mut num) = (lanes(sum), lanes(num));
+    for (&m, &e) in mr.iter().zip(er) {
+        sum += m;
+        num += (e - m) * (e - m);
+    }
+    let mean = sum / measured.len() as f64;
+    let mut den = [0.0; L];
+    for m in mc {
         for l in 0..L {
-            num[l] += (e[l] - m[l]) * (e[l] - m[l]);
             den[l] += (m[l] - mean) * (m[l] - mean);
         }
     }
-    let (mut num, mut den) = (lanes(num), lanes(den));
-    for (&m, &e) in mr.iter().zip(er) {
-        num += (e - m) * (e - m);
-        den += (m - mean) * (m - mean);
-    }
+    let den = lanes(den) + mr.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>();
     if !num.is_finite() || !(den > 0.0) {
         return f64::NEG_INFINITY;
     }
