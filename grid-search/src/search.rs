@@ -404,7 +404,9 @@ pub enum NodePath {
     /// prefix sums and two fused passes over the node's rows (with a per-node QR fallback
     /// when poorly conditioned), whose residual pass also gives the identification fit
     /// ([`linear_id::ArxOutputSums::identify_window_with`]); the validation fit in one
-    /// vectorised pass; the free run in independent chunks.
+    /// vectorised pass; the other identifiers by batches of nodes
+    /// ([`LinearIdentifier::identify_predict_many`]: the recursive ones and PARSIM-K's
+    /// predictions four nodes at a time in SIMD lanes); the free run in independent chunks.
     #[default]
     Fast,
     /// Sample by sample, as before issue 16: every node's valve stepped sample by sample, the
