@@ -8,9 +8,10 @@
 //! core's arithmetic units idle. Here [`LANES`] inputs advance together, every scalar of the
 //! recursion becomes a `[f64; LANES]` and every operation a loop over the lanes, which the
 //! compiler turns into vector instructions. Each lane performs exactly the operations of the
-//! single recursion, in the same order, so its results are the same bits (tests below and
-//! `tests/recursive.rs`); what does not depend on the data (λ_θ, P_β and the bias gain K_β)
-//! is computed once for all lanes.
+//! single recursion, in the same order, so its results are the same bits (test below, and
+//! `grid-search/tests/fast_path.rs` against the sample path). The lanes run in the record's
+//! time frame, each from its own washout sample: until a lane's first row its state is held at
+//! the initial one, so λ_θ and P_β, which do not depend on the data, are per lane too.
 //!
 //! Lanes diverge independently: a lane whose estimate stops being finite gets the error the
 //! single recursion returns at that sample, and its later (meaningless) values are dropped.
@@ -31,9 +32,9 @@ struct Ready<'a> {
 }
 
 impl Recursive {
-    /// See [`crate::LinearIdentifier::identify_predict_many`]: the inputs that pass
-    /// the checks of `check_data`, sorted by start, run [`LANES`] at a time (the last group padded with
-    /// copies of its last input, whose results are dropped).
+    /// See [`crate::LinearIdentifier::identify_predict_many`]: the inputs that pass the
+    /// checks of `check_data`, sorted by start, run [`LANES`] at a time (the last group
+    /// padded with copies of its last input, whose results are dropped).
     pub(super) fn identify_predict_many(
         &self,
         inputs: &[(usize, &[f64])],
@@ -176,9 +177,9 @@ impl Recursive {
     }
 
     /// [`Recursive::run_lanes_fixed`] compiled for the best instruction set the processor has
-    /// (pulp's runtime dispatch, through faer: with AVX2, four lanes per instruction instead of two). The
-    /// IEEE operations are the same, so are the bits: the compiler fuses no multiply-add
-    /// unless asked to.
+    /// (pulp's runtime dispatch, through faer: with AVX2, four lanes per instruction instead
+    /// of two). The IEEE operations are the same, so are the bits: the compiler fuses no
+    /// multiply-add unless asked to.
     fn run_lanes_dispatch<const D: usize>(
         &self,
         lanes: [&Ready; LANES],
