@@ -678,8 +678,8 @@ impl LinearIdentifier for ParsimK {
         Ok(fit)
     }
     /// Identified one input at a time; the predictions of fits of order up to 4 run four at a
-    /// time in SIMD lanes ([`lanes`]), the others one at a time; the prediction over the
-    /// identification window is shared with the fit's diagnostics.
+    /// time in SIMD lanes (`parsim/lanes.rs`, the same bits), the others one at a time; the
+    /// prediction over the identification window is shared with the fit's diagnostics.
     fn identify_predict_many(
         &self,
         inputs: &[(usize, &[f64])],
