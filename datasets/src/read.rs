@@ -1209,7 +1209,7 @@ const STRAIGHT_RELATIVE: f64 = 1e-9;
 /// percent of its samples fall on 4-point straight runs; a PV read back from compressed storage
 /// is straight almost everywhere between its kept points. The column is called compressed when
 /// at least half of its samples lie on such segments and there are at least three segments (a
-/// single ramp is not an archive's pattern). `None` for fewer than [`FLAT_MIN_ROWS`] samples or
+/// single ramp is not an archive's pattern). `None` for fewer than `FLAT_MIN_ROWS` samples or
 /// a non-finite value.
 pub fn compression(x: &[f64]) -> Option<Compression> {
     let n = x.len();

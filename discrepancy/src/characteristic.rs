@@ -42,7 +42,7 @@ fn travel(x: &[f64]) -> f64 {
 ///
 /// The extension is a pattern search started at the baseline's `(S, J, a = 0)`; its nested
 /// reference is the best valve with a negligible characteristic (the local gain changing by at
-/// most [`NEGLIGIBLE_GAIN_RATIO`] over OP's 5-95 % range) the same search finds (searched
+/// most `NEGLIGIBLE_GAIN_RATIO` over OP's 5-95 % range) the same search finds (searched
 /// from the start and again from the projection of the optimum), so one extra parameter. Statistic: the largest
 /// correlation, in standard errors, of the baseline's prediction residual with the squared
 /// deviation of the estimated valve position from its mean at lags `delay + 1 ..= delay + 5`

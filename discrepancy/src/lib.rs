@@ -899,7 +899,7 @@ fn test_cause(
     (finding, overrides)
 }
 
-/// The name of the open-set finding ([`open_set`]): structure the final model leaves that no
+/// The name of the open-set finding (`open_set`): structure the final model leaves that no
 /// registered cause explains. Not a plugin: it names no extension.
 pub const UNEXPLAINED: &str = "unexplained";
 

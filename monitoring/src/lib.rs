@@ -3,7 +3,7 @@
 //! [`Settings`] a run shares between its combinations; registrations read and searched with
 //! the evidence behind a doubtful estimate ([`registration`]); the batch over many loops, its
 //! rows and labels ([`batch`]); the trend of a valve over repeated registrations with its
-//! maintenance verdict ([`trend`]); the detection crate's verdict on each record read
+//! maintenance verdict ([`trend`](mod@trend)); the detection crate's verdict on each record read
 //! ([`detect`]); ROC and robust statistics ([`stats`]).
 //!
 //! The CLI parses arguments, calls this crate and prints; `discrepancy` extends the

@@ -271,8 +271,8 @@ impl StictionModel for He {
         }
         Ok(())
     }
-    /// Four starts (In.2/In.3) run side by side, one per SIMD lane ([`He::four_in_lanes`]);
-    /// other counts by [`crate::kano::lockstep`]. The same MV and merge sample either way.
+    /// Four starts (In.2/In.3) run side by side, one per SIMD lane (`He::four_in_lanes`);
+    /// other counts by `kano::lockstep`. The same MV and merge sample either way.
     fn simulate_starts(
         &self,
         op: &[f64],
