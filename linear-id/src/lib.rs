@@ -262,6 +262,23 @@ pub struct Identified {
     pub prediction: Result<(), IdError>,
 }
 
+/// One input of [`LinearIdentifier::identify_predict_many`]: its start clamped to `split`
+/// (itself at most `y.len()`), or the error of an input not as long as the output.
+pub(crate) fn input_start(
+    start: usize,
+    u: &[f64],
+    y: &[f64],
+    split: usize,
+) -> Result<usize, IdError> {
+    if u.len() != y.len() {
+        return Err(IdError::LengthMismatch {
+            u: u.len(),
+            y: y.len(),
+        });
+    }
+    Ok(start.min(split))
+}
+
 /// The default of [`LinearIdentifier::identify_predict_many`] for one input.
 fn identify_then_predict<I: LinearIdentifier + ?Sized>(
     identifier: &I,
@@ -270,14 +287,8 @@ fn identify_then_predict<I: LinearIdentifier + ?Sized>(
     split: usize,
     out: &mut Vec<f64>,
 ) -> Result<Identified, IdError> {
-    if u.len() != y.len() {
-        return Err(IdError::LengthMismatch {
-            u: u.len(),
-            y: y.len(),
-        });
-    }
     let split = split.min(y.len());
-    let start = start.min(split);
+    let start = input_start(start, u, y, split)?;
     let fit = identifier.identify(&u[start..split], &y[start..split])?;
     out.resize(y.len() - start, 0.0);
     let prediction = fit.predict_one_step_into(&u[start..], &y[start..], out);

@@ -691,13 +691,7 @@ impl LinearIdentifier for ParsimK {
         let mut fits: Vec<Result<(LinearFit, usize), IdError>> = inputs
             .iter()
             .map(|&(start, u)| {
-                if u.len() != y.len() {
-                    return Err(IdError::LengthMismatch {
-                        u: u.len(),
-                        y: y.len(),
-                    });
-                }
-                let start = start.min(split);
+                let start = crate::input_start(start, u, y, split)?;
                 let (u_id, y_id) = (&u[start..split], &y[start..split]);
                 check_data(u_id, y_id, self.min_samples())?;
                 Ok((self.run(u_id, y_id, Step2::Auto)?, start))

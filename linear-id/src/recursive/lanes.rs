@@ -49,14 +49,13 @@ impl Recursive {
         // the output window's checks and mean, once per start (nodes share a few)
         let mut windows: Vec<(usize, OutputChecks, f64)> = Vec::new();
         for (index, &(start, u)) in inputs.iter().enumerate() {
-            if u.len() != y.len() {
-                results[index] = Some(Err(IdError::LengthMismatch {
-                    u: u.len(),
-                    y: y.len(),
-                }));
-                continue;
-            }
-            let start = start.min(split);
+            let start = match crate::input_start(start, u, y, split) {
+                Ok(start) => start,
+                Err(e) => {
+                    results[index] = Some(Err(e));
+                    continue;
+                }
+            };
             let (u_id, y_id) = (&u[start..split], &y[start..split]);
             let w = match windows.iter().position(|w| w.0 == start) {
                 Some(w) => w,
