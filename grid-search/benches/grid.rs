@@ -164,16 +164,7 @@ fn fleet(bencher: divan::Bencher) {
         .unwrap_or(20);
     let data: Vec<(Vec<f64>, Vec<f64>)> = (1..=loops)
         .map(|seed| {
-            // S in [1, 12], J in [0, min(S, 4)], reproducible per seed
-            let s = 1.0 + (seed * 7919 % 1100) as f64 / 100.0;
-            let j = (seed * 104_729 % 400) as f64 / 100.0;
-            let sim = Scenario {
-                valve: Box::new(Kano::params().s(s).j(j.min(s)).check().expect("valid")),
-                seed,
-                ..Scenario::default()
-            }
-            .simulate()
-            .expect("simulates");
+            let sim = Scenario::fleet(seed).simulate().expect("simulates");
             (sim.op, sim.pv)
         })
         .collect();

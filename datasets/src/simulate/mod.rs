@@ -446,6 +446,26 @@ fn param(name: &str, value: f64, ok: bool, expected: &str) -> Result<(), DataErr
 }
 
 impl Scenario {
+    /// Loop `seed` of the benchmark fleet (`grid-search`'s `fleet` bench and `profile_fleet`
+    /// example): the default scenario with that seed and a Kano valve with
+    /// `S = 1 + (7919 seed mod 1100) / 100` in [1, 12] and
+    /// `J = min(S, (104729 seed mod 400) / 100)` in [0, 4], reproducible per seed.
+    pub fn fleet(seed: u64) -> Scenario {
+        let s = 1.0 + (seed.wrapping_mul(7919) % 1100) as f64 / 100.0;
+        let j = (seed.wrapping_mul(104_729) % 400) as f64 / 100.0;
+        Scenario {
+            valve: Box::new(
+                Kano::params()
+                    .s(s)
+                    .j(j.min(s))
+                    .check()
+                    .expect("S in [1, 12] and 0 <= J <= S are valid"),
+            ),
+            seed,
+            ..Scenario::default()
+        }
+    }
+
     /// Parse a scenario from JSON (unknown fields are rejected; missing ones take their
     /// defaults) and [validate](Scenario::validate) it.
     pub fn from_json(json: &str) -> Result<Scenario, DataError> {

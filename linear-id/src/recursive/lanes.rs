@@ -119,7 +119,7 @@ impl Recursive {
                     (fit, group[members[l]].start)
                 });
                 // lane l's prediction in the record's time frame: sample t is its t - start
-                let mut buf = vec![[0.0; LANES]; y.len()];
+                let mut buf = crate::lanes::Scratch::zeroed(y.len());
                 for (l, &g) in members.iter().enumerate() {
                     let r = &group[g];
                     for (b, &v) in buf[r.start..].iter_mut().zip(&outs[r.index]) {
@@ -234,8 +234,8 @@ impl Recursive {
         let mut lam = [t.lambda_theta0; LANES];
         let mut beta = [0.0; LANES];
         let mut pb = [t.p_beta0; LANES];
-        let mut eps = vec![[0.0; LANES]; split];
-        let mut betas = vec![[0.0; LANES]; if self.bias { split } else { 0 }];
+        let mut eps = crate::lanes::Scratch::zeroed(split);
+        let mut betas = crate::lanes::Scratch::zeroed(if self.bias { split } else { 0 });
         let mut diverged: [Option<usize>; LANES] = [None; LANES];
         let mut phi = [[0.0; LANES]; D];
         for k in first..split {
@@ -368,7 +368,7 @@ fn recursion_lanes(fits: [(&LinearFit, usize); LANES], y: &[f64], out: &mut [Lan
     let nc = cs[0].len();
     let n0 = first.first_sample();
     let ym = fits.map(|(fit, _)| fit.y_mean);
-    let mut eps = vec![[0.0; LANES]; if nc > 0 { y.len() } else { 0 }];
+    let mut eps = crate::lanes::Scratch::zeroed(if nc > 0 { y.len() } else { 0 });
     let mut beta = [0.0; LANES];
     let p0 = first.bias.map_or(0.0, |bt| bt.p0);
     let mut pb = [p0; LANES];
