@@ -15,7 +15,7 @@ mod lanes;
 use crate::error::{check_data, check_finite, check_order, check_real};
 use crate::registry::resolve;
 use crate::{
-    la, mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue,
+    la, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue,
     Structure,
 };
 
@@ -464,6 +464,51 @@ fn step6_columns(
     }
 }
 
+/// [`step6_columns`] for the compile-time state dimension `N`: the recursions' states in
+/// registers, the same operations in the same order (so the same bits).
+#[inline(always)]
+fn step6_columns_fixed<const N: usize>(
+    ak: &[f64],
+    c: &[f64],
+    us: &[f64],
+    ys: &[f64],
+    d_required: bool,
+    ab: &mut [f64],
+) {
+    let len = us.len().min(ys.len());
+    let a: [[f64; N]; N] = std::array::from_fn(|i| std::array::from_fn(|j| ak[i * N + j]));
+    let c: [f64; N] = std::array::from_fn(|j| c[j]);
+    let d_off = usize::from(d_required);
+    let (mut z, mut w, mut v) = ([0.0; N], [0.0; N], c);
+    let (cols, rest) = ab.split_at_mut(3 * N * len + d_off * len);
+    let _ = rest;
+    let (bk, rest) = cols.split_at_mut(N * len);
+    let (dcol, rest) = rest.split_at_mut(d_off * len);
+    let (kk, x0) = rest.split_at_mut(N * len);
+    for t in 0..len {
+        let (ut, yt) = (us[t], ys[t]);
+        for r in 0..N {
+            bk[r * len + t] = z[r];
+            kk[r * len + t] = w[r];
+            x0[r * len + t] = v[r];
+        }
+        let (mut zn, mut wn, mut vn) = ([0.0; N], [0.0; N], [0.0; N]);
+        for j in 0..N {
+            let (mut zj, mut wj, mut vj) = (ut * c[j], yt * c[j], 0.0);
+            for i in 0..N {
+                zj += z[i] * a[i][j];
+                wj += w[i] * a[i][j];
+                vj += v[i] * a[i][j];
+            }
+            (zn[j], wn[j], vn[j]) = (zj, wj, vj);
+        }
+        (z, w, v) = (zn, wn, vn);
+    }
+    if d_required {
+        dcol.copy_from_slice(&us[..len]);
+    }
+}
+
 /// [`step6_columns`] with the state dimension a compile-time constant for `n <= 4`.
 fn step6_columns_dispatch(
     n: usize,
@@ -474,15 +519,13 @@ fn step6_columns_dispatch(
     d_required: bool,
     ab: &mut [f64],
 ) {
-    macro_rules! fixed {
-        ($($n:literal)*) => {
-            match n {
-                $($n => step6_columns($n, ak, c, us, ys, d_required, ab),)*
-                _ => step6_columns(n, ak, c, us, ys, d_required, ab),
-            }
-        };
+    match n {
+        1 => step6_columns_fixed::<1>(ak, c, us, ys, d_required, ab),
+        2 => step6_columns_fixed::<2>(ak, c, us, ys, d_required, ab),
+        3 => step6_columns_fixed::<3>(ak, c, us, ys, d_required, ab),
+        4 => step6_columns_fixed::<4>(ak, c, us, ys, d_required, ab),
+        _ => step6_columns(n, ak, c, us, ys, d_required, ab),
     }
-    fixed!(1 2 3 4)
 }
 
 /// Step 3's `W² = Zp Zpᵀ - (Zp Ufᵀ) pinv(Uf Ufᵀ) (Uf Zpᵀ)` from the Gram matrix of
@@ -544,19 +587,19 @@ impl ParsimK {
         let prm = self.p;
         let (f, p) = (prm.f, prm.p);
         let len = y.len();
+        // means and standard deviations with independent partial sums (vectorised)
+        let mean = |x: &[f64]| la::sum(x) / x.len() as f64;
         let (u_mean, y_mean) = if prm.center {
             (mean(u), mean(y))
         } else {
             (0.0, 0.0)
         };
         // scale by the standard deviation (as SIPPY: np.std of the data given to PARSIM-K)
-        let std = |x: &[f64]| {
-            let m = mean(x);
-            (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / x.len() as f64).sqrt()
-        };
+        let std = |x: &[f64]| (la::sum_sq_about(x, mean(x)) / x.len() as f64).sqrt();
         let (su, sy) = (std(u), std(y));
-        let us: Vec<f64> = u.iter().map(|v| (v - u_mean) / su).collect();
-        let ys: Vec<f64> = y.iter().map(|v| (v - y_mean) / sy).collect();
+        let (inv_su, inv_sy) = (1.0 / su, 1.0 / sy);
+        let us: Vec<f64> = u.iter().map(|v| (v - u_mean) * inv_su).collect();
+        let ys: Vec<f64> = y.iter().map(|v| (v - y_mean) * inv_sy).collect();
         let ncol = len + 1 - p - f; // number of time columns N
                                     // --- Step 1 (transposed: one row per time t = p + j)
         let zp_cols = 2 * p;
