@@ -15,8 +15,7 @@ mod lanes;
 use crate::error::{check_data, check_finite, check_order, check_real};
 use crate::registry::resolve;
 use crate::{
-    la, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue,
-    Structure,
+    la, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue, Structure,
 };
 
 /// PARSIM-K state-space identification, eq. (6) in innovation form.
