@@ -372,10 +372,46 @@ struct ShiftedProducts {
     uy: Vec<f64>,
 }
 
+/// PARSIM-K's output-only quantities for one identification window: the mean (0 without
+/// centering), the standard deviation, the scaled output and its shifted self-products.
+struct Output {
+    mean: f64,
+    sd: f64,
+    ys: Vec<f64>,
+    yy: Vec<f64>,
+}
+
+/// `(mean, sd, (x - mean) / sd)`: the centering (mean 0 when `center` is false) and the scaling
+/// by the standard deviation (as SIPPY: `np.std` of the data given to PARSIM-K), the sums with
+/// independent partial sums (vectorised), the scaling by the reciprocal.
+fn scaled(x: &[f64], center: bool) -> (f64, f64, Vec<f64>) {
+    let mean = |x: &[f64]| la::sum(x) / x.len() as f64;
+    let m = if center { mean(x) } else { 0.0 };
+    let sd = (la::sum_sq_about(x, mean(x)) / x.len() as f64).sqrt();
+    let inv = 1.0 / sd;
+    (m, sd, x.iter().map(|v| (v - m) * inv).collect())
+}
+
 impl ShiftedProducts {
-    /// Compiled for the best instruction set (the dot products are written with fixed
-    /// partial sums, so the same bits on every one).
-    fn new(us: &[f64], ys: &[f64], k: usize, ncol: usize) -> Self {
+    /// [`shifted_self_products`] compiled for the best instruction set (the same bits).
+    fn self_products(a: &[f64], k: usize, ncol: usize) -> Vec<f64> {
+        struct Run<'a> {
+            a: &'a [f64],
+            k: usize,
+            ncol: usize,
+        }
+        impl faer::traits::pulp::WithSimd for Run<'_> {
+            type Output = Vec<f64>;
+            #[inline(always)]
+            fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> Vec<f64> {
+                shifted_self_products(self.a, self.k, self.ncol)
+            }
+        }
+        faer::traits::pulp::Arch::new().dispatch(Run { a, k, ncol })
+    }
+
+    /// [`ShiftedProducts::new`] with the output's self-products `yy` already computed.
+    fn with_yy(us: &[f64], ys: &[f64], yy: Vec<f64>, k: usize, ncol: usize) -> Self {
         struct Run<'a> {
             us: &'a [f64],
             ys: &'a [f64],
@@ -383,19 +419,24 @@ impl ShiftedProducts {
             ncol: usize,
         }
         impl faer::traits::pulp::WithSimd for Run<'_> {
-            type Output = ShiftedProducts;
+            type Output = (Vec<f64>, Vec<f64>);
             #[inline(always)]
-            fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> ShiftedProducts {
+            fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> (Vec<f64>, Vec<f64>) {
                 let Run { us, ys, k, ncol } = self;
-                ShiftedProducts {
-                    k,
-                    uu: shifted_self_products(us, k, ncol),
-                    yy: shifted_self_products(ys, k, ncol),
-                    uy: shifted_products(us, k, ys, k, ncol),
-                }
+                (
+                    shifted_self_products(us, k, ncol),
+                    shifted_products(us, k, ys, k, ncol),
+                )
             }
         }
-        faer::traits::pulp::Arch::new().dispatch(Run { us, ys, k, ncol })
+        let (uu, uy) = faer::traits::pulp::Arch::new().dispatch(Run { us, ys, k, ncol });
+        ShiftedProducts { k, uu, yy, uy }
+    }
+
+    /// Every product of the scaled u and y (the tests' reference for [`Self::with_yy`]).
+    #[cfg(test)]
+    fn new(us: &[f64], ys: &[f64], k: usize, ncol: usize) -> Self {
+        Self::with_yy(us, ys, Self::self_products(ys, k, ncol), k, ncol)
     }
 
     /// `Σ_t s_a(t + a) s_b(t + b)` for the columns `(is_y, shift)` `a` and `b`.
@@ -583,22 +624,29 @@ impl ParsimK {
     }
 
     fn run(&self, u: &[f64], y: &[f64], route: Route) -> Result<LinearFit, IdError> {
+        self.run_with(u, &self.output(y), route)
+    }
+
+    /// What PARSIM-K computes from the output alone ([`Output`]): the grid's nodes share PV,
+    /// so the nodes of a batch with the same identification window share it.
+    fn output(&self, y: &[f64]) -> Output {
+        let (f, p) = (self.p.f, self.p.p);
+        let (mean, sd, ys) = scaled(y, self.p.center);
+        let ncol = (y.len() + 1).saturating_sub(p + f);
+        let yy = if ncol > 0 {
+            ShiftedProducts::self_products(&ys, p + f, ncol)
+        } else {
+            Vec::new()
+        };
+        Output { mean, sd, ys, yy }
+    }
+
+    fn run_with(&self, u: &[f64], out: &Output, route: Route) -> Result<LinearFit, IdError> {
         let prm = self.p;
         let (f, p) = (prm.f, prm.p);
-        let len = y.len();
-        // means and standard deviations with independent partial sums (vectorised)
-        let mean = |x: &[f64]| la::sum(x) / x.len() as f64;
-        let (u_mean, y_mean) = if prm.center {
-            (mean(u), mean(y))
-        } else {
-            (0.0, 0.0)
-        };
-        // scale by the standard deviation (as SIPPY: np.std of the data given to PARSIM-K)
-        let std = |x: &[f64]| (la::sum_sq_about(x, mean(x)) / x.len() as f64).sqrt();
-        let (su, sy) = (std(u), std(y));
-        let (inv_su, inv_sy) = (1.0 / su, 1.0 / sy);
-        let us: Vec<f64> = u.iter().map(|v| (v - u_mean) * inv_su).collect();
-        let ys: Vec<f64> = y.iter().map(|v| (v - y_mean) * inv_sy).collect();
+        let len = out.ys.len();
+        let (u_mean, su, us) = scaled(u, prm.center);
+        let (y_mean, sy, ys) = (out.mean, out.sd, &out.ys);
         let ncol = len + 1 - p - f; // number of time columns N
                                     // --- Step 1 (transposed: one row per time t = p + j)
         let zp_cols = 2 * p;
@@ -615,7 +663,7 @@ impl ParsimK {
             .chain((1..f).map(|i| (false, p + i)))
             .collect();
         // every column of steps 2 and 3 is a shift below p + f of u or y
-        let products = ShiftedProducts::new(&us, &ys, p + f, ncol);
+        let products = ShiftedProducts::with_yy(&us, ys, out.yy.clone(), p + f, ncol);
         // Step 3 needs the Gram of [Zp | Uf] (Hankel structure, no product of the full data)
         let gram = hankel_gram(&products, p, f);
 
@@ -630,7 +678,7 @@ impl ParsimK {
             None => {
                 let mut reg = Vec::with_capacity(ncol * (kreg + ntarg));
                 for &(is_y, shift) in &cols {
-                    let s = if is_y { &ys } else { &us };
+                    let s = if is_y { ys } else { &us };
                     reg.extend_from_slice(&s[shift..shift + ncol]);
                 }
                 pinv_ls(&mut reg, ncol, kreg, &sizes)?
@@ -723,8 +771,8 @@ impl ParsimK {
         let npar = 3 * n + usize::from(prm.d_required);
         let ak_flat: Vec<f64> = ak.iter().flatten().copied().collect();
         let mut ab = vec![0.0; len * (npar + 1)];
-        step6_columns_dispatch(n, &ak_flat, &c_s, &us, &ys, prm.d_required, &mut ab);
-        ab[npar * len..].copy_from_slice(&ys);
+        step6_columns_dispatch(n, &ak_flat, &c_s, &us, ys, prm.d_required, &mut ab);
+        ab[npar * len..].copy_from_slice(ys);
         let ls6 = pinv_ls(&mut ab, len, npar, &[npar])?;
         let theta = coef(
             &ls6.pinvs[0],
@@ -807,13 +855,22 @@ impl LinearIdentifier for ParsimK {
         outs: &mut [Vec<f64>],
     ) -> Vec<Result<crate::Identified, IdError>> {
         let split = split.min(y.len());
+        // the output's scaling and self-products, once per identification window
+        let mut outputs: Vec<(usize, Output)> = Vec::new();
         let mut fits: Vec<Result<(LinearFit, usize), IdError>> = inputs
             .iter()
             .map(|&(start, u)| {
                 let start = crate::input_start(start, u, y, split)?;
                 let (u_id, y_id) = (&u[start..split], &y[start..split]);
                 check_data(u_id, y_id, self.min_samples())?;
-                Ok((self.run(u_id, y_id, Route::Fast)?, start))
+                let at = match outputs.iter().position(|(s, _)| *s == start) {
+                    Some(at) => at,
+                    None => {
+                        outputs.push((start, self.output(y_id)));
+                        outputs.len() - 1
+                    }
+                };
+                Ok((self.run_with(u_id, &outputs[at].1, Route::Fast)?, start))
             })
             .collect();
         // the predictions: fits of one order up to 4 side by side, the others alone
