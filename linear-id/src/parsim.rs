@@ -235,18 +235,8 @@ fn step2_from_gram(
     cols: &[(bool, usize)],
     k: usize,
 ) -> Option<(Mat<f64>, Mat<f64>)> {
-    ls_from_gram(|i, j| h.get(cols[i], cols[j]), k, cols.len() - k)
-}
-
-/// `R` and `Qᵀ B` of a least-squares problem `[X | B]` (`k` regressors, `nt` targets) from
-/// its Gram matrix `g(i, j)` (only `j <= i` and the target columns `j >= k` are read), with
-/// the pivot test of [`step2_from_gram`] (where the construction is argued); `None` when a
-/// pivot is below it or a result is not finite.
-fn ls_from_gram(
-    g: impl Fn(usize, usize) -> f64,
-    k: usize,
-    nt: usize,
-) -> Option<(Mat<f64>, Mat<f64>)> {
+    let g = |i: usize, j: usize| h.get(cols[i], cols[j]);
+    let nt = cols.len() - k;
     let mut scale = vec![0.0; k];
     for (i, s) in scale.iter_mut().enumerate() {
         let d = g(i, i);
@@ -385,9 +375,9 @@ struct Output {
 /// by the standard deviation (as SIPPY: `np.std` of the data given to PARSIM-K), the sums with
 /// independent partial sums (vectorised), the scaling by the reciprocal.
 fn scaled(x: &[f64], center: bool) -> (f64, f64, Vec<f64>) {
-    let mean = |x: &[f64]| la::sum(x) / x.len() as f64;
-    let m = if center { mean(x) } else { 0.0 };
-    let sd = (la::sum_sq_about(x, mean(x)) / x.len() as f64).sqrt();
+    let mu = la::sum(x) / x.len() as f64;
+    let m = if center { mu } else { 0.0 };
+    let sd = (la::sum_sq_about(x, mu) / x.len() as f64).sqrt();
     let inv = 1.0 / sd;
     (m, sd, x.iter().map(|v| (v - m) * inv).collect())
 }
@@ -520,9 +510,8 @@ fn step6_columns_fixed<const N: usize>(
     let c: [f64; N] = std::array::from_fn(|j| c[j]);
     let d_off = usize::from(d_required);
     let (mut z, mut w, mut v) = ([0.0; N], [0.0; N], c);
-    let (cols, rest) = ab.split_at_mut(3 * N * len + d_off * len);
-    let _ = rest;
-    let (bk, rest) = cols.split_at_mut(N * len);
+    // the columns B_K, D (when estimated), K, x0 (and whatever follows x0)
+    let (bk, rest) = ab.split_at_mut(N * len);
     let (dcol, rest) = rest.split_at_mut(d_off * len);
     let (kk, x0) = rest.split_at_mut(N * len);
     for t in 0..len {
