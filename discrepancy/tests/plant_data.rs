@@ -60,9 +60,14 @@ fn plant_registrations_are_diagnosed_or_refused_clearly() {
                     .chosen
                     .and_then(|i| d.findings[i].extended.as_ref())
                     .map_or("-".to_string(), |x| format!("{:.2}", x.s));
+                let open = d
+                    .findings
+                    .iter()
+                    .find(|f| f.cause == discrepancy::UNEXPLAINED)
+                    .map_or("not run".to_string(), |f| format!("{:.1}", f.lr));
                 println!(
-                    "{name}: cause {} | baseline S {:.2} J {:.2} F_PV val {:.2} | extended S {ext} | gain {:+.2} | {:.1} s",
-                    d.cause,
+                    "{name}: causes {:?} | baseline S {:.2} J {:.2} F_PV val {:.2} | extended S {ext} | gain {:+.2} | open-set LR {open} | {:.1} s",
+                    d.causes,
                     d.baseline.s,
                     d.baseline.j,
                     d.baseline.fit_pv_val,

@@ -1,0 +1,37 @@
+//! The open-set check (`unexplained`) sees a process change that happens before the final
+//! valve's In.3 estimate settles: the grid search prefers a valve whose estimate starts after
+//! the change, so a check confined to the samples from `k₀` on would find nothing there.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{case, Effect};
+
+#[test]
+fn a_change_before_the_valve_estimate_settles_is_unexplained() {
+    // seed 0: the paper plant, then from sample 964 the slow plant's dynamics (gain x0.65)
+    let c = case(0, Effect::ProcessChange, 3000);
+    let change = c.sim.scenario.plant_change.as_ref().unwrap().at;
+    let d = c.diagnose(&[]);
+    let f = d.final_fit().unwrap_or(&d.baseline_fit);
+    let k0 = f.result.fits.valid_from;
+    let open = d
+        .findings
+        .iter()
+        .find(|f| f.cause == discrepancy::UNEXPLAINED)
+        .expect("the open-set check ran");
+    println!(
+        "change at {change}, k0 {k0}, causes {:?}, open-set LR {:.1} (threshold {:.0})",
+        d.causes, open.lr, open.threshold
+    );
+    // the case this test is about: nothing of the old process after k0
+    assert!(k0 >= change, "k0 {k0} before the change at {change}");
+    assert!(
+        d.causes.iter().any(|c| c == discrepancy::UNEXPLAINED),
+        "causes {:?}: the open-set LR {:.1} is below its threshold {:.0}",
+        d.causes,
+        open.lr,
+        open.threshold
+    );
+    assert!(open.evidence.contains("samples 0-"), "{}", open.evidence);
+}
