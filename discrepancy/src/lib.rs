@@ -421,7 +421,8 @@ pub struct Diagnosis {
     /// extended by every cause chosen before (step `k` on the model of `causes[..=k]`).
     pub steps: Vec<Vec<Finding>>,
     /// Index in each step of the cause it added (one fewer than `steps` when the last step
-    /// found nothing).
+    /// found nothing, or when the open set dropped the cause that step had picked: that
+    /// finding is then marked not significant, see `backward_under_change`).
     pub picks: Vec<usize>,
     /// Final (joint) model minus baseline F_PV on validation data (0 when none).
     pub gain_fit_pv_val: f64,
@@ -648,16 +649,63 @@ pub fn diagnose_with_progress(
             }
         }
     }
-    let mut cause = chosen.map_or("none".to_string(), |i| findings[i].cause.to_string());
     let Path {
         mut causes,
-        steps,
-        picks,
+        mut steps,
+        mut picks,
     } = path;
     if causes.is_empty() {
         // `no-stiction` (no forward selection after it)
         causes.extend(chosen.map(|i| findings[i].cause));
     }
+    // the open set: what the final model leaves that no registered cause explains
+    let mut open = None;
+    if reframed.is_none() && !options.disabled.iter().any(|d| d == UNEXPLAINED) {
+        let last = match (picks.len(), picks.last()) {
+            (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
+            _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
+        };
+        open = open_set(problem, last.unwrap_or(&base), options);
+    }
+    if open.as_ref().is_some_and(|f| f.significant) {
+        if let Some(i) = chosen.filter(|&i| findings[i].cause != "no-stiction") {
+            let drops = backward_under_change(problem, &base, &findings, i, &steps, &picks);
+            // the causes stay dropped only if the change is still significant on the model
+            // that remains (the open set is tested again on it)
+            let kept = picks.len() + 1 - drops.len();
+            let remaining = match kept {
+                0 => None,
+                1 => findings[i].fitted.as_ref(),
+                k => steps[k - 2][picks[k - 2]].fitted.as_ref(),
+            };
+            let again = (!drops.is_empty())
+                .then(|| open_set(problem, remaining.unwrap_or(&base), options))
+                .flatten();
+            if let Some(again) = again.filter(|f| f.significant) {
+                for (k, start, lr) in drops {
+                    let f = if k == 0 {
+                        &mut findings[i]
+                    } else {
+                        &mut steps[k - 1][picks[k - 1]]
+                    };
+                    f.significant = false;
+                    f.evidence = format!(
+                        "{} Not named: the process changed during the record (unexplained), and with both linear parts identified on the last third of the identification window alone (from sample {start}) the extension gains likelihood ratio {lr:.0} (threshold {:.0}): its gain on the whole window came from the change.",
+                        f.evidence, f.threshold
+                    );
+                }
+                open = Some(again);
+                causes.truncate(kept);
+                picks.truncate(kept.saturating_sub(1));
+                // the step that picked the first dropped cause stays, with that pick marked
+                steps.truncate(kept);
+                if kept == 0 {
+                    chosen = None;
+                }
+            }
+        }
+    }
+    let mut cause = chosen.map_or("none".to_string(), |i| findings[i].cause.to_string());
     // the final model: the last step's pick, else the first cause's extension
     let final_fit = match (picks.len(), picks.last()) {
         (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
@@ -683,22 +731,18 @@ pub fn diagnose_with_progress(
             );
         }
     }
-    // the open set: what the final model leaves that no registered cause explains
-    if reframed.is_none() && !options.disabled.iter().any(|d| d == UNEXPLAINED) {
-        let last = final_fit.unwrap_or(&base);
-        if let Some(f) = open_set(problem, last, options) {
-            if f.significant {
-                causes.push(UNEXPLAINED);
-                if cause == "none" {
-                    cause = UNEXPLAINED.to_string();
-                    // the baseline's "Cause: none" paragraph follows the finding
-                    summary = format!("{} {summary}", f.evidence);
-                } else {
-                    summary = format!("{summary} {}", f.evidence);
-                }
+    if let Some(f) = open {
+        if f.significant {
+            causes.push(UNEXPLAINED);
+            if cause == "none" {
+                cause = UNEXPLAINED.to_string();
+                // the baseline's "Cause: none" paragraph follows the finding
+                summary = format!("{} {summary}", f.evidence);
+            } else {
+                summary = format!("{summary} {}", f.evidence);
             }
-            findings.push(f);
         }
+        findings.push(f);
     }
     if let Some((name, ev, _, _)) = reframed {
         let finding = reframed_finding(problem, original_baseline, original, &base, name, ev)?;
@@ -1022,6 +1066,86 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
     })
 }
 
+/// Validation SSE of the one-step predictions of `m`'s linear part identified on
+/// `[max(k₀, from), N_id)` alone (its own estimated MV, orders and dead time).
+fn recent_sse(pv: &[f64], m: &Fitted, from: usize) -> Option<f64> {
+    let q = &m.result;
+    let (mv, ni) = (&q.mv_est, q.split_index);
+    let from = q.fits.valid_from.max(from);
+    if ni >= pv.len() || ni.saturating_sub(from) < m.identifier.min_samples() {
+        return None;
+    }
+    let fit = m.identifier.identify(&mv[from..ni], &pv[from..ni]).ok()?;
+    let p = fit.predict_one_step(&mv[from..], &pv[from..]).ok()?;
+    let sse: f64 = p[ni - from..]
+        .iter()
+        .zip(&pv[ni..])
+        .map(|(e, y)| (e - y) * (e - y))
+        .sum();
+    sse.is_finite().then_some(sse)
+}
+
+/// The causes chosen on a process that the open set finds changed, tested again from the last
+/// backwards: each extension against the model it was added to, both linear parts identified
+/// on the last third of the identification window alone, where the process is the changed
+/// one (`LR = n_val · ln(SSE_reference / SSE_extension)`, the cause's own threshold). A cause
+/// whose gain does not hold there gained on the whole window from the change itself, not
+/// from what it models: it is dropped with every cause added after it, and the first cause
+/// that holds ends the check (the final model stays a prefix of the forward selection).
+/// `findings[first]` is the first cause's finding, `steps` / `picks` the forward selection's.
+/// Returns the dropped causes, last first, as (position in the chain: 0 the first cause, `k`
+/// the `k`-th pick; the window's first sample; the LR there). A cause whose recent refit
+/// fails cannot be checked and stands.
+///
+/// Measured on the suite's process-change loops (docs/DIAGNOSE.md, item 6): a slow plant
+/// that becomes the faster paper plant gains significantly with `disturbance` or
+/// `valve-characteristic` on the whole window, and not on the recent third.
+fn backward_under_change(
+    problem: Problem<'_>,
+    base: &Fitted,
+    findings: &[Finding],
+    first: usize,
+    steps: &[Vec<Finding>],
+    picks: &[usize],
+) -> Vec<(usize, usize, f64)> {
+    let pv = problem.pv;
+    let ni = base.result.split_index;
+    let n_val = pv.len().saturating_sub(ni) as f64;
+    // the model after the k-th cause of the chain (k = 0: the first cause's extension)
+    let model = |k: usize| -> Option<&Fitted> {
+        if k == 0 {
+            findings[first].fitted.as_ref()
+        } else {
+            steps[k - 1][picks[k - 1]].fitted.as_ref()
+        }
+    };
+    let mut drops = Vec::new();
+    for k in (0..=picks.len()).rev() {
+        let finding = if k == 0 {
+            &findings[first]
+        } else {
+            &steps[k - 1][picks[k - 1]]
+        };
+        let reference = if k == 0 { Some(base) } else { model(k - 1) };
+        let (Some(ext), Some(reference)) = (model(k), reference) else {
+            break;
+        };
+        // the same window for both: the later of their valves' settling samples
+        let start = (2 * ni / 3)
+            .max(ext.result.fits.valid_from)
+            .max(reference.result.fits.valid_from);
+        let lr = match (recent_sse(pv, reference, start), recent_sse(pv, ext, start)) {
+            (Some(r), Some(m)) if m > 0.0 => n_val * (r / m).ln(),
+            _ => break,
+        };
+        if lr > finding.threshold {
+            break;
+        }
+        drops.push((k, start, lr));
+    }
+    drops
+}
+
 /// The finding of a cause that reframed the diagnosis ([`Cause::reframe`]): the baseline
 /// under the caller's search options (e.g. ranked by one-step prediction) against the
 /// reframed baseline `base`, compared by the reframed criterion's validation fit.
@@ -1148,7 +1272,19 @@ fn summarise(
         None => {
             let tested: Vec<String> = findings
                 .iter()
-                .map(|f| format!("{} (LR {:.0} vs {:.0})", f.cause, f.lr, f.threshold.abs()))
+                .map(|f| {
+                    if f.lr > f.threshold && f.threshold.is_finite() {
+                        // significant on the whole window, dropped by `backward_under_change`
+                        format!(
+                            "{} (LR {:.0} vs {:.0} on the whole window, gained from the process change)",
+                            f.cause,
+                            f.lr,
+                            f.threshold.abs()
+                        )
+                    } else {
+                        format!("{} (LR {:.0} vs {:.0})", f.cause, f.lr, f.threshold.abs())
+                    }
+                })
                 .collect();
             format!(
                 "Cause: none. The baseline estimate stands (S = {:.2} %, J = {:.2} %): no extension gains significantly on validation data ({}). {baseline}",

@@ -35,3 +35,33 @@ fn a_change_before_the_valve_estimate_settles_is_unexplained() {
     );
     assert!(open.evidence.contains("samples 0-"), "{}", open.evidence);
 }
+
+#[test]
+fn a_cause_that_gains_only_from_the_change_is_not_named() {
+    // suite seed 1015: the slow plant, then from sample 696 the paper plant's dynamics (gain
+    // x0.78); on the whole window `valve-characteristic` gains significantly, on the changed
+    // process alone (the last third of the identification window) it does not
+    let c = case(1015, Effect::ProcessChange, 3000);
+    let d = c.diagnose(&[]);
+    let dropped: Vec<&discrepancy::Finding> = d
+        .findings
+        .iter()
+        .chain(d.steps.iter().flatten())
+        .filter(|f| f.evidence.contains("Not named: the process changed"))
+        .collect();
+    println!(
+        "causes {:?}; dropped {:?}\n{}",
+        d.causes,
+        dropped.iter().map(|f| (f.cause, f.lr)).collect::<Vec<_>>(),
+        d.summary
+    );
+    assert_eq!(d.causes, vec![discrepancy::UNEXPLAINED]);
+    assert_eq!(d.cause, discrepancy::UNEXPLAINED);
+    assert!(
+        dropped
+            .iter()
+            .any(|f| f.cause == "valve-characteristic" && !f.significant),
+        "no cause dropped"
+    );
+    assert!(d.final_fit().is_none(), "the final model is the baseline");
+}
