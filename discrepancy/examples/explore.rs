@@ -17,6 +17,8 @@ fn main() {
         Effect::Oscillation,
         Effect::Characteristic,
         Effect::DisturbanceDelay,
+        Effect::DisturbanceAsymmetric,
+        Effect::DelayAsymmetric,
     ];
     let effects: Vec<Effect> = match args.get(2) {
         Some(w) if w != "all" => all
@@ -35,6 +37,25 @@ fn main() {
                 .map(|s| s.split(',').map(str::to_string).collect())
                 .unwrap_or_default();
             let d = c.diagnose(&disabled);
+            if std::env::var_os("TIMES").is_some() {
+                for f in d.findings.iter() {
+                    println!(
+                        "  round 1 {} {:.0} ms",
+                        f.cause,
+                        f.fitted.as_ref().map_or(f64::NAN, |x| x.elapsed_ms)
+                    );
+                }
+                for (k, st) in d.steps.iter().enumerate() {
+                    for f in st {
+                        println!(
+                            "  step {} {} {:.0} ms",
+                            k + 1,
+                            f.cause,
+                            f.fitted.as_ref().map_or(f64::NAN, |x| x.elapsed_ms)
+                        );
+                    }
+                }
+            }
             let ok = if d.cause == e.cause() { "OK " } else { "BAD" };
             let f: Vec<String> = d
                 .findings

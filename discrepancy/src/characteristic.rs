@@ -219,6 +219,7 @@ impl Cause for ValveCharacteristic {
             entry,
             linear,
             identifier,
+            delay: ctx.baseline.delay,
             started,
         }
         .extension(ctx, nodes, "the baseline's estimate (S, J, a = 0)", ref_fit, "best valve with a negligible characteristic (gain change <= 10 % over OP's range) of the same search")

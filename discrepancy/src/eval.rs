@@ -15,11 +15,13 @@ use stiction_models::ModelEntry;
 use crate::{Context, DiagnoseError, Extension, Fitted};
 
 /// An extended model found by a local search rather than a grid: the stiction model, the
-/// identifier (the baseline's, at its dead time) and when the extension started.
+/// identifier (at the dead time `delay`) and when the extension started.
 pub(crate) struct LocalFit {
     pub entry: &'static ModelEntry,
     pub linear: &'static IdentifierEntry,
     pub identifier: Box<dyn LinearIdentifier>,
+    /// The dead time `identifier` was built for.
+    pub delay: usize,
     pub started: Instant,
 }
 
@@ -53,7 +55,7 @@ impl LocalFit {
             stiction: self.entry,
             linear: self.linear.name,
             identifier: self.identifier,
-            delay: ctx.baseline.delay,
+            delay: self.delay,
             delay_scan: None,
             result,
             elapsed_ms: self.started.elapsed().as_secs_f64() * 1e3,
