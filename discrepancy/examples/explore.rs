@@ -101,6 +101,11 @@ fn main() {
                         .map(|f| format!("{} LR {:.0} {} ms", f.cause, f.lr, ms(f)))
                         .collect();
                     println!("    step {k}: {}", v.join(", "));
+                    for f in step {
+                        if let Some(x) = &f.fitted {
+                            println!("      {} -> {} + {} delay {} params {:?} fit {:.3}", f.cause, x.stiction.name, x.linear, x.delay, x.result.stiction.param_values(), x.fit_val());
+                        }
+                    }
                 }
                 println!(
                     "    final S {:.2}",

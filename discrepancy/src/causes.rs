@@ -178,7 +178,7 @@ impl Cause for AsymmetricStiction {
         let fine = ctx.options.search.grid.step();
         let snap = |v: f64| (v / fine).round() * fine;
         let start = vec![snap((q.s - q.j).max(0.0)), snap(q.j), snap(q.j)];
-        let search = |directions: Vec<Vec<f64>>, from: &[f64]| {
+        let search_at = |fine: f64, directions: Vec<Vec<f64>>, from: &[f64]| {
             PatternSearch {
                 entry,
                 identifier: identifier.as_ref(),
@@ -194,6 +194,7 @@ impl Cause for AsymmetricStiction {
             }
             .run(from)
         };
+        let search = |directions: Vec<Vec<f64>>, from: &[f64]| search_at(fine, directions, from);
         let crit = ctx.options.search.criterion;
         let best_of = |nodes: &[grid_search::NodeFit]| {
             nodes
@@ -238,8 +239,12 @@ impl Cause for AsymmetricStiction {
         // asymmetric optimum, so a better symmetric point found by the free search does not
         // count as asymmetry.
         let (free_best, _) = best_of(&free).unwrap_or((sym_best.clone(), sym_fit));
-        let jm = snap((free_best[1] + free_best[2]) / 2.0);
-        let sym2 = search(
+        // on a lattice of half the fine step: the mean of two slip jumps one fine step apart
+        // is not on the fine lattice, and a one-step "asymmetry" is the lattice's resolution
+        let half = fine / 2.0;
+        let jm = ((free_best[1] + free_best[2]) / 2.0 / half).round() * half;
+        let sym2 = search_at(
+            half,
             vec![
                 vec![1.0, 0.0, 0.0],
                 vec![0.0, 1.0, 1.0],
