@@ -103,7 +103,15 @@ fn main() {
                     println!("    step {k}: {}", v.join(", "));
                     for f in step {
                         if let Some(x) = &f.fitted {
-                            println!("      {} -> {} + {} delay {} params {:?} fit {:.3}", f.cause, x.stiction.name, x.linear, x.delay, x.result.stiction.param_values(), x.fit_val());
+                            println!(
+                                "      {} -> {} + {} delay {} params {:?} fit {:.3}",
+                                f.cause,
+                                x.stiction.name,
+                                x.linear,
+                                x.delay,
+                                x.result.stiction.param_values(),
+                                x.fit_val()
+                            );
                         }
                     }
                 }
