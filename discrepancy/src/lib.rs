@@ -661,7 +661,14 @@ pub fn diagnose_with_progress(
         };
         open = open_set(problem, last.unwrap_or(&base), options);
     }
-    if open.as_ref().is_some_and(|f| f.significant) {
+    // A change the chosen causes absorbed: the open set is not significant on the final model
+    // but is on the baseline. The chosen causes are then re-tested on the changed process in
+    // the same way; the change is named only if they drop and it shows on what remains.
+    let changed = open.as_ref().is_some_and(|f| f.significant)
+        || (open.is_some()
+            && chosen.is_some_and(|i| findings[i].cause != "no-stiction")
+            && open_set(problem, &base, options).is_some_and(|f| f.significant));
+    if changed {
         if let Some(i) = chosen.filter(|&i| findings[i].cause != "no-stiction") {
             let drops = backward_under_change(problem, &base, &findings, i, &steps, &picks);
             // the causes stay dropped only if the change is still significant on the model

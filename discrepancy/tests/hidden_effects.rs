@@ -15,7 +15,7 @@
 //! valve-characteristic); for the characteristic loops, the set of causes exactly
 //! `valve-characteristic` in >= 80 % (the target is 90 % at full size; one miss of 6 at CI
 //! size is 83 %); for the process-change loops, `unexplained` among the causes in >= 2/3
-//! (measured 5/6 at CI size, 17/24 at full size; the target is 80 %: docs/DIAGNOSE.md. They do not count
+//! (measured 5/6 at CI size, 18/24 at full size; the target is 80 %: docs/DIAGNOSE.md. They do not count
 //! in the 90 % of the effect loops: a registered cause that gains significantly on them is
 //! named before `unexplained`); for each pair, both causes exactly in >= 1/2 (measured 3/6,
 //! 3/6, 6/6 at CI size; the target is 90 %: docs/DIAGNOSE.md; not counted in the
