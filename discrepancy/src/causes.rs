@@ -82,20 +82,14 @@ fn local_disturbance(ctx: &Context<'_>, name: &str) -> Result<Extension, Diagnos
         .combination(entry, linear, ctx.baseline.delay)
         .identifier(ctx.baseline.delay)?;
     let nodes = axis_search(ctx, identifier.as_ref(), &current_valve(ctx))?;
-    LocalFit {
+    let fit = LocalFit {
         entry,
         linear,
         identifier,
         delay: ctx.baseline.delay,
         started,
-    }
-    .extension(
-        ctx,
-        nodes,
-        "the current valve",
-        ctx.baseline.fit_val(),
-        "baseline",
-    )
+    };
+    from_current_valve(ctx, fit, nodes)
 }
 
 /// The current model's valve parameters, on the grid's fine lattice.
@@ -111,31 +105,68 @@ fn current_valve(ctx: &Context<'_>) -> Vec<f64> {
 }
 
 /// A pattern search of the current valve's model with `identifier` from `start`, one
-/// direction per parameter, the steps of the asymmetric search (span/20 halved to the fine
-/// step), at most 400 nodes.
+/// direction per parameter, at most 400 nodes.
 fn axis_search(
     ctx: &Context<'_>,
     identifier: &dyn LinearIdentifier,
     start: &[f64],
 ) -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
-    let fine = ctx.options.search.grid.step();
     let k = start.len();
+    let directions = (0..k)
+        .map(|i| (0..k).map(|j| f64::from(u8::from(i == j))).collect())
+        .collect();
+    let fine = ctx.options.search.grid.step();
+    pattern_search(
+        ctx,
+        ctx.baseline_spec.stiction,
+        identifier,
+        fine,
+        directions,
+        start,
+    )
+}
+
+/// A pattern search of `entry` with `identifier` from `start` along `directions`: steps from
+/// span/20 halved down to `fine` (also the rounding lattice), at most 400 nodes, the model's
+/// own admissible region.
+fn pattern_search(
+    ctx: &Context<'_>,
+    entry: &'static stiction_models::ModelEntry,
+    identifier: &dyn LinearIdentifier,
+    fine: f64,
+    directions: Vec<Vec<f64>>,
+    start: &[f64],
+) -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
     PatternSearch {
-        entry: ctx.baseline_spec.stiction,
+        entry,
         identifier,
         problem: ctx.problem,
         options: &ctx.options.search,
         span: ctx.span,
         coarse: (ctx.span / 20.0).max(fine),
         fine,
-        directions: (0..k)
-            .map(|i| (0..k).map(|j| f64::from(u8::from(i == j))).collect())
-            .collect(),
+        directions,
         budget: 400,
         scales: Vec::new(),
         admit: None,
     }
     .run(start)
+}
+
+/// The extension a local search from the current valve found (`local_disturbance`,
+/// `local_delay`), against the current model (one extra parameter).
+fn from_current_valve(
+    ctx: &Context<'_>,
+    fit: LocalFit,
+    nodes: Vec<grid_search::NodeFit>,
+) -> Result<Extension, DiagnoseError> {
+    fit.extension(
+        ctx,
+        nodes,
+        "the current valve",
+        ctx.baseline.fit_val(),
+        "baseline",
+    )
 }
 
 /// Friction that differs by direction: extend the stiction model to `kano-asym` (D, J_up,
@@ -179,20 +210,7 @@ impl Cause for AsymmetricStiction {
         let snap = |v: f64| (v / fine).round() * fine;
         let start = vec![snap((q.s - q.j).max(0.0)), snap(q.j), snap(q.j)];
         let search_at = |fine: f64, directions: Vec<Vec<f64>>, from: &[f64]| {
-            PatternSearch {
-                entry,
-                identifier: identifier.as_ref(),
-                problem: ctx.problem,
-                options: &ctx.options.search,
-                span: ctx.span,
-                coarse: (ctx.span / 20.0).max(fine),
-                fine,
-                directions,
-                budget: 400,
-                scales: Vec::new(),
-                admit: None,
-            }
-            .run(from)
+            pattern_search(ctx, entry, identifier.as_ref(), fine, directions, from)
         };
         let search = |directions: Vec<Vec<f64>>, from: &[f64]| search_at(fine, directions, from);
         let crit = ctx.options.search.criterion;
@@ -371,20 +389,14 @@ fn local_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         .unwrap_or(spec.fixed_delay() + 1);
     let identifier = spec.identifier(best)?;
     let nodes = axis_search(ctx, identifier.as_ref(), &start)?;
-    let mut ext = LocalFit {
+    let fit = LocalFit {
         entry,
         linear: spec.linear,
         identifier,
         delay: best,
         started,
-    }
-    .extension(
-        ctx,
-        nodes,
-        "the current valve",
-        ctx.baseline.fit_val(),
-        "baseline",
-    )?;
+    };
+    let mut ext = from_current_valve(ctx, fit, nodes)?;
     ext.fitted.delay_scan = Some(grid_search::DelayScan {
         delay: best,
         scores,

@@ -991,23 +991,15 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
     use stiction_models::{Direction, InitialState, Initialization};
     let q = &last.result;
     let (pv, mv) = (problem.pv, &q.mv_est);
-    let (k0, ni, n) = (q.fits.valid_from, q.split_index, pv.len());
-    let from = k0.max(2 * ni / 3);
-    if ni >= n || ni.saturating_sub(from) < last.identifier.min_samples() {
-        return None;
-    }
+    let (ni, n) = (q.split_index, pv.len());
+    // the recent third, not before the valve's estimate holds (`k₀`)
+    let (from, recent, s_recent) = recent_fit(pv, last, 2 * ni / 3)?;
     let sse = |est: &[f64]| -> f64 {
         est.iter()
             .zip(&pv[ni..])
             .map(|(e, y)| (e - y) * (e - y))
             .sum()
     };
-    let recent = last
-        .identifier
-        .identify(&mv[from..ni], &pv[from..ni])
-        .ok()?;
-    let pred = recent.predict_one_step(&mv[from..], &pv[from..]).ok()?;
-    let s_recent = sse(&pred[ni - from..]);
     let starts = [Direction::Up, Direction::Down]
         .into_iter()
         .flat_map(|direction| {
@@ -1067,9 +1059,10 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
     })
 }
 
-/// Validation SSE of the one-step predictions of `m`'s linear part identified on
-/// `[max(k₀, from), N_id)` alone (its own estimated MV, orders and dead time).
-fn recent_sse(pv: &[f64], m: &Fitted, from: usize) -> Option<f64> {
+/// `m`'s linear part identified on `[max(k₀, from), N_id)` alone (its own estimated MV, orders
+/// and dead time): that window's first sample, the fit, and the validation SSE of its one-step
+/// predictions (`None` when the window is too short, the fit fails or the SSE is not finite).
+fn recent_fit(pv: &[f64], m: &Fitted, from: usize) -> Option<(usize, linear_id::LinearFit, f64)> {
     let q = &m.result;
     let (mv, ni) = (&q.mv_est, q.split_index);
     let from = q.fits.valid_from.max(from);
@@ -1083,7 +1076,7 @@ fn recent_sse(pv: &[f64], m: &Fitted, from: usize) -> Option<f64> {
         .zip(&pv[ni..])
         .map(|(e, y)| (e - y) * (e - y))
         .sum();
-    sse.is_finite().then_some(sse)
+    sse.is_finite().then_some((from, fit, sse))
 }
 
 /// The causes chosen on a process that the open set finds changed, tested again from the last
@@ -1135,8 +1128,8 @@ fn backward_under_change(
         let start = (2 * ni / 3)
             .max(ext.result.fits.valid_from)
             .max(reference.result.fits.valid_from);
-        let lr = match (recent_sse(pv, reference, start), recent_sse(pv, ext, start)) {
-            (Some(r), Some(m)) if m > 0.0 => n_val * (r / m).ln(),
+        let lr = match (recent_fit(pv, reference, start), recent_fit(pv, ext, start)) {
+            (Some((_, _, r)), Some((_, _, m))) if m > 0.0 => n_val * (r / m).ln(),
             _ => break,
         };
         if lr > finding.threshold {
