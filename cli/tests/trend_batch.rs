@@ -327,11 +327,18 @@ fn trend_makes_no_maintenance_call_on_a_valve_the_detector_finds_healthy() {
         "S alone would schedule maintenance: level {level}"
     );
     let regs = doc["combinations"][0]["registrations"].as_array().unwrap();
+    // The rule: every conclusive verdict of the latest usable registrations is no-stiction,
+    // and there is at least one.
+    let mut healthy = 0;
     for r in regs {
         assert_eq!(r["flag"], "ok", "{r}");
-        assert_eq!(r["detection"]["verdict"], "no-stiction", "{r}");
-        assert!(r["detection"]["score"].as_f64().unwrap() <= 0.35, "{r}");
+        assert_ne!(r["detection"]["verdict"], "stiction", "{r}");
+        if r["detection"]["verdict"] == "no-stiction" {
+            healthy += 1;
+            assert!(r["detection"]["score"].as_f64().unwrap() <= 0.35, "{r}");
+        }
     }
+    assert!(healthy >= 1, "{regs:?}");
     assert_eq!(doc["verdict"], "watch", "{}", doc["reason"]);
     let reason = doc["reason"].as_str().unwrap();
     assert!(

@@ -32,19 +32,32 @@
 //! Built-in tests (each module cites its source): [`oscillation`] (Thornhill et al. 2003),
 //! [`horch`] (Horch 1999; Horch & Isaksson 2001), [`curve_fit`] (He et al. 2007),
 //! [`bicoherence`] (Choudhury et al. 2004, 2006), [`shape`] (Yamashita 2006; Singhal &
-//! Salsbury 2005).
+//! Salsbury 2005), [`hammerstein`] (the reference paper's identification used for detection,
+//! after Choudhury, Jain & Shah 2008).
 //!
-//! **Hook for more evidence.** A test implemented in another crate (e.g. the Hammerstein
-//! likelihood ratio of the best stiction model against S = J = 0, which needs the grid search
-//! of the `monitoring` crate) registers a [`TestEntry`] the same way; [`detect`] runs it and
-//! lists its outcome. It enters the score once [`score::FEATURES`] has a feature for it and
-//! `cargo xtask detect-calibrate` has re-fitted [`score::WEIGHTS`]; a caller that computes such
-//! evidence itself appends its outcome and calls [`combine`].
+//! **Hook for more evidence.** A test implemented in another crate registers a [`TestEntry`]
+//! the same way; [`detect`] runs it and lists its outcome. It enters the score once
+//! [`score::FEATURES`] has a feature for it and `cargo xtask detect-calibrate` has re-fitted
+//! [`score::WEIGHTS`]; a caller that computes such evidence itself appends its outcome and
+//! calls [`combine`].
 
 use std::sync::OnceLock;
 
+/// The valve position's stand-in of a registration ([`Registration::valve_proxy`]).
+pub(crate) struct ValveProxy<'a> {
+    /// `PV` or `ΔPV`.
+    pub name: &'static str,
+    /// The proxy series.
+    pub y: Vec<f64>,
+    /// OP aligned with it.
+    pub op: &'a [f64],
+    /// PV aligned with it.
+    pub pv: &'a [f64],
+}
+
 pub mod bicoherence;
 pub mod curve_fit;
+pub mod hammerstein;
 pub mod horch;
 pub mod logistic;
 pub mod oscillation;
@@ -384,6 +397,26 @@ impl<'a> Registration<'a> {
     /// The oscillation of the control error (Thornhill's ACF regularity; computed once).
     pub fn oscillation(&self) -> Result<&Oscillation, DetectionError> {
         self.prepared().map(|p| &p.oscillation)
+    }
+
+    /// What stands for the valve position: PV for a self-regulating loop, ΔPV (the level's
+    /// rate, proportional to the flow) for an integrating one; OP and PV aligned with it.
+    pub(crate) fn valve_proxy(&self) -> ValveProxy<'_> {
+        if self.integrating {
+            ValveProxy {
+                name: "ΔPV",
+                y: self.pv.windows(2).map(|w| w[1] - w[0]).collect(),
+                op: &self.op[1..],
+                pv: &self.pv[1..],
+            }
+        } else {
+            ValveProxy {
+                name: "PV",
+                y: self.pv.to_vec(),
+                op: self.op,
+                pv: self.pv,
+            }
+        }
     }
 
     pub(crate) fn prepared(&self) -> Result<&Prepared, DetectionError> {

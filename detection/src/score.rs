@@ -10,9 +10,10 @@
 //! `docs/DETECTION.md` has the numbers).
 //!
 //! The verdict: `stiction` when the score is at least [`STICTION_AT`] *and* the loop shows
-//! the valve's dynamics — a regular oscillation (a limit cycle) or stick-slip (the stick-slip
-//! test's own verdict): the shape tests alone never call a loop that does not oscillate and
-//! does not stick sticky; `no-stiction` when the score is at most [`NO_STICTION_AT`];
+//! the valve's dynamics — a regular oscillation (a limit cycle), stick-slip (the stick-slip
+//! test's own verdict) or a sticky valve that explains PV (the Hammerstein test's own
+//! verdict): the shape tests alone never call a loop that does not oscillate and does not
+//! stick sticky; `no-stiction` when the score is at most [`NO_STICTION_AT`];
 //! `inconclusive` between, and whenever the data cannot be judged (too short, flat, NaN),
 //! with the reason.
 
@@ -40,7 +41,7 @@ fn stat(o: &TestOutcome) -> Option<f64> {
 /// them: a regular oscillation is a condition of the `stiction` verdict (or stick-slip), not
 /// evidence for it — healthy loops oscillate too (external disturbances, tuning), and on the
 /// plant data the sticky valve's records are the irregular ones.
-pub const FEATURES: [Feature; 6] = [
+pub const FEATURES: [Feature; 8] = [
     Feature {
         name: "odd_share",
         test: "horch-xcorr",
@@ -77,13 +78,30 @@ pub const FEATURES: [Feature; 6] = [
         meaning: "ln R, clipped to [−1, 1]",
         extract: |o| stat(o).map(|r| r.ln().clamp(-1.0, 1.0)),
     },
+    Feature {
+        name: "hammerstein_oe",
+        test: "hammerstein",
+        meaning: "ln(1 + LR) / ln 100 − 0.5 of the output-error Kano valve against a free one",
+        extract: |o| stat(o).map(|lr| (1.0 + lr.max(0.0)).ln() / 100f64.ln() - 0.5),
+    },
+    Feature {
+        name: "hammerstein_arx",
+        test: "hammerstein",
+        meaning: "ln(1 + LR) / ln 100 − 0.5, at least 0, of the one-step ARX Kano valve against a free one",
+        extract: |o| {
+            o.value("lr_arx")
+                .map(|lr| ((1.0 + lr.max(0.0)).ln() / 100f64.ln() - 0.5).max(0.0))
+        },
+    },
 ];
 
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (240 simulated
 /// training loops, seeds 1..240, ridge 0.1; no plant registration in the fit).
-pub const INTERCEPT: f64 = 0.1052;
+pub const INTERCEPT: f64 = -1.1884;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]).
-pub const WEIGHTS: [f64; 6] = [1.2666, -0.5287, 2.7736, -0.4499, 0.2300, 1.4114];
+pub const WEIGHTS: [f64; 8] = [
+    -1.4236, -1.0524, 4.2862, -0.0090, 0.2517, 2.3108, 2.1894, 5.4626,
+];
 
 /// Score at or above which the verdict may be `stiction`.
 pub const STICTION_AT: f64 = 0.65;
@@ -170,26 +188,35 @@ pub fn combine(reg: &Registration<'_>, tests: Vec<TestOutcome>, model: &Model) -
         .filter(|o| o.is_regular())
         .and_then(|o| o.period)
         .map(|p| p * reg.sample_time());
-    let stick_slip = tests
-        .iter()
-        .any(|t| t.name == "stick-slip" && t.verdict == Verdict::Stiction);
+    let says = |name: &str| {
+        tests
+            .iter()
+            .any(|t| t.name == name && t.verdict == Verdict::Stiction)
+    };
+    let stick_slip = says("stick-slip");
+    let hammer = says("hammerstein");
     let (verdict, reason) = match reg.check() {
         Err(e) => (Verdict::Inconclusive, degenerate_reason(&e)),
-        Ok(()) if score >= STICTION_AT && (oscillating || stick_slip) => (
-            Verdict::Stiction,
-            format!(
-                "score {score:.2} >= {STICTION_AT} with {}",
-                match (oscillating, stick_slip) {
-                    (true, true) => "a regular oscillation and stick-slip",
-                    (true, false) => "a regular oscillation",
-                    _ => "stick-slip",
-                }
-            ),
-        ),
+        Ok(()) if score >= STICTION_AT && (oscillating || stick_slip || hammer) => {
+            let mut with = Vec::new();
+            if oscillating {
+                with.push("a regular oscillation");
+            }
+            if stick_slip {
+                with.push("stick-slip");
+            }
+            if hammer {
+                with.push("a sticky valve explaining PV");
+            }
+            (
+                Verdict::Stiction,
+                format!("score {score:.2} >= {STICTION_AT} with {}", with.join(" and ")),
+            )
+        }
         Ok(()) if score >= STICTION_AT => (
             Verdict::Inconclusive,
             format!(
-                "score {score:.2} >= {STICTION_AT}, but no regular oscillation and no stick-slip: the shape tests alone do not make a sticky valve"
+                "score {score:.2} >= {STICTION_AT}, but no regular oscillation, no stick-slip and no sticky valve that explains PV: the shape tests alone do not make a sticky valve"
             ),
         ),
         Ok(()) if score <= NO_STICTION_AT => (

@@ -36,6 +36,7 @@ use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome,
 const SMOOTH: usize = 2;
 /// Window length (samples) of the stick-slip test without a regular oscillation.
 const WINDOW: usize = 10;
+const MOVED: usize = 1;
 
 /// The stick-slip test's window: an eighth of the period (5 to 60 samples) when the loop
 /// oscillates regularly, else [`WINDOW`].
@@ -63,12 +64,15 @@ pub(crate) fn stick_slip(op: &[f64], y: &[f64], window: usize) -> Option<(f64, u
     let sigma_dy = noise_scale(&y[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt();
     // The free valve's gain from the windows where the proxy clearly moved (a stuck valve's
     // windows would pull a least-squares gain towards 0).
+    // OP must have moved in such a window too (a gain from a window where only a disturbance
+    // moved the proxy would be arbitrary).
+    let sigma_dx = noise_scale(&op[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt();
     let moved: Vec<f64> = windows
         .iter()
-        .filter(|(dx, dy)| dy.abs() > 3.0 * sigma_dy && *dx != 0.0)
+        .filter(|(dx, dy)| dy.abs() > 3.0 * sigma_dy && dx.abs() > 3.0 * sigma_dx && *dx != 0.0)
         .map(|(dx, dy)| dy / dx)
         .collect();
-    if moved.len() < 3 {
+    if moved.len() < MOVED {
         return None;
     }
     let gain = median(&moved);
@@ -97,17 +101,27 @@ impl DetectionTest for StickSlip {
     fn run(&self, reg: &Registration<'_>) -> Result<TestOutcome, DetectionError> {
         let o = reg.prepared()?.oscillation;
         let w = window(o.period.filter(|_| o.is_regular()));
-        let (proxy, y): (&str, Vec<f64>) = if reg.is_integrating() {
-            ("ΔPV", reg.pv().windows(2).map(|w| w[1] - w[0]).collect())
-        } else {
-            ("PV", reg.pv().to_vec())
-        };
-        let op = if reg.is_integrating() {
-            &reg.op()[1..]
-        } else {
-            reg.op()
-        };
-        let Some((rho, windows)) = stick_slip(op, &y, w) else {
+        let px = reg.valve_proxy();
+        let (proxy, y, op) = (px.name, px.y, px.op);
+        // Without a regular oscillation, the shortest window (doubling from `w`) with enough
+        // informative windows: a slowly moving OP needs longer windows before a free valve's
+        // proxy would move visibly. (With one, the window stays tied to the period: a longer
+        // one would span the half cycle over which the proxy's change cancels.)
+        let mut w = w;
+        let mut found = stick_slip(op, &y, w);
+        while !o.is_regular() && found.is_none_or(|(_, count)| count < 10) && 2 * w <= op.len() / 10
+        {
+            w *= 2;
+            if let Some(r) = stick_slip(op, &y, w) {
+                if found.is_none_or(|(_, c)| r.1 >= c) {
+                    found = Some(r);
+                } else {
+                    w /= 2;
+                    break;
+                }
+            }
+        }
+        let Some((rho, windows)) = found else {
             return Ok(TestOutcome::new(
                 "stick-slip",
                 None,

@@ -113,7 +113,8 @@ fn the_built_ins_are_registered_in_order() {
             "curve-fit",
             "bicoherence",
             "stick-slip",
-            "area-ratio"
+            "area-ratio",
+            "hammerstein"
         ]
     );
     for e in registry() {
@@ -292,4 +293,30 @@ fn the_combined_verdict_on_known_loops() {
     assert_eq!(d.verdict, Verdict::Inconclusive);
     assert!(d.reason.contains("flat"), "{}", d.reason);
     assert!((0.0..=1.0).contains(&d.score));
+}
+
+/// The Hammerstein evidence: a sticky valve between OP and the process explains the sticky
+/// loops (both kinds) markedly better than a free one, and not the external oscillations.
+#[test]
+fn the_hammerstein_test_finds_the_sticky_valve_and_not_the_external_oscillation() {
+    for integrating in [false, true] {
+        for seed in 1..=3 {
+            let s = outcome(&sticky(integrating, seed), "hammerstein");
+            assert_eq!(
+                s.verdict,
+                Verdict::Stiction,
+                "sticky {integrating} seed {seed}: {s:?}"
+            );
+            let e = outcome(&external(integrating, seed), "hammerstein");
+            assert_ne!(
+                e.verdict,
+                Verdict::Stiction,
+                "external {integrating} seed {seed}: {e:?}"
+            );
+            assert!(
+                s.statistic.unwrap() > 3.0 * e.statistic.unwrap().max(1.0),
+                "{s:?} against {e:?}"
+            );
+        }
+    }
 }

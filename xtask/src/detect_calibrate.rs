@@ -37,14 +37,15 @@ use rayon::prelude::*;
 use stiction_models::Kano;
 
 const USAGE: &str = "\
-usage: cargo xtask detect-calibrate [--sims N] [--plant DIR] [--ridge L] [--with-plant]
+usage: cargo xtask detect-calibrate [--sims N] [--plant DIR] [--ridge L] [--with-plant] [--dump DIR]
 
   --sims N     simulated loops in the training set and again in the validation set (default 240)
   --plant DIR  the labelled plant registrations (default ../shared/data/plant beside the repo)
   --ridge L    ridge penalty of the logistic fit (default 0.1)
   --with-plant also fit on the plant registrations (of the other valves, for leave one valve
                out); by default they only validate: measured, fitting on them made the
-               leave-one-valve-out AUC worse (0.429 against 0.714 from the simulations alone)";
+               leave-one-valve-out AUC worse (0.429 against 0.714 from the simulations alone)
+  --dump DIR   also write the simulated validation loops as CSV (t, SP, PV, OP) with an index.csv";
 
 /// SplitMix64: a small seeded generator (the draw order is the code order below).
 struct Rng(u64);
@@ -111,7 +112,7 @@ fn simulated(seed0: u64, index: usize) -> Result<Case> {
     let situation = (index / 4) % SITUATIONS.len();
     // Plant.
     let delay = (rng.next() * 3.0) as usize;
-    let pole = rng.range(0.5, 0.95);
+    let pole = rng.range(0.0, 0.95);
     let gain = rng.range(0.5, 2.0);
     let plant = if integrating {
         let g = rng.range(0.02, 0.2);
@@ -238,6 +239,32 @@ fn simulated(seed0: u64, index: usize) -> Result<Case> {
         x: Vec::new(),
     }
     .evaluate()
+}
+
+/// Write each case as `sim-<index>.csv` (t, SP, PV, OP) under `dir`, with `index.csv` naming
+/// what each is.
+fn dump_cases(dir: &Path, cases: &[Case]) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut index = String::from("file,what,sticky,integrating\n");
+    for (i, c) in cases.iter().enumerate() {
+        let name = format!("sim-{i:03}.csv");
+        let mut text = String::from("t,SP,PV,OP\n");
+        for k in 0..c.pv.len() {
+            let sp = c.sp.as_ref().map_or(f64::NAN, |s| s[k]);
+            text.push_str(&format!(
+                "{},{sp},{},{}\n",
+                k as f64 * c.ts,
+                c.pv[k],
+                c.op[k]
+            ));
+        }
+        std::fs::write(dir.join(&name), text).with_context(|| format!("writing {name}"))?;
+        index.push_str(&format!(
+            "{name},{},{},{}\n",
+            c.what, c.sticky, c.integrating
+        ));
+    }
+    std::fs::write(dir.join("index.csv"), index).context("writing index.csv")
 }
 
 /// The labelled plant registrations the reader accepts, and the files it refuses.
@@ -368,6 +395,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     let mut plant_dir: PathBuf = root.join("../shared/data/plant");
     let mut ridge = 0.1;
     let mut with_plant = false;
+    let mut dump: Option<PathBuf> = None;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
         let mut value = |name: &str| {
@@ -379,6 +407,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
             "--plant" => plant_dir = PathBuf::from(value("--plant")?),
             "--ridge" => ridge = value("--ridge")?.parse().context("--ridge: a number")?,
             "--with-plant" => with_plant = true,
+            "--dump" => dump = Some(PathBuf::from(value("--dump")?)),
             "--help" | "-h" => {
                 println!("{USAGE}");
                 return Ok(());
@@ -395,6 +424,14 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
         .into_par_iter()
         .map(|i| simulated(1_000_001, i))
         .collect::<Result<_>>()?;
+    if let Some(dir) = &dump {
+        dump_cases(dir, &valid)?;
+        println!(
+            "wrote the {} validation loops to {}",
+            valid.len(),
+            dir.display()
+        );
+    }
     let (plant, refused) = if plant_dir.join("labels.csv").exists() {
         plant_cases(&plant_dir)?
     } else {
