@@ -5,28 +5,38 @@
 //! the valve position MV, a linear model maps MV to PV) and its detection use by Choudhury,
 //! Jain & Shah, "Stiction — definition, modelling, detection and quantification", Journal of
 //! Process Control 18 (2008) 232-243, where a stiction model that explains the data markedly
-//! better than a linear valve is the evidence of stiction. Ours is a one-step-ahead version
-//! built for detection, not quantification:
+//! better than a linear valve is the evidence of stiction. Ours is built for detection (fast,
+//! on closed-loop data, no quantification):
 //!
-//! * the process output `y` is PV for a self-regulating loop and ΔPV (the level's rate) for an
-//!   integrating one;
-//! * for every Kano valve `(S, J)` of a small grid (S from 0.25 to 12 in OP units, J in
-//!   `{0, S/2, S}`, S at most OP's range) and every delay `d` of 0 to 3 samples, the
-//!   ARX `y(t) = a₁y(t−1) + a₂y(t−2) + b₁MV(t−1−d) + b₂MV(t−2−d) + c` is fitted by least
-//!   squares; the free valve (`MV = OP`) is fitted the same way;
-//! * statistic: the likelihood ratio `LR = N ln(RSS₀ / RSS₁)` of the best sticky valve
-//!   against the best free one (Gaussian errors; `N` the regression rows).
+//! * every Kano valve `(S, J)` of a small grid (S from 0.25 to 12 in OP units, J in
+//!   `{0, S/2, S}`, S at most OP's range: a limit cycle's OP spans little more than S) turns
+//!   OP into MV; the free valve is `MV = OP`;
+//! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
+//!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c`, `x` MV through a
+//!   first-order lag `x(t) = p·x(t−1) + (1−p)·MV(t−d)`, the pole `p` on a grid refined by a
+//!   golden-section search, the delay `d` from 0 to 3 samples in half samples (a continuous
+//!   dead time is rarely a whole number of samples, and a free valve with whole-sample delays
+//!   would lose to a backlash, which lags a sinusoid by a fraction of a sample). It weighs the
+//!   low frequencies: OP that ramps while PV stays flat, then a jump;
+//! * **one step ahead** (kept beside it, `lr_arx`): the ARX
+//!   `PV(t) = a₁PV(t−1) + a₂PV(t−2) + b₁MV(t−1−d) + b₂MV(t−2−d) + c` (an ARX represents the
+//!   integrator, so levels use PV here), `d` from 0 to 3. Its autoregressive part models an
+//!   external disturbance's own dynamics, which the output-error fit would read through the
+//!   valve model;
+//! * each statistic is the likelihood ratio `LR = N ln(RSS_free / RSS_sticky)` of the best
+//!   sticky valve against the best free one (Gaussian errors; `N` the rows).
 //!
-//! Why one step ahead and not the simulation error the quantification uses: with a free
-//! valve, a PI controller and a constant set point, OP(t−1) is an exact linear combination of
-//! the other ARX regressors, so the linear model's coefficients are not identifiable (the
+//! Why one step ahead and not the simulation error the quantification uses for the ARX: with a
+//! free valve, a PI controller and a constant set point, OP(t−1) is an exact linear combination
+//! of the other ARX regressors, so the linear model's coefficients are not identifiable (the
 //! quantification's grid skips that node as a singular regression); the one-step prediction
 //! error, a projection, is still well defined. A tiny ridge (1e-10 of the Gram matrix's trace)
 //! gives that projection without a rank decision (nalgebra's Cholesky of the 5×5 Gram matrix).
 //!
-//! Verdict (ours): stiction when `LR >= 25` with the best valve's `S >= 0.5`; no stiction when
-//! `LR < 8` — the maximum of a likelihood ratio over the 156 models of the grid under a free
-//! valve. Inconclusive between, and when OP moves less than twice the smallest S.
+//! Verdict (ours, from the simulated loops of `cargo xtask detect-calibrate`): stiction when the
+//! output-error LR is at least 25, the one-step LR at least 15 and the best valve's `S >= 0.5`;
+//! no stiction when both are below 8; inconclusive between, and when OP moves less than twice
+//! the smallest S.
 
 use crate::signal::mean;
 use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
@@ -157,10 +167,22 @@ fn oe_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> (f64, f64) {
 
 /// The best output-error residual over the delays for input `u`: `(rss, delay)`.
 fn best_oe(y: &[f64], u: &[f64], start: usize) -> (f64, usize) {
-    (0..=MAX_DELAY)
-        .map(|d| (oe_rss(y, u, d, start).0, d))
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .unwrap_or((f64::INFINITY, 0))
+    // Half-sample delays too: a continuous dead time is rarely a whole number of samples,
+    // and a free valve with an integer delay against a sticky one (whose backlash lags a
+    // sinusoid by a fraction of a sample) would favour the sticky one on clean oscillations.
+    let half: Vec<f64> = (0..u.len())
+        .map(|t| 0.5 * (u[t] + u[t.saturating_sub(1)]))
+        .collect();
+    let mut best = (f64::INFINITY, 0);
+    for input in [u, &half[..]] {
+        for d in 0..=MAX_DELAY {
+            let r = oe_rss(y, input, d, start).0;
+            if r < best.0 {
+                best = (r, d);
+            }
+        }
+    }
+    best
 }
 
 /// The best one-step ARX residual over the delays for input `u`.
@@ -187,6 +209,8 @@ pub struct Comparison {
     pub reduction: f64,
     /// `N ln(RSS₀/RSS₁)` of the one-step-ahead ARX models.
     pub lr_arx: f64,
+    /// The S of the best sticky valve one step ahead.
+    pub s_arx: f64,
 }
 
 /// Compare the best sticky Kano valve of the grid with a free valve: the output-error models
@@ -218,7 +242,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64]) -> Option<Comparison> {
     let (oe0, _) = best_oe(&y, &u0, start);
     let arx0 = best_arx(&z, &u0, start);
     let mut best = (f64::INFINITY, 0.0, 0.0, 0usize);
-    let mut arx1 = f64::INFINITY;
+    let mut arx1 = (f64::INFINITY, 0.0);
     let init = InitialState::default();
     // A limit cycle's OP spans little more than S: every band up to OP's range is tried.
     for &s in S_GRID.iter().filter(|&&s| s <= range) {
@@ -234,12 +258,14 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64]) -> Option<Comparison> {
             if oe < best.0 {
                 best = (oe, s, j, d);
             }
-            arx1 = arx1.min(arx);
+            if arx < arx1.0 {
+                arx1 = (arx, s);
+            }
         }
     }
     let rows = n - start;
     let positive = |v: f64| v > 0.0 && v.is_finite();
-    if !(positive(oe0) && positive(best.0) && positive(arx0) && positive(arx1)) {
+    if !(positive(oe0) && positive(best.0) && positive(arx0) && positive(arx1.0)) {
         return None;
     }
     let ratio = (oe0 / best.0).max(1.0);
@@ -250,7 +276,8 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64]) -> Option<Comparison> {
         delay: best.3,
         rows,
         reduction: 1.0 - 1.0 / ratio,
-        lr_arx: rows as f64 * (arx0 / arx1).max(1.0).ln(),
+        lr_arx: rows as f64 * (arx0 / arx1.0).max(1.0).ln(),
+        s_arx: arx1.1,
     })
 }
 
@@ -307,8 +334,13 @@ impl DetectionTest for Hammerstein {
                 c.lr_arx
             ),
         );
-        out.values = vec![("S", c.s), ("J", c.j), ("delay", c.delay as f64)];
-        out.values.push(("lr_arx", c.lr_arx));
+        out.values = vec![
+            ("S", c.s),
+            ("J", c.j),
+            ("delay", c.delay as f64),
+            ("lr_arx", c.lr_arx),
+            ("S_arx", c.s_arx),
+        ];
         Ok(out)
     }
 }

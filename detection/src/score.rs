@@ -97,10 +97,10 @@ pub const FEATURES: [Feature; 8] = [
 
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (240 simulated
 /// training loops, seeds 1..240, ridge 0.1; no plant registration in the fit).
-pub const INTERCEPT: f64 = -1.1884;
+pub const INTERCEPT: f64 = -1.5702;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]).
 pub const WEIGHTS: [f64; 8] = [
-    -1.4236, -1.0524, 4.2862, -0.0090, 0.2517, 2.3108, 2.1894, 5.4626,
+    -3.2778, -0.4875, 5.0356, -0.0265, 0.1454, 3.2261, 3.5585, 6.2926,
 ];
 
 /// Score at or above which the verdict may be `stiction`.

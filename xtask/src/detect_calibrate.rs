@@ -5,7 +5,8 @@
 //! * simulated loops from `datasets::simulate` (half self-regulating, half integrating; half
 //!   with a sticky Kano valve, S in [1, 8] %, J in [0, S]; half with a free valve), each with
 //!   one of four situations: set-point moves only, an external sinusoid, aggressive tuning
-//!   (closed-loop poles near the unit circle), or a slow drift with random load steps; plant
+//!   (closed-loop poles near the unit circle), or a slow drift with random load steps (the
+//!   disturbances sized in % of the valve's travel through the plant's input gain); plant
 //!   dynamics, tuning, noise and disturbance sizes drawn per loop from a seeded generator. A
 //!   training set (seeds from 1) and an independent validation set (seeds from 1 000 001);
 //! * the shared plant registrations (`../shared/data/plant`, labels from its `labels.csv`,
@@ -175,20 +176,27 @@ fn simulated(seed0: u64, index: usize) -> Result<Case> {
         Kano::params().check()?
     };
     let noise = rng.range(0.01, 0.2);
+    // Disturbances enter the plant's difference equation; they are sized in % of the valve's
+    // travel (scaled by B(1), the plant's input gain), so that the controller compensates them
+    // with OP moves a real valve can make — a load drift on a level otherwise asks OP for
+    // hundreds of %.
+    let input_gain = plant.b.iter().sum::<f64>();
     let amplitude = rng.range(0.3, 2.0);
     let period = rng.range(20.0, 200.0);
     let slope = rng.range(-0.004, 0.004);
     let disturbances = match situation {
         1 => vec![Disturbance::Sine {
-            amplitude,
+            amplitude: amplitude * input_gain,
             frequency: 2.0 * std::f64::consts::PI / period,
             phase: 0.0,
         }],
         3 => vec![
-            Disturbance::Drift { slope },
+            Disturbance::Drift {
+                slope: slope * input_gain,
+            },
             Disturbance::RandomSteps {
                 probability: 0.005,
-                sigma: amplitude,
+                sigma: amplitude * input_gain,
             },
         ],
         _ => Vec::new(),
