@@ -10,7 +10,8 @@
 //!
 //! * every Kano valve `(S, J)` of a small grid (S from 0.25 to 12 in OP units, J in
 //!   `{0, S/2, S}`, S at most OP's range: a limit cycle's OP spans little more than S) turns
-//!   OP into MV; the free valve is `MV = OP`;
+//!   OP into MV, from two starts (at rest after moving down, after moving up: the paper's
+//!   unknown initial state), the better kept; the free valve is `MV = OP`;
 //! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
 //!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c`, `x` MV through a
 //!   first-order lag `x(t) = p·x(t−1) + (1−p)·MV(t−d)`, the pole `p` on a grid refined by a
@@ -243,23 +244,27 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64]) -> Option<Comparison> {
     let arx0 = best_arx(&z, &u0, start);
     let mut best = (f64::INFINITY, 0.0, 0.0, 0usize);
     let mut arx1 = (f64::INFINITY, 0.0);
-    let init = InitialState::default();
-    // A limit cycle's OP spans little more than S: every band up to OP's range is tried.
+    // The valve's state at the start of the record is unknown: at rest after moving down or
+    // after moving up (a creeping OP that keeps going one way holds a valve of the second kind
+    // for S, the first only for J); each node keeps the better of the two.
+    let starts = [InitialState::down(), InitialState::up()];
     for &s in S_GRID.iter().filter(|&&s| s <= range) {
         for j in [0.0, 0.5 * s, s] {
             let Ok(valve) = Kano::params().s(s).j(j).check() else {
                 continue;
             };
-            let Ok(mv) = valve.simulate(&u0, &init) else {
-                continue;
-            };
-            let (oe, d) = best_oe(&y, &mv, start);
-            let arx = best_arx(&z, &mv, start);
-            if oe < best.0 {
-                best = (oe, s, j, d);
-            }
-            if arx < arx1.0 {
-                arx1 = (arx, s);
+            for init in &starts {
+                let Ok(mv) = valve.simulate(&u0, init) else {
+                    continue;
+                };
+                let (oe, d) = best_oe(&y, &mv, start);
+                let arx = best_arx(&z, &mv, start);
+                if oe < best.0 {
+                    best = (oe, s, j, d);
+                }
+                if arx < arx1.0 {
+                    arx1 = (arx, s);
+                }
             }
         }
     }

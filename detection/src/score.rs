@@ -97,10 +97,10 @@ pub const FEATURES: [Feature; 8] = [
 
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (240 simulated
 /// training loops, seeds 1..240, ridge 0.1; no plant registration in the fit).
-pub const INTERCEPT: f64 = -1.5702;
+pub const INTERCEPT: f64 = -1.5960;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]).
 pub const WEIGHTS: [f64; 8] = [
-    -3.2778, -0.4875, 5.0356, -0.0265, 0.1454, 3.2261, 3.5585, 6.2926,
+    -3.3086, -0.4089, 4.9650, -0.1232, 0.0466, 3.1483, 3.5209, 6.1867,
 ];
 
 /// Score at or above which the verdict may be `stiction`.
