@@ -15,10 +15,13 @@
 //! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
 //!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c`, `x` MV through a
 //!   first-order lag `x(t) = p·x(t−1) + (1−p)·MV(t−d)`, the pole `p` on a grid refined by a
-//!   golden-section search, the delay `d` from 0 to 3 samples in half samples (a continuous
+//!   golden-section search, the delay `d` from 1 to 4 samples in half samples (a continuous
 //!   dead time is rarely a whole number of samples, and a free valve with whole-sample delays
-//!   would lose to a backlash, which lags a sinusoid by a fraction of a sample). It weighs the
-//!   low frequencies: OP that ramps while PV stays flat, then a jump;
+//!   would lose to a backlash, which lags a sinusoid by a fraction of a sample). Strictly
+//!   causal, as closed-loop identification must be: OP(t) is computed from PV(t), so a
+//!   same-sample term fits the controller read backwards, which made the free valve unbeatable
+//!   on aggressively tuned sticky loops. It weighs the low frequencies: OP that ramps while PV
+//!   stays flat, then a jump;
 //! * **one step ahead** (kept beside it, `lr_arx`): the ARX
 //!   `PV(t) = a₁PV(t−1) + a₂PV(t−2) + b₁MV(t−1−d) + b₂MV(t−2−d) + c` (an ARX represents the
 //!   integrator, so levels use PV here), `d` from 0 to 3. Its autoregressive part models an
@@ -48,7 +51,9 @@ use stiction_models::{InitialState, Kano, StictionModel};
 const S_GRID: [f64; 13] = [
     0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0,
 ];
-/// Delays (samples) between MV and the process output tried for every valve.
+/// Delays tried for every valve: the one-step ARX uses MV from `t−1−d`, `d` up to this; the
+/// output-error model delays of 1 to `MAX_DELAY + 1` samples in half samples. Both span 1-4
+/// samples.
 const MAX_DELAY: usize = 3;
 /// Regressors: two outputs, two inputs, a constant.
 const P: usize = 5;
@@ -176,7 +181,7 @@ fn best_oe(y: &[f64], u: &[f64], start: usize) -> (f64, usize) {
         .collect();
     let mut best = (f64::INFINITY, 0);
     for input in [u, &half[..]] {
-        for d in 0..=MAX_DELAY {
+        for d in 1..=MAX_DELAY + 1 {
             let r = oe_rss(y, input, d, start).0;
             if r < best.0 {
                 best = (r, d);
