@@ -6,7 +6,8 @@
 //!   with a sticky Kano valve, S in [1, 8] %, J in [0, S]; half with a free valve), each with
 //!   one of four situations: set-point moves only, an external sinusoid, aggressive tuning
 //!   (closed-loop poles near the unit circle), or a slow drift with random load steps (the
-//!   disturbances sized in % of the valve's travel through the plant's input gain); plant
+//!   disturbances sized in % of the valve's travel through the plant's input gain; OP clipped
+//!   to 0-100 % with conditional integration); plant
 //!   dynamics, tuning, noise and disturbance sizes drawn per loop from a seeded generator. A
 //!   training set (seeds from 1) and an independent validation set (seeds from 1 000 001);
 //! * the shared plant registrations (`../shared/data/plant`, labels from its `labels.csv`,
@@ -217,6 +218,9 @@ fn simulated(seed0: u64, index: usize) -> Result<Case> {
         warmup: 500,
         seed,
         sample_time: 10.0,
+        // A valve's travel is 0-100 %: OP saturates (with conditional integration), as a real
+        // controller's output does.
+        op_limits: Some([0.0, 100.0]),
         ..Scenario::default()
     }
     .simulate()
