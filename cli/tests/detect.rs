@@ -1,4 +1,5 @@
-//! `stiction detect` end to end, in memory: bad input, a flat record, a sticky loop.
+//! `stiction detect` end to end, in memory: bad input (also with `--report`), a flat record, a
+//! sticky loop, its report page.
 #![allow(clippy::unwrap_used)]
 
 mod common;
@@ -30,14 +31,70 @@ fn bad_input_gets_the_same_one_line_error_as_quantify() {
     assert_eq!(missing.stderr.lines().count(), 1, "{}", missing.stderr);
 }
 
+/// A fresh directory under the system's temp dir, removed on drop.
+struct TempDir(std::path::PathBuf);
+
+impl TempDir {
+    fn new(tag: &str) -> TempDir {
+        let p = std::env::temp_dir().join(format!("stiction-detect-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).unwrap();
+        TempDir(p)
+    }
+
+    fn arg(&self, sub: &str) -> String {
+        self.0.join(sub).display().to_string()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
 #[test]
-fn report_is_refused_as_bad_usage() {
-    let o = run(&["detect", "-", "--report", "out"], b"OP,PV\n1,2\n");
-    assert_eq!(o.code, 2, "{}", o.stderr);
-    assert!(
-        o.stderr.contains("--report is not available"),
-        "{}",
-        o.stderr
+fn bad_input_with_report_gets_the_same_one_line_error() {
+    let dir = TempDir::new("bad-report");
+    let bad = b"OP,PV\n1,2\nabc,3\n";
+    let file = dir.arg("bad.csv");
+    std::fs::write(&file, bad).unwrap();
+    for input in [file.as_str(), "-"] {
+        let plain = run(&["detect", input], bad);
+        let out = dir.arg(&format!("report-{}", input.len()));
+        let with = run(&["detect", input, "--report", &out], bad);
+        assert_eq!(plain.code, 1, "{}", plain.stderr);
+        assert_eq!(with.code, plain.code, "{}", with.stderr);
+        let errors: Vec<&str> = with
+            .stderr
+            .lines()
+            .filter(|l| l.starts_with("error:"))
+            .collect();
+        assert_eq!(errors, [plain.stderr.trim_end()], "{}", with.stderr);
+        assert!(
+            errors[0].contains("row 3, column OP") && errors[0].contains(input),
+            "{}",
+            errors[0]
+        );
+        // As `quantify --report` does: a page saying why, besides the error.
+        let q = run(&["quantify", input, "--report", &dir.arg("q")], bad);
+        assert_eq!(q.code, with.code);
+        assert_eq!(
+            q.stderr.lines().find(|l| l.starts_with("error:")),
+            Some(errors[0])
+        );
+        let page = std::fs::read_to_string(format!("{out}/index.html")).unwrap();
+        assert!(page.contains("detect: loop") && page.contains("refused"));
+    }
+    let missing = run(
+        &["detect", "no-such-file.csv", "--report", &dir.arg("m")],
+        b"",
+    );
+    assert_eq!(missing.code, 1);
+    assert_eq!(missing.stderr.lines().count(), 1, "{}", missing.stderr);
+    assert_eq!(
+        missing.stderr,
+        run(&["detect", "no-such-file.csv"], b"").stderr
     );
 }
 
@@ -155,5 +212,56 @@ fn quantify_and_diagnose_carry_the_detectors_answer() {
         assert_eq!(d["verdict"], "stiction", "{cmd}: {v:#}");
         assert_eq!(d["score"].as_f64(), Some(score), "{cmd}");
         assert_eq!(d["reason"], det["reason"], "{cmd}");
+    }
+}
+
+/// `detect --report DIR` writes the page: the verdict, the test table and the two detection
+/// figures (PV-OP with the fitted ellipse, the cross-correlation), each passing the plot check.
+#[test]
+fn report_writes_the_test_table_and_the_two_figures() {
+    let sim = sticky_loop("detect-report");
+    let dir = TempDir::new("report");
+    let file = dir.arg("sticky.csv");
+    std::fs::write(&file, &sim.stdout).unwrap();
+    let out = dir.arg("report");
+    let o = run(
+        &["detect", &file, "--integrating", "no", "--report", &out],
+        b"",
+    );
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    assert!(o.stdout.contains(": stiction (score"), "{}", o.stdout);
+    assert!(o.stderr.contains("report: "), "{}", o.stderr);
+    let html = std::fs::read_to_string(format!("{out}/index.html")).unwrap();
+    assert!(html.contains("<h1>detect: loop sticky</h1>"), "{html}");
+    assert!(html.contains("<p class=\"verdict\">Detection: stiction (score"));
+    // The test table: its header and a row per test, with the evidence.
+    assert!(html.contains(
+        "<th class=\"t\">test</th><th>statistic</th><th class=\"t\">verdict</th><th class=\"t\">evidence</th>"
+    ));
+    for test in ["oscillation", "horch-xcorr", "bicoherence", "hammerstein"] {
+        assert!(
+            html.contains(&format!("<td class=\"t nw\">{test}</td>")),
+            "no row for {test}"
+        );
+    }
+    assert!(
+        html.contains("OP-PV cross-correlation over ±"),
+        "Horch's evidence"
+    );
+    // Two figures, inline and as files, each passing the plot check.
+    assert_eq!(html.matches("<figure").count(), 2);
+    assert_eq!(html.matches("<svg").count(), 2);
+    for (name, legend) in [
+        ("detection-pv-op", "fitted ellipse"),
+        ("detection-xcorr", "odd share"),
+    ] {
+        assert!(html.contains(&format!("<figure id=\"{name}\">")), "{name}");
+        let svg = std::fs::read_to_string(format!("{out}/{name}.svg")).unwrap();
+        let st = report::inspect::check_plot(&svg, "sticky").unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            st.legend.iter().any(|l| l.contains(legend)),
+            "{name}: {:?}",
+            st.legend
+        );
     }
 }

@@ -135,8 +135,35 @@ fn diagnose_example_report() {
     let out = dir.arg("report");
     let o = run(&["diagnose", "--example", "paper", "--report", &out], b"");
     assert_eq!(o.code, 0, "{}", o.stderr);
-    let (_, n) = check_report(Path::new(&out), EXAMPLE).unwrap_or_else(|e| panic!("{e}"));
+    let (html, n) = check_report(Path::new(&out), EXAMPLE).unwrap_or_else(|e| panic!("{e}"));
     assert!(n >= 3, "{n} figures");
+    detection_section(&html);
+}
+
+/// The detection section of the quantify and diagnose pages: the detector's line as the text
+/// output ends, the test table, the PV-OP plot and the cross-correlation.
+fn detection_section(html: &str) {
+    let at = html
+        .find("<h2>Detection: is it the valve?</h2>")
+        .expect("a detection section");
+    let sec = &html[at..];
+    assert!(sec.contains("<p>Detection: stiction (score"), "{sec}");
+    assert!(sec.contains("<th class=\"t\">test</th><th>statistic</th>"));
+    assert!(sec.contains("<td class=\"t nw\">horch-xcorr</td>"));
+    assert!(sec.contains("<figure id=\"detection-pv-op\">"));
+    assert!(sec.contains("<figure id=\"detection-xcorr\">"));
+}
+
+#[test]
+fn quantify_example_report_has_the_detection_section() {
+    let dir = TempDir::new("quantify");
+    let out = dir.arg("report");
+    let o = run(&["quantify", "--example", "paper", "--report", &out], b"");
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    let (html, n) = check_report(Path::new(&out), EXAMPLE).unwrap_or_else(|e| panic!("{e}"));
+    // Time trends, phase plots, fit surface; PV-OP plot and cross-correlation.
+    assert_eq!(n, 5, "figures");
+    detection_section(&html);
 }
 
 #[test]

@@ -30,7 +30,9 @@
 //! no stiction when NGI shows Gaussian (linear) data; inconclusive otherwise.
 
 use crate::signal::{fft, harmonic_fit, mean, std_dev, Complex};
-use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
+use crate::{
+    DetectionError, DetectionTest, Prepared, Registration, TestEntry, TestOutcome, Verdict,
+};
 
 /// Segment length of the bicoherence estimate.
 pub const SEGMENT: usize = 64;
@@ -133,20 +135,35 @@ pub struct Ellipse {
 
 /// Fit the ellipse of `op` and `pv` at `omega`.
 pub fn ellipse(op: &[f64], pv: &[f64], omega: f64) -> Ellipse {
-    let ((a, b, _), eo) = harmonic_fit(op, omega);
-    let ((c, d, _), ep) = harmonic_fit(pv, omega);
+    ellipse_and_offsets(op, pv, omega).0
+}
+
+/// [`ellipse`] with the constant terms of the two harmonic fits, `[c_OP, c_PV]`: where the
+/// ellipse's centre lies relative to the signals the fit was given (for drawing it,
+/// [`crate::figures`]).
+pub(crate) fn ellipse_and_offsets(op: &[f64], pv: &[f64], omega: f64) -> (Ellipse, [f64; 2]) {
+    let ((a, b, c_op), eo) = harmonic_fit(op, omega);
+    let ((c, d, c_pv), ep) = harmonic_fit(pv, omega);
     let r = (c * c + d * d).sqrt();
     let chord = if r > 0.0 {
         2.0 * (a * d - b * c).abs() / r
     } else {
         0.0
     };
-    Ellipse {
+    let e = Ellipse {
         apparent_stiction: chord,
         op_amplitude: 2.0 * (a * a + b * b).sqrt(),
         explained: eo.min(ep),
         coefficients: [a, b, c, d],
-    }
+    };
+    (e, [c_op, c_pv])
+}
+
+/// The test's ellipse of a prepared registration oscillating with `period` samples: fitted to
+/// the detrended OP and PV at the oscillation's frequency; with the offsets of
+/// [`ellipse_and_offsets`].
+pub(crate) fn prepared_ellipse(p: &Prepared, period: f64) -> (Ellipse, [f64; 2]) {
+    ellipse_and_offsets(&p.op, &p.pv, 2.0 * std::f64::consts::PI / period)
 }
 
 /// Choudhury's bicoherence test with the PV-OP ellipse.
@@ -171,7 +188,7 @@ impl DetectionTest for Bicoherence {
             needed: MIN_SEGMENTS * SEGMENT * factor,
             got: reg.len(),
         })?;
-        let el = period.map(|t| ellipse(&p.op, &p.pv, 2.0 * std::f64::consts::PI / t));
+        let el = period.map(|t| prepared_ellipse(p, t).0);
         let (verdict, what) = match (ix.nonlinear(), el) {
             (true, Some(e)) if e.apparent_stiction > 0.0 => (
                 Verdict::Stiction,

@@ -27,9 +27,23 @@
 use crate::signal::{ccf, smooth};
 use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
 
+/// The lags either side of 0 the test reads for an oscillation of `period` samples: `T/2`
+/// rounded, at least 2.
+pub(crate) fn max_lag(period: f64) -> usize {
+    ((period / 2.0).round() as usize).max(2)
+}
+
 /// The odd share of the OP-PV cross-correlation over `|τ| <= max_lag`.
 pub(crate) fn odd_share(op: &[f64], pv: &[f64], max_lag: usize) -> f64 {
-    let c = ccf(op, pv, max_lag);
+    odd_share_of(&ccf(op, pv, max_lag))
+}
+
+/// The odd share of a cross-correlation `c` over lags `-m..=m` (index `τ + m`, as
+/// [`ccf`] gives it): `Σ odd² / (Σ odd² + Σ even²)`, `0.5` when it is all zeros.
+pub(crate) fn odd_share_of(c: &[f64]) -> f64 {
+    if c.is_empty() {
+        return 0.5;
+    }
     let m = (c.len() - 1) / 2;
     let (mut odd, mut even) = (0.0, 0.0);
     for t in 0..=m {
@@ -62,7 +76,7 @@ impl DetectionTest for HorchXcorr {
         }
         let o = p.oscillation;
         let period = o.regular_period()?;
-        let max_lag = ((period / 2.0).round() as usize).max(2);
+        let max_lag = max_lag(period);
         let share = odd_share(&p.op, &p.pv, max_lag);
         let verdict = if share > 2.0 / 3.0 {
             Verdict::Stiction

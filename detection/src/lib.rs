@@ -57,6 +57,7 @@ pub(crate) struct ValveProxy<'a> {
 
 pub mod bicoherence;
 pub mod curve_fit;
+pub mod figures;
 pub mod hammerstein;
 pub mod horch;
 pub mod logistic;

@@ -125,12 +125,22 @@ pub fn detect_file(d: &LoopData, file: Option<&Path>, integrating: Integrating) 
 }
 
 fn try_detect(d: &LoopData, integrating: bool) -> Result<Detection, DetectError> {
+    Ok(detection::detect(&registration(d, integrating)?))
+}
+
+/// The detection registration [`detect_loop`] judges the record `d` on: PV, OP, SP when there
+/// is one, the sampling time of [`sample_time`], `integrating` or not (for the report's
+/// detection figures, `detection::figures`, drawn from what the tests saw).
+pub fn registration(
+    d: &LoopData,
+    integrating: bool,
+) -> Result<detection::Registration<'_>, DetectError> {
     let pv = d.require_pv()?;
     let mut reg = detection::Registration::new(pv, &d.op, sample_time(d))?.integrating(integrating);
     if let Some(sp) = d.sp.as_deref() {
         reg = reg.with_sp(sp)?;
     }
-    Ok(detection::detect(&reg))
+    Ok(reg)
 }
 
 /// The `detect --json` document of `d`'s detection: `source`, `score`, `verdict`, `reason`,

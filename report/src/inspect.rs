@@ -593,7 +593,9 @@ pub fn has_unit(desc: &str) -> bool {
 }
 
 /// Check that a figure says what it shows: the title names `loop_name` and a model (`kano ×
-/// arx`; the raw-data figure of refused data, "Raw data: loop X, not analysed", needs none),
+/// arx`; two kinds of figure no model made name none: the raw-data figure of refused data,
+/// "Raw data: loop X, not analysed", and the figures of the detection tests, "...: loop X,
+/// detection tests", [`crate::figures::DETECTION_TESTS`]),
 /// there are at least two axis descriptions and each ends with its unit in parentheses, every
 /// panel has both axis descriptions and a legend. Returns the structure, or every problem
 /// found.
@@ -610,7 +612,10 @@ pub fn check_plot(svg: &str, loop_name: &str) -> Result<Structure, String> {
             problems.push(format!("the title does not name the loop {loop_name:?}"));
         }
         let raw = st.title.starts_with("Raw data:") && st.title.ends_with("not analysed");
-        if !raw && model_pair(&st.title).is_none() {
+        let detection = st
+            .title
+            .ends_with(&format!(", {}", crate::figures::DETECTION_TESTS));
+        if !raw && !detection && model_pair(&st.title).is_none() {
             problems.push("the title names no model (`stiction × linear`)".to_string());
         }
     }
@@ -727,6 +732,18 @@ PV measured
             "Raw data: loop x, not analysed",
         );
         assert!(check_plot(&raw, "x").is_ok());
+        let detection = SVG.replace(
+            "Time trends: loop a&amp;b, kano × arx",
+            "PV-OP plot: loop x, detection tests",
+        );
+        assert!(check_plot(&detection, "x").is_ok());
+        let not_detection = SVG.replace(
+            "Time trends: loop a&amp;b, kano × arx",
+            "PV-OP plot: loop x, detection tests of kano",
+        );
+        assert!(check_plot(&not_detection, "x")
+            .unwrap_err()
+            .contains("no model"));
     }
 
     #[test]

@@ -7,18 +7,19 @@
 //!   estimated PV and MV (Figs. 12-16), PV(OP) and MV(OP) phase plots with the fitted
 //!   model's signature (Figs. 2, 3, 11, 18), the fit surface over (S, J) with the optimum and
 //!   its region, the residuals of the baseline and extended models of a diagnosis with their
-//!   spectrum and the estimated disturbance η̂, and S over repeated registrations
-//!   (Figs. 15, 19, 21).
+//!   spectrum and the estimated disturbance η̂, S over repeated registrations
+//!   (Figs. 15, 19, 21), and the detection tests' PV-OP plot with the fitted ellipse and OP-PV
+//!   cross-correlation (from `detection::figures`).
 //! * [`html`]: one `index.html` per run with the numbers, the plots inline (no network, no
 //!   script) and the summary, plus each plot as its own file.
-//! * [`pages`]: the page of each command (`quantify`, `compare`, `diagnose`, `trend`, a
-//!   refused loop) from the typed results of `monitoring` and `discrepancy`.
+//! * [`pages`]: the page of each command (`quantify`, `compare`, `diagnose`, `trend`,
+//!   `detect`, a refused loop) from the typed results of `monitoring` and `discrepancy`.
 //! * [`text`]: the plain-text output of each command.
 //! * [`inspect`]: reads a figure's SVG back (title, panels, axis descriptions, legend, series)
 //!   for structure snapshots and for checking that every plot says what it shows.
 //!
-//! Every figure's title names the loop and the model; every axis has its unit; every chart
-//! has a legend.
+//! Every figure's title names the loop and the model (the detection figures, which no model
+//! made, say `detection tests`); every axis has its unit; every chart has a legend.
 
 pub mod chart;
 pub mod figures;

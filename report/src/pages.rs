@@ -1,16 +1,19 @@
 //! The HTML page of each command, from the typed results: `quantify`, `compare`, `diagnose`,
-//! `trend`, and the page of a loop the reader refused. Also the sentences they share with the
-//! text output (the verdict on an estimate) and the numbers of one run ([`facts`]).
+//! `trend`, `detect`, and the page of a loop the reader refused. Also the sentences they share
+//! with the text output (the verdict on an estimate), the numbers of one run ([`facts`]) and
+//! the detection tests' section of `quantify`, `diagnose` and `detect`
+//! ([`detection_section`]).
 
 use std::path::Path;
 
 use datasets::format_epoch;
 use datasets::LoopData;
+use detection::Detection;
 use discrepancy::Diagnosis;
 use grid_search::{Criterion, Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 use monitoring::registration::{Registration, RegistrationError};
 use monitoring::trend::ValveTrend;
-use monitoring::{median, Fitted, Flag};
+use monitoring::{median, Detected, Fitted, Flag};
 use stiction_models::ModelEntry;
 
 use crate::figures::{self, Figure, LoopSignals, TrendLine, TrendPoint, TrendStatus};
@@ -254,8 +257,9 @@ pub fn run_figures(
     ])
 }
 
-/// The page of `quantify`: the numbers, the verdict, the figures.
-pub fn quantify_page(d: &LoopData, r: &Fitted) -> Result<Report, ReportError> {
+/// The page of `quantify`: the numbers, the verdict, the figures, then what the detection
+/// tests say on the same record (`det`, [`monitoring::detect_file`]).
+pub fn quantify_page(d: &LoopData, r: &Fitted, det: &Detected) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let mut result = Section::new("Result");
     result.push(facts(r));
@@ -276,7 +280,7 @@ pub fn quantify_page(d: &LoopData, r: &Fitted) -> Result<Report, ReportError> {
         title: format!("quantify: loop {name}, {}", combo(r)),
         subtitle: format!("{} · {} samples · stiction quantify", d.source, d.len()),
         summary: vec![verdict(&r.result, &combo(r))],
-        sections: vec![result, figs],
+        sections: vec![result, figs, detection_section(d, det)?],
     })
 }
 
@@ -392,8 +396,9 @@ pub fn compare_page(
 }
 
 /// The report of `diagnose`: the verdict, the findings, the baseline's and the extended
-/// model's figures, and what the residuals show.
-pub fn diagnose_page(d: &LoopData, dg: &Diagnosis) -> Result<Report, ReportError> {
+/// model's figures, what the residuals show, and what the detection tests say on the same
+/// record (`det`, [`monitoring::detect_file`]).
+pub fn diagnose_page(d: &LoopData, dg: &Diagnosis, det: &Detected) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let base = &dg.baseline_fit;
     let base_label = combo(base);
@@ -537,6 +542,7 @@ pub fn diagnose_page(d: &LoopData, dg: &Diagnosis) -> Result<Report, ReportError
             sections.push(sec);
         }
     }
+    later.push(detection_section(d, det)?);
     // The verdict and the model to use first; then how it was reached.
     sections.extend(later);
     Ok(Report {
@@ -549,6 +555,131 @@ pub fn diagnose_page(d: &LoopData, dg: &Diagnosis) -> Result<Report, ReportError
         ),
         summary: Vec::new(),
         sections,
+    })
+}
+
+/// The detection tests' section of the `quantify` and `diagnose` pages: the detector's line
+/// (verdict, score, reason, as the text output ends), then what [`detection_blocks`] shows, or
+/// why the detector could not run.
+pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, ReportError> {
+    let mut sec = Section::new("Detection: is it the valve?");
+    let line = crate::text::detection_line(det);
+    let mut chars = line.chars();
+    let line: String = chars
+        .next()
+        .map(|c| c.to_uppercase().chain(chars).collect())
+        .unwrap_or_default();
+    sec.push(Block::Paragraph(format!(
+        "{line}. The detection tests judge the time series alone, independently of the model \
+         fitted above."
+    )));
+    match det {
+        Detected::Ran(x) => sec.blocks.extend(detection_blocks(d, x)?),
+        Detected::Failed(_) => {
+            sec.push(Block::Note(
+                "No test ran, so there is nothing to draw.".into(),
+            ));
+        }
+    }
+    Ok(sec)
+}
+
+/// What the detection tests saw and said on `d`: the loop in one sentence, the table of the
+/// tests (name, statistic, verdict, evidence), the PV-OP plot with the fitted ellipse and the
+/// OP-PV cross-correlation (figures `detection-pv-op` and `detection-xcorr`), drawn from the
+/// registration the tests judged ([`monitoring::detect::registration`]).
+pub fn detection_blocks(d: &LoopData, det: &Detection) -> Result<Vec<Block>, ReportError> {
+    let mut blocks = Vec::new();
+    let ts = monitoring::sample_time(d);
+    blocks.push(Block::Paragraph(format!(
+        "The loop: {}; {} loop; {} samples every {ts} s.",
+        match det.period_s {
+            Some(p) => format!("a regular oscillation of the control error, period {p:.0} s"),
+            None => "no regular oscillation of the control error".to_string(),
+        },
+        if det.integrating {
+            "integrating (a level)"
+        } else {
+            "self-regulating"
+        },
+        d.op.len()
+    )));
+    blocks.push(Block::Table {
+        header: ["test", "statistic", "verdict", "evidence"]
+            .map(String::from)
+            .to_vec(),
+        rows: det
+            .tests
+            .iter()
+            .map(|t| {
+                vec![
+                    t.name.to_string(),
+                    t.statistic
+                        .filter(|v| v.is_finite())
+                        .map_or("-".to_string(), |v| format!("{v:.3}")),
+                    t.verdict.to_string(),
+                    t.evidence.clone(),
+                ]
+            })
+            .collect(),
+    });
+    let name = loop_name(d);
+    let Some(sig) = signals(d, &name) else {
+        return Ok(blocks);
+    };
+    let reg = match monitoring::detect::registration(d, det.integrating) {
+        Ok(reg) => reg,
+        Err(e) => {
+            blocks.push(Block::Note(format!("No detection figures: {e}.")));
+            return Ok(blocks);
+        }
+    };
+    let ellipse = detection::figures::pv_op_ellipse(&reg);
+    blocks.push(Block::Figure(figures::pv_op_plot(
+        &sig,
+        ellipse.as_ref(),
+        "detection-pv-op",
+    )?));
+    match detection::figures::cross_correlation(&reg) {
+        Some(cc) => blocks.push(Block::Figure(figures::cross_correlation(
+            &sig,
+            &cc,
+            "detection-xcorr",
+        )?)),
+        None => blocks.push(Block::Note(format!(
+            "No cross-correlation: {}.",
+            reg.check().err().map_or_else(
+                || "the record cannot be judged".to_string(),
+                |e| e.to_string()
+            )
+        ))),
+    }
+    Ok(blocks)
+}
+
+/// The report of `detect`: the verdict with its score and reason, then the tests' table and
+/// figures ([`detection_blocks`]).
+pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError> {
+    let name = loop_name(d);
+    let mut first = Section::new("Verdict");
+    first.push(Block::Verdict(format!(
+        "Detection: {} (score {:.2}).",
+        det.verdict, det.score
+    )));
+    first.push(Block::Paragraph(format!(
+        "Why: {}. The score is the probability of stiction in [0, 1] that a calibrated \
+         logistic model gives from the tests' statistics; a loop that neither oscillates \
+         regularly, nor shows stick-slip, nor is explained by a sticky valve is never called \
+         sticky.",
+        det.reason
+    )));
+    let mut tests = Section::new("The tests");
+    tests.blocks = detection_blocks(d, det)?;
+    Ok(Report {
+        title: format!("detect: loop {name}"),
+        subtitle: format!("{} · {} samples · stiction detect", d.source, d.len()),
+        summary: Vec::new(),
+        sections: vec![first, tests],
     })
 }
 

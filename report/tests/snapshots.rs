@@ -10,7 +10,8 @@
 
 use std::sync::OnceLock;
 
-use datasets::simulate::Scenario;
+use datasets::simulate::{Controller, PlantPreset, PlantSpec, Scenario, Setpoint};
+use detection::Registration;
 use grid_search::{quantify, GridPlan, Problem, Quantification, SearchOptions};
 use report::figures::{self, TrendLine};
 use report::inspect::{self, Structure};
@@ -244,6 +245,122 @@ fn raw_signals_of_refused_data() {
     let st = checked(&fig, "FIC10112_x");
     assert_eq!(st.panels.len(), 3, "one panel per column");
     insta::assert_snapshot!("raw_signals", st.summary());
+}
+
+/// A self-regulating loop in a limit cycle through a sticky valve (slow plant, PI 0.3/0.1,
+/// Kano S = 4, J = 1, constant set point; the loop of the CLI's detection tests): the detection
+/// figures with a regular oscillation.
+struct Sticky {
+    t: Vec<f64>,
+    sp: Vec<f64>,
+    pv: Vec<f64>,
+    op: Vec<f64>,
+}
+
+fn sticky() -> &'static Sticky {
+    static STICKY: OnceLock<Sticky> = OnceLock::new();
+    STICKY.get_or_init(|| {
+        let sim = Scenario {
+            plant: PlantSpec::Preset(PlantPreset::Slow),
+            controller: Controller { kc: 0.3, ki: 0.1 },
+            setpoint: Setpoint::constant(),
+            valve: Box::new(Kano::params().s(4.0).j(1.0).check().unwrap()),
+            noise_sigma: 0.02,
+            samples: 1000,
+            warmup: 500,
+            seed: 1,
+            ..Scenario::default()
+        }
+        .simulate()
+        .unwrap();
+        Sticky {
+            t: sim.t,
+            sp: sim.sp,
+            pv: sim.pv,
+            op: sim.op,
+        }
+    })
+}
+
+const STICKY: &str = "sticky";
+
+fn sticky_signals(l: &Sticky) -> LoopSignals<'_> {
+    LoopSignals {
+        name: STICKY,
+        t: Some(&l.t),
+        sp: Some(&l.sp),
+        pv: &l.pv,
+        op: &l.op,
+        mv: None,
+    }
+}
+
+fn registration<'a>(sp: &'a [f64], pv: &'a [f64], op: &'a [f64]) -> Registration<'a> {
+    Registration::new(pv, op, 1.0).unwrap().with_sp(sp).unwrap()
+}
+
+#[test]
+fn detection_pv_op_plot_with_the_ellipse() {
+    let l = sticky();
+    let reg = registration(&l.sp, &l.pv, &l.op);
+    let e = detection::figures::pv_op_ellipse(&reg).expect("a limit cycle has an ellipse");
+    let fig = figures::pv_op_plot(&sticky_signals(l), Some(&e), "detection-pv-op").unwrap();
+    let st = checked(&fig, STICKY);
+    assert_eq!(
+        st.legend[1..],
+        [
+            format!("fitted ellipse, period {:.0} s", e.period),
+            format!("apparent stiction {:.2} %", e.apparent_stiction)
+        ]
+    );
+    assert!(fig
+        .caption
+        .contains(&format!("{:.2} % of valve span", e.apparent_stiction)));
+    insta::assert_snapshot!("detection_pv_op_ellipse", st.summary());
+}
+
+#[test]
+fn detection_pv_op_plot_without_an_oscillation() {
+    let p = paper();
+    let reg = registration(&p.sp, &p.pv, &p.op);
+    let e = detection::figures::pv_op_ellipse(&reg);
+    assert!(e.is_none(), "the paper's loop does not oscillate regularly");
+    let fig = figures::pv_op_plot(&signals(p), e.as_ref(), "detection-pv-op").unwrap();
+    let st = checked(&fig, LOOP);
+    // 3000 samples, min/max-decimated as the line figures are.
+    assert_eq!(st.legend, ["measured (2000 of 3000 samples)"]);
+    assert!(fig.caption.contains("no regular oscillation"));
+    insta::assert_snapshot!("detection_pv_op_no_ellipse", st.summary());
+}
+
+#[test]
+fn detection_cross_correlation() {
+    let l = sticky();
+    let reg = registration(&l.sp, &l.pv, &l.op);
+    let cc = detection::figures::cross_correlation(&reg).unwrap();
+    let t = cc.period.expect("a limit cycle");
+    assert_eq!(cc.max_lag, (t / 2.0).round() as usize);
+    let fig = figures::cross_correlation(&sticky_signals(l), &cc, "detection-xcorr").unwrap();
+    let st = checked(&fig, STICKY);
+    assert_eq!(
+        st.legend,
+        [
+            "lag 0".to_string(),
+            format!("r(lag), odd share {:.2}", cc.odd_share),
+            format!("±T/4 = ±{:.0} s", t / 4.0)
+        ]
+    );
+    assert_eq!(st.axes, ["cross-correlation OP-PV (-)", "lag (s)"]);
+    insta::assert_snapshot!("detection_xcorr", st.summary());
+    // Without a regular oscillation: the fixed lags, no quarter periods, no odd share.
+    let p = paper();
+    let reg = registration(&p.sp, &p.pv, &p.op);
+    let cc = detection::figures::cross_correlation(&reg).unwrap();
+    assert_eq!(cc.max_lag, detection::figures::FIXED_LAGS);
+    let fig = figures::cross_correlation(&signals(p), &cc, "detection-xcorr").unwrap();
+    let st = checked(&fig, LOOP);
+    assert_eq!(st.legend, ["lag 0", "r(lag)"]);
+    assert!(fig.caption.contains("does not judge it"), "{}", fig.caption);
 }
 
 #[test]

@@ -38,12 +38,13 @@ usage: cargo xtask report-check [--out DIR] [--plant DIR] [--profile P] [--html 
   --html FILE... check only these existing HTML files (no build, no generation)
 
 Without --html: builds the CLI (`cargo build --profile P -p stiction-cli`), writes the reports of
-the table REPORTS in xtask/src/browser.rs into OUT/<name>/ and checks them. Each page is loaded
-in headless Chromium (/usr/bin/chromium, or $CHROMIUM) and fails on: console errors, uncaught
-exceptions, failed resource loads, <img> not loaded, top-level <svg> of zero size, no figure at
-all, links to figure files that do not exist. Closed <details> are opened before measuring. A
-full-page screenshot is saved next to each page (index.html -> screenshot.png, X.html ->
-X.screenshot.png). A self-test on hand-written good and broken pages runs first.";
+the table REPORTS in xtask/src/browser.rs into OUT/<name>/ and the `detect` report of a sticky
+loop written by `stiction simulate` (DETECT_LOOP) into OUT/detect/, and checks them. Each page
+is loaded in headless Chromium (/usr/bin/chromium, or $CHROMIUM) and fails on: console errors,
+uncaught exceptions, failed resource loads, <img> not loaded, top-level <svg> of zero size, no
+figure at all, links to figure files that do not exist. Closed <details> are opened before
+measuring. A full-page screenshot is saved next to each page (index.html -> screenshot.png,
+X.html -> X.screenshot.png). A self-test on hand-written good and broken pages runs first.";
 
 /// The reports generated in the default mode: (directory name under `--out`, CLI arguments).
 /// `--report OUT/<name>` is appended to the arguments.
@@ -51,6 +52,13 @@ const REPORTS: &[(&str, &[&str])] = &[
     ("example", &["compare", "--example", "paper"]),
     ("example-diagnose", &["diagnose", "--example", "paper"]),
 ];
+
+/// `detect` reads a file: the loop it is checked on is written first by `stiction simulate
+/// ARGS -o OUT/sticky-loop.csv` (a sticky valve in a limit cycle, so the page has the PV-OP
+/// ellipse as well as the cross-correlation), then `stiction detect OUT/sticky-loop.csv --report
+/// OUT/detect`.
+const DETECT_LOOP: &str = "simulate --plant slow --kc 0.3 --ki 0.1 --valve kano --param S=4 \
+                           --param J=1 --noise 0.02 --samples 1000";
 
 /// Chromium used when `$CHROMIUM` is not set (Debian package `chromium`).
 const DEFAULT_CHROMIUM: &str = "/usr/bin/chromium";
@@ -290,10 +298,22 @@ fn generate(args: &Args, failures: &mut Vec<(String, String)>) -> Result<Vec<Pat
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut pages = Vec::new();
 
-    for (name, cli_args) in REPORTS {
+    let detect_loop = args.out.join("sticky-loop.csv");
+    let detect_args: Vec<std::ffi::OsString> =
+        vec!["detect".into(), detect_loop.clone().into_os_string()];
+    let mut runs: Vec<(&str, Vec<std::ffi::OsString>)> = REPORTS
+        .iter()
+        .map(|(name, cli_args)| (*name, cli_args.iter().map(Into::into).collect()))
+        .collect();
+    match simulate_loop(&exe, &detect_loop) {
+        Ok(()) => runs.push(("detect", detect_args)),
+        Err(e) => failures.push((format!("stiction {DETECT_LOOP}"), format!("{e:#}"))),
+    }
+
+    for (name, cli_args) in &runs {
         let dir = args.out.join(name);
         let started = Instant::now();
-        let run = run_report(&exe, cli_args.iter().map(|s| s.as_ref()), &dir)?;
+        let run = run_report(&exe, cli_args.iter().map(|s| s.as_os_str()), &dir)?;
         let secs = started.elapsed().as_secs_f64();
         let index = dir.join("index.html");
         let has_index = index.is_file();
@@ -338,6 +358,25 @@ fn generate(args: &Args, failures: &mut Vec<(String, String)>) -> Result<Vec<Pat
         )?);
     }
     Ok(pages)
+}
+
+/// `stiction simulate DETECT_LOOP -o csv`: the loop the `detect` page is checked on.
+fn simulate_loop(exe: &Path, csv: &Path) -> Result<()> {
+    let out = Command::new(exe)
+        .args(DETECT_LOOP.split_whitespace())
+        .arg("-o")
+        .arg(csv)
+        .stdin(Stdio::null())
+        .output()
+        .with_context(|| format!("could not start {}", exe.display()))?;
+    if !out.status.success() {
+        bail!(
+            "failed ({}); its stderr:\n{}",
+            out.status,
+            tail(&String::from_utf8_lossy(&out.stderr), 30)
+        );
+    }
+    Ok(())
 }
 
 /// `stiction trend DIR --valve TAG --report OUT/TAG` for every valve with two or more

@@ -6,7 +6,8 @@ use anyhow::anyhow;
 
 use super::batch::IntegratingFlag;
 use super::load::{load, DataFlags};
-use crate::{usage, CmdResult, Streams};
+use crate::reporting::{self, ReportFlags};
+use crate::{CmdResult, Failure, Streams};
 
 /// Arguments of `stiction detect`.
 #[derive(Debug, clap::Args)]
@@ -19,9 +20,8 @@ pub struct Args {
     integrating: IntegratingFlag,
     #[command(flatten)]
     data: DataFlags,
-    /// Not available for `detect` yet (refused).
-    #[arg(long, value_name = "DIR")]
-    report: Option<PathBuf>,
+    #[command(flatten)]
+    report: ReportFlags,
     /// Print one JSON document.
     #[arg(long)]
     json: bool,
@@ -29,17 +29,18 @@ pub struct Args {
 
 /// `stiction detect`.
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    if args.report.is_some() {
-        return Err(usage(anyhow!(
-            "detect: --report is not available yet; use --json, or `stiction quantify --report DIR` for the pictures"
-        )));
-    }
-    let d = load(&args.file, &args.data, true, 30, s)?;
-    d.require_pv()?;
+    let refused = |f: Failure, s: &mut Streams<'_>| {
+        reporting::refused(Some(&args.file), f, &args.report, "detect", s)
+    };
+    let d = load(&args.file, &args.data, true, 30, s).map_err(|f| refused(f, s))?;
+    d.require_pv().map_err(|e| refused(e.into(), s))?;
     let det = match monitoring::detect_file(&d, Some(&args.file), args.integrating.into()) {
         monitoring::Detected::Ran(det) => det,
-        monitoring::Detected::Failed(e) => return Err(anyhow!("{}: {e}", d.source).into()),
+        monitoring::Detected::Failed(e) => {
+            return Err(refused(anyhow!("{}: {e}", d.source).into(), s))
+        }
     };
+    reporting::write(&args.report, s, || report::pages::detect_page(&d, &det))?;
     if args.json {
         return s.json(&monitoring::detect_document(&d, &det));
     }

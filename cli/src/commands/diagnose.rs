@@ -57,8 +57,10 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         }
         Err(other) => return Err(refused(anyhow!("{}: {other}", d.source).into(), s)),
     };
-    reporting::write(&args.report, s, || report::pages::diagnose_page(&d, &dg))?;
     let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
+    reporting::write(&args.report, s, || {
+        report::pages::diagnose_page(&d, &dg, &det)
+    })?;
     if args.json {
         let mut v = dg.record(&d.source, &args.search.init);
         v["detection"] = serde_json::json!(det.record());

@@ -149,8 +149,10 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     if let Some(path) = &args.surface {
         r.write_surface(path)?;
     }
-    reporting::write(&args.report, s, || report::pages::quantify_page(&d, &r))?;
     let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
+    reporting::write(&args.report, s, || {
+        report::pages::quantify_page(&d, &r, &det)
+    })?;
     if args.json {
         let mut v = serde_json::to_value(r.record(&args.search.init))?;
         v["source"] = json!(d.source);

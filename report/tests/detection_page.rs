@@ -1,0 +1,130 @@
+//! The detection section and the `detect` page from typed results: the test table, the two
+//! figures drawn from the registration the tests judged (each passing `check_plot`), and a
+//! record the detector could not take.
+#![allow(clippy::unwrap_used)]
+
+use datasets::simulate::{Controller, PlantPreset, PlantSpec, Scenario, Setpoint};
+use datasets::LoopData;
+use report::inspect;
+use report::pages::{detect_page, detection_section};
+use report::{Block, Report};
+use stiction_models::Kano;
+
+/// The sticky limit cycle of the snapshot tests as the reader would give it (file `sticky.csv`).
+fn sticky() -> LoopData {
+    let sim = Scenario {
+        plant: PlantSpec::Preset(PlantPreset::Slow),
+        controller: Controller { kc: 0.3, ki: 0.1 },
+        setpoint: Setpoint::constant(),
+        valve: Box::new(Kano::params().s(4.0).j(1.0).check().unwrap()),
+        noise_sigma: 0.02,
+        samples: 1000,
+        warmup: 500,
+        seed: 1,
+        ..Scenario::default()
+    }
+    .simulate()
+    .unwrap();
+    LoopData {
+        source: "plant/sticky.csv".into(),
+        start: None,
+        t: Some(sim.t),
+        sp: Some(sim.sp),
+        pv: Some(sim.pv),
+        op: sim.op,
+        mv: None,
+        notes: Vec::new(),
+    }
+}
+
+fn tables(r: &Report) -> Vec<(&Vec<String>, &Vec<Vec<String>>)> {
+    r.sections
+        .iter()
+        .flat_map(|s| &s.blocks)
+        .filter_map(|b| match b {
+            Block::Table { header, rows } => Some((header, rows)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn detect_page_has_the_verdict_the_test_table_and_two_checked_figures() {
+    let d = sticky();
+    let det = monitoring::detect_loop(&d, false);
+    let det = det.detection().unwrap();
+    let page = detect_page(&d, det).unwrap();
+    assert_eq!(page.title, "detect: loop sticky");
+    let verdict = page.sections[0]
+        .blocks
+        .iter()
+        .find_map(|b| match b {
+            Block::Verdict(v) => Some(v.clone()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(
+        verdict,
+        format!("Detection: {} (score {:.2}).", det.verdict, det.score)
+    );
+    let t = tables(&page);
+    assert_eq!(t.len(), 1);
+    let (header, rows) = t[0];
+    assert_eq!(*header, ["test", "statistic", "verdict", "evidence"]);
+    assert_eq!(rows.len(), det.tests.len());
+    for (row, test) in rows.iter().zip(&det.tests) {
+        assert_eq!(row[0], test.name);
+        assert_eq!(row[2], test.verdict.as_str());
+        assert_eq!(row[3], test.evidence);
+    }
+    let figs: Vec<_> = page.figures().collect();
+    let names: Vec<&str> = figs.iter().map(|f| f.name.as_str()).collect();
+    assert_eq!(names, ["detection-pv-op", "detection-xcorr"]);
+    for f in figs {
+        inspect::check_plot(&f.svg, "sticky").unwrap_or_else(|e| panic!("{}: {e}", f.name));
+    }
+    // The cross-correlation's odd share is Horch's statistic; the limit cycle has its ellipse.
+    let horch = det.tests.iter().find(|t| t.name == "horch-xcorr").unwrap();
+    let html = page.to_html(false);
+    assert!(html.contains(&format!("Its odd share is {:.2}", horch.statistic.unwrap())));
+    assert!(html.contains("Choudhury&#39;s apparent stiction"));
+}
+
+#[test]
+fn a_record_the_detector_cannot_take_gets_its_reason_and_no_figure() {
+    let mut d = sticky();
+    d.sp.as_mut().unwrap().pop();
+    let det = monitoring::detect_loop(&d, false);
+    assert!(det.detection().is_none());
+    let sec = detection_section(&d, &det).unwrap();
+    assert!(sec.blocks.iter().all(|b| !matches!(b, Block::Figure(_))));
+    let Block::Paragraph(first) = &sec.blocks[0] else {
+        panic!("{:?}", sec.blocks[0]);
+    };
+    assert!(
+        first.starts_with("Detection: inconclusive (no score)"),
+        "{first}"
+    );
+    assert!(first.contains("different lengths"), "{first}");
+}
+
+#[test]
+fn a_flat_op_has_the_table_and_the_pv_op_plot_but_no_cross_correlation() {
+    let mut d = sticky();
+    d.op = vec![30.0; d.op.len()];
+    let det = monitoring::detect_loop(&d, false);
+    let sec = detection_section(&d, &det).unwrap();
+    let names: Vec<&str> = sec
+        .blocks
+        .iter()
+        .filter_map(|b| match b {
+            Block::Figure(f) => Some(f.name.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(names, ["detection-pv-op"]);
+    assert!(sec.blocks.iter().any(|b| matches!(
+        b,
+        Block::Note(n) if n.starts_with("No cross-correlation: OP is flat")
+    )));
+}
