@@ -13,7 +13,10 @@
 //!   OP into MV, from two starts (at rest after moving down, after moving up: the paper's
 //!   unknown initial state), the better kept; the free valve is `MV = OP`;
 //! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
-//!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c`, `x` MV through a
+//!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c` (plus a sine and a
+//!   cosine at the oscillation's frequency when the loop oscillates regularly: an external
+//!   oscillation that OP compensates would otherwise be "explained" by a deadband filtering
+//!   the compensation out of OP), `x` MV through a
 //!   first-order lag `x(t) = p·x(t−1) + (1−p)·MV(t−d)`, the pole `p` on a grid refined by a
 //!   golden-section search, the delay `d` from 1 to 4 samples in half samples (a continuous
 //!   dead time is rarely a whole number of samples, and a free valve with whole-sample delays
@@ -101,40 +104,110 @@ const POLES: [f64; 8] = [0.0, 0.3, 0.5, 0.7, 0.82, 0.9, 0.95, 0.98];
 /// Golden-section steps of the pole refinement (the bracket shrinks by 0.618 per step).
 const GOLDEN_STEPS: usize = 12;
 
-/// Residual sum of squares of `y(t) = K·x(t) + c` on rows from `start`, `x` the input `u`
-/// delayed by `d + 1` samples through the lag `x(t) = p·x(t−1) + (1−p)·u(t−1−d)`.
-fn oe_rss_at(y: &[f64], u: &[f64], d: usize, start: usize, p: f64, x: &mut [f64]) -> f64 {
-    let n = y.len();
+/// The output-error model's target: the output with the nuisance regressors (a constant, and
+/// with a regular oscillation a sine and a cosine at its frequency) projected out, rows from
+/// `start` on.
+struct Target {
+    /// The output's residual on the nuisance regressors (0 before `start`).
+    ry: Vec<f64>,
+    /// Its sum of squares.
+    yy: f64,
+    /// Orthonormal nuisance regressors over the rows (0 before `start`).
+    basis: Vec<Vec<f64>>,
+    start: usize,
+}
+
+impl Target {
+    fn new(y: &[f64], start: usize, omega: Option<f64>) -> Target {
+        let n = y.len();
+        let mut raw: Vec<Vec<f64>> =
+            vec![(0..n).map(|t| f64::from(u8::from(t >= start))).collect()];
+        if let Some(w) = omega {
+            raw.push(
+                (0..n)
+                    .map(|t| {
+                        if t >= start {
+                            (w * t as f64).sin()
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+            );
+            raw.push(
+                (0..n)
+                    .map(|t| {
+                        if t >= start {
+                            (w * t as f64).cos()
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+            );
+        }
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let mut basis: Vec<Vec<f64>> = Vec::new();
+        for mut v in raw {
+            for q in &basis {
+                let c = dot(&v, q);
+                v.iter_mut().zip(q).for_each(|(x, qq)| *x -= c * qq);
+            }
+            let norm = dot(&v, &v).sqrt();
+            if norm > 1e-9 {
+                v.iter_mut().for_each(|x| *x /= norm);
+                basis.push(v);
+            }
+        }
+        let mut ry: Vec<f64> = (0..n)
+            .map(|t| if t >= start { y[t] } else { 0.0 })
+            .collect();
+        for q in &basis {
+            let c = dot(&ry, q);
+            ry.iter_mut().zip(q).for_each(|(x, qq)| *x -= c * qq);
+        }
+        let yy = dot(&ry, &ry);
+        Target {
+            ry,
+            yy,
+            basis,
+            start,
+        }
+    }
+}
+
+/// Residual sum of squares of `y(t) = K·x(t) + nuisance` on the target's rows, `x` the input
+/// `u` delayed by `d` samples through the lag `x(t) = p·x(t−1) + (1−p)·u(t−d)`.
+fn oe_rss_at(tg: &Target, u: &[f64], d: usize, p: f64, x: &mut [f64]) -> f64 {
+    let n = tg.ry.len();
     x[..=d].fill(u[0]);
     for t in d + 1..n {
         x[t] = p * x[t - 1] + (1.0 - p) * u[t - d];
     }
-    let m = (n - start) as f64;
-    let (mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for t in start..n {
-        sx += x[t];
-        sy += y[t];
+    let (mut sxx, mut sxy) = (0.0, 0.0);
+    let mut proj = [0.0; 3];
+    for t in tg.start..n {
         sxx += x[t] * x[t];
-        sxy += x[t] * y[t];
-        syy += y[t] * y[t];
+        sxy += x[t] * tg.ry[t];
+        for (pi, q) in proj.iter_mut().zip(&tg.basis) {
+            *pi += q[t] * x[t];
+        }
     }
-    let vxx = sxx - sx * sx / m;
-    let vxy = sxy - sx * sy / m;
-    let vyy = syy - sy * sy / m;
-    let rss = if vxx > 1e-12 * vyy.max(f64::MIN_POSITIVE) {
-        vyy - vxy * vxy / vxx
+    let vxx = sxx - proj.iter().map(|v| v * v).sum::<f64>();
+    let rss = if vxx > 1e-12 * tg.yy.max(f64::MIN_POSITIVE) {
+        tg.yy - sxy * sxy / vxx
     } else {
-        vyy
+        tg.yy
     };
     rss.max(0.0)
 }
 
 /// The output-error model's residual sum of squares at its best pole (see [`POLES`]).
-fn oe_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> (f64, f64) {
-    let mut x = vec![0.0; y.len()];
+fn oe_rss(tg: &Target, u: &[f64], d: usize) -> (f64, f64) {
+    let mut x = vec![0.0; tg.ry.len()];
     let at: Vec<f64> = POLES
         .iter()
-        .map(|&p| oe_rss_at(y, u, d, start, p, &mut x))
+        .map(|&p| oe_rss_at(tg, u, d, p, &mut x))
         .collect();
     let i = (0..POLES.len())
         .min_by(|&a, &b| at[a].total_cmp(&at[b]))
@@ -147,20 +220,20 @@ fn oe_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> (f64, f64) {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
     let (mut fa, mut fb) = (
-        oe_rss_at(y, u, d, start, a, &mut x),
-        oe_rss_at(y, u, d, start, b, &mut x),
+        oe_rss_at(tg, u, d, a, &mut x),
+        oe_rss_at(tg, u, d, b, &mut x),
     );
     for _ in 0..GOLDEN_STEPS {
         if fa < fb {
             hi = b;
             (b, fb) = (a, fa);
             a = hi - g * (hi - lo);
-            fa = oe_rss_at(y, u, d, start, a, &mut x);
+            fa = oe_rss_at(tg, u, d, a, &mut x);
         } else {
             lo = a;
             (a, fa) = (b, fb);
             b = lo + g * (hi - lo);
-            fb = oe_rss_at(y, u, d, start, b, &mut x);
+            fb = oe_rss_at(tg, u, d, b, &mut x);
         }
     }
     for (f, p) in [(fa, a), (fb, b)] {
@@ -172,7 +245,7 @@ fn oe_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> (f64, f64) {
 }
 
 /// The best output-error residual over the delays for input `u`: `(rss, delay)`.
-fn best_oe(y: &[f64], u: &[f64], start: usize) -> (f64, usize) {
+fn best_oe(tg: &Target, u: &[f64]) -> (f64, usize) {
     // Half-sample delays too: a continuous dead time is rarely a whole number of samples,
     // and a free valve with an integer delay against a sticky one (whose backlash lags a
     // sinusoid by a fraction of a sample) would favour the sticky one on clean oscillations.
@@ -182,7 +255,7 @@ fn best_oe(y: &[f64], u: &[f64], start: usize) -> (f64, usize) {
     let mut best = (f64::INFINITY, 0);
     for input in [u, &half[..]] {
         for d in 1..=MAX_DELAY + 1 {
-            let r = oe_rss(y, input, d, start).0;
+            let r = oe_rss(tg, input, d).0;
             if r < best.0 {
                 best = (r, d);
             }
@@ -223,7 +296,7 @@ pub struct Comparison {
 /// on `y` (PV, or ΔPV for an integrating loop), the one-step ARX models on PV itself (`pv`, an
 /// ARX represents an integrator), both against `op` (all aligned). `None` when OP's range is
 /// below twice the smallest S or a residual vanishes.
-pub fn compare(y: &[f64], pv: &[f64], op: &[f64]) -> Option<Comparison> {
+pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<Comparison> {
     let n = y.len().min(op.len()).min(pv.len());
     let (y, pv, op) = (&y[..n], &pv[..n], &op[..n]);
     let start = MAX_DELAY + 2;
@@ -245,7 +318,8 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64]) -> Option<Comparison> {
     let z: Vec<f64> = pv.iter().map(|v| v - zm).collect();
     let om = mean(op);
     let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
-    let (oe0, _) = best_oe(&y, &u0, start);
+    let tg = Target::new(&y, start, omega);
+    let (oe0, _) = best_oe(&tg, &u0);
     let arx0 = best_arx(&z, &u0, start);
     let mut best = (f64::INFINITY, 0.0, 0.0, 0usize);
     let mut arx1 = (f64::INFINITY, 0.0);
@@ -262,7 +336,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64]) -> Option<Comparison> {
                 let Ok(mv) = valve.simulate(&u0, init) else {
                     continue;
                 };
-                let (oe, d) = best_oe(&y, &mv, start);
+                let (oe, d) = best_oe(&tg, &mv);
                 let arx = best_arx(&z, &mv, start);
                 if oe < best.0 {
                     best = (oe, s, j, d);
@@ -311,7 +385,16 @@ impl DetectionTest for Hammerstein {
         reg.prepared()?;
         let px = reg.valve_proxy();
         let (proxy, y, op, pv) = (px.name, px.y, px.op, px.pv);
-        let Some(c) = compare(&y, pv, op) else {
+        // With a regular oscillation, a sine and a cosine at its frequency are nuisance
+        // regressors of the output-error fit: an external oscillation is then no longer
+        // "explained" by a deadband that filters OP's compensation of it, and a limit cycle's
+        // evidence must come from its shape beyond the fundamental.
+        let o = reg.prepared()?.oscillation;
+        let omega = o
+            .period
+            .filter(|_| o.is_regular())
+            .map(|p| 2.0 * std::f64::consts::PI / p);
+        let Some(c) = compare(&y, pv, op, omega) else {
             return Ok(TestOutcome::new(
                 "hammerstein",
                 None,
@@ -401,11 +484,11 @@ mod tests {
     #[test]
     fn a_sticky_valve_is_found_and_a_free_one_is_not() {
         let (y, op) = process(true);
-        let c = compare(&y, &y, &op).unwrap();
+        let c = compare(&y, &y, &op, None).unwrap();
         assert!(c.lr > STICTION_LR, "{c:?}");
         assert!((c.s - 3.0).abs() <= 1.0, "{c:?}");
         let (y, op) = process(false);
-        let c = compare(&y, &y, &op).unwrap();
+        let c = compare(&y, &y, &op, None).unwrap();
         assert!(c.lr < FREE_LR, "{c:?}");
     }
 }

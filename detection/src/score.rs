@@ -97,10 +97,10 @@ pub const FEATURES: [Feature; 8] = [
 
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (240 simulated
 /// training loops, seeds 1..240, ridge 0.1; no plant registration in the fit).
-pub const INTERCEPT: f64 = -1.5752;
+pub const INTERCEPT: f64 = -0.9902;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]).
 pub const WEIGHTS: [f64; 8] = [
-    -2.9896, -0.6884, 5.3485, -0.1502, 0.2017, 2.9618, 3.5280, 5.6186,
+    -1.0182, 0.3915, 2.4156, -0.4870, 0.4338, 2.9842, 5.0216, 4.7206,
 ];
 
 /// Score at or above which the verdict may be `stiction`.
