@@ -64,26 +64,14 @@ const P: usize = 5;
 /// Residual sum of squares of `y(t)` on `[y(t−1), y(t−2), u(t−1−d), u(t−2−d), 1]`, `t` from
 /// `start` (the same rows for every model, so that the sums compare).
 fn arx_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> f64 {
-    let n = y.len();
-    let mut g = [[0.0; P]; P];
-    let mut b = [0.0; P];
-    let mut yy = 0.0;
-    for t in start..n {
-        let x = [y[t - 1], y[t - 2], u[t - 1 - d], u[t - 2 - d], 1.0];
-        for i in 0..P {
-            b[i] += x[i] * y[t];
-            for j in 0..=i {
-                g[i][j] += x[i] * x[j];
-            }
-        }
-        yy += y[t] * y[t];
-    }
     let mut gram = SMatrix::<f64, P, P>::zeros();
-    for i in 0..P {
-        for j in 0..=i {
-            gram[(i, j)] = g[i][j];
-            gram[(j, i)] = g[i][j];
-        }
+    let mut b = SVector::<f64, P>::zeros();
+    let mut yy = 0.0;
+    for t in start..y.len() {
+        let x = SVector::<f64, P>::from([y[t - 1], y[t - 2], u[t - 1 - d], u[t - 2 - d], 1.0]);
+        gram.ger(1.0, &x, &x, 1.0);
+        b.axpy(y[t], &x, 1.0);
+        yy += y[t] * y[t];
     }
     let ridge = 1e-10 * gram.trace().max(f64::MIN_POSITIVE);
     gram += SMatrix::<f64, P, P>::identity() * ridge;
@@ -92,7 +80,7 @@ fn arx_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> f64 {
     let Some(chol) = gram.cholesky() else {
         return yy;
     };
-    let Some(z) = chol.l().solve_lower_triangular(&SVector::<f64, P>::from(b)) else {
+    let Some(z) = chol.l().solve_lower_triangular(&b) else {
         return yy;
     };
     (yy - z.norm_squared()).max(0.0)
@@ -120,31 +108,16 @@ struct Target {
 impl Target {
     fn new(y: &[f64], start: usize, omega: Option<f64>) -> Target {
         let n = y.len();
-        let mut raw: Vec<Vec<f64>> =
-            vec![(0..n).map(|t| f64::from(u8::from(t >= start))).collect()];
+        // A regressor over the rows from `start` (0 before).
+        let rows = |f: &dyn Fn(f64) -> f64| -> Vec<f64> {
+            (0..n)
+                .map(|t| if t >= start { f(t as f64) } else { 0.0 })
+                .collect()
+        };
+        let mut raw: Vec<Vec<f64>> = vec![rows(&|_| 1.0)];
         if let Some(w) = omega {
-            raw.push(
-                (0..n)
-                    .map(|t| {
-                        if t >= start {
-                            (w * t as f64).sin()
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect(),
-            );
-            raw.push(
-                (0..n)
-                    .map(|t| {
-                        if t >= start {
-                            (w * t as f64).cos()
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect(),
-            );
+            raw.push(rows(&|t| (w * t).sin()));
+            raw.push(rows(&|t| (w * t).cos()));
         }
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
         let mut basis: Vec<Vec<f64>> = Vec::new();
@@ -203,12 +176,8 @@ fn oe_rss_at(tg: &Target, u: &[f64], d: usize, p: f64, x: &mut [f64]) -> f64 {
 }
 
 /// The output-error model's residual sum of squares at its best pole (see [`POLES`]).
-fn oe_rss(tg: &Target, u: &[f64], d: usize) -> (f64, f64) {
-    let mut x = vec![0.0; tg.ry.len()];
-    let at: Vec<f64> = POLES
-        .iter()
-        .map(|&p| oe_rss_at(tg, u, d, p, &mut x))
-        .collect();
+fn oe_rss(tg: &Target, u: &[f64], d: usize, x: &mut [f64]) -> (f64, f64) {
+    let at: Vec<f64> = POLES.iter().map(|&p| oe_rss_at(tg, u, d, p, x)).collect();
     let i = (0..POLES.len())
         .min_by(|&a, &b| at[a].total_cmp(&at[b]))
         .unwrap_or(0);
@@ -219,21 +188,18 @@ fn oe_rss(tg: &Target, u: &[f64], d: usize) -> (f64, f64) {
     );
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
-    let (mut fa, mut fb) = (
-        oe_rss_at(tg, u, d, a, &mut x),
-        oe_rss_at(tg, u, d, b, &mut x),
-    );
+    let (mut fa, mut fb) = (oe_rss_at(tg, u, d, a, x), oe_rss_at(tg, u, d, b, x));
     for _ in 0..GOLDEN_STEPS {
         if fa < fb {
             hi = b;
             (b, fb) = (a, fa);
             a = hi - g * (hi - lo);
-            fa = oe_rss_at(tg, u, d, a, &mut x);
+            fa = oe_rss_at(tg, u, d, a, x);
         } else {
             lo = a;
             (a, fa) = (b, fb);
             b = lo + g * (hi - lo);
-            fb = oe_rss_at(tg, u, d, b, &mut x);
+            fb = oe_rss_at(tg, u, d, b, x);
         }
     }
     for (f, p) in [(fa, a), (fb, b)] {
@@ -244,20 +210,28 @@ fn oe_rss(tg: &Target, u: &[f64], d: usize) -> (f64, f64) {
     best
 }
 
-/// The best output-error residual over the delays for input `u`: `(rss, delay)`.
-fn best_oe(tg: &Target, u: &[f64]) -> (f64, usize) {
+/// Buffers of the output-error fits, allocated once per comparison.
+struct Scratch {
+    /// The lagged input.
+    x: Vec<f64>,
+    /// The input delayed by half a sample.
+    half: Vec<f64>,
+}
+
+/// The best output-error residual over the delays for input `u`: `(rss, delay in samples)`.
+fn best_oe(tg: &Target, u: &[f64], scratch: &mut Scratch) -> (f64, f64) {
     // Half-sample delays too: a continuous dead time is rarely a whole number of samples,
     // and a free valve with an integer delay against a sticky one (whose backlash lags a
     // sinusoid by a fraction of a sample) would favour the sticky one on clean oscillations.
-    let half: Vec<f64> = (0..u.len())
-        .map(|t| 0.5 * (u[t] + u[t.saturating_sub(1)]))
-        .collect();
-    let mut best = (f64::INFINITY, 0);
-    for input in [u, &half[..]] {
+    let Scratch { x, half } = scratch;
+    half.clear();
+    half.extend((0..u.len()).map(|t| 0.5 * (u[t] + u[t.saturating_sub(1)])));
+    let mut best = (f64::INFINITY, 0.0);
+    for (input, extra) in [(u, 0.0), (&half[..], 0.5)] {
         for d in 1..=MAX_DELAY + 1 {
-            let r = oe_rss(tg, input, d).0;
+            let r = oe_rss(tg, input, d, x).0;
             if r < best.0 {
-                best = (r, d);
+                best = (r, d as f64 + extra);
             }
         }
     }
@@ -280,8 +254,8 @@ pub struct Comparison {
     pub s: f64,
     /// Its J.
     pub j: f64,
-    /// Its delay (samples).
-    pub delay: usize,
+    /// Its delay (samples, in half samples).
+    pub delay: f64,
     /// Regression rows.
     pub rows: usize,
     /// Relative reduction of the output-error residual variance, `1 − RSS₁/RSS₀`.
@@ -319,9 +293,13 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<
     let om = mean(op);
     let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
     let tg = Target::new(&y, start, omega);
-    let (oe0, _) = best_oe(&tg, &u0);
+    let mut scratch = Scratch {
+        x: vec![0.0; n],
+        half: Vec::with_capacity(n),
+    };
+    let (oe0, _) = best_oe(&tg, &u0, &mut scratch);
     let arx0 = best_arx(&z, &u0, start);
-    let mut best = (f64::INFINITY, 0.0, 0.0, 0usize);
+    let mut best = (f64::INFINITY, 0.0, 0.0, 0.0);
     let mut arx1 = (f64::INFINITY, 0.0);
     // The valve's state at the start of the record is unknown: at rest after moving down or
     // after moving up (a creeping OP that keeps going one way holds a valve of the second kind
@@ -336,7 +314,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<
                 let Ok(mv) = valve.simulate(&u0, init) else {
                     continue;
                 };
-                let (oe, d) = best_oe(&tg, &mv);
+                let (oe, d) = best_oe(&tg, &mv, &mut scratch);
                 let arx = best_arx(&z, &mv, start);
                 if oe < best.0 {
                     best = (oe, s, j, d);
@@ -430,7 +408,7 @@ impl DetectionTest for Hammerstein {
         out.values = vec![
             ("S", c.s),
             ("J", c.j),
-            ("delay", c.delay as f64),
+            ("delay", c.delay),
             ("lr_arx", c.lr_arx),
             ("S_arx", c.s_arx),
         ];

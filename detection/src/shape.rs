@@ -11,15 +11,17 @@
 //!   Our version, noise-aware where the papers threshold raw differences: OP and the proxy
 //!   `y` are smoothed over 5 samples and cut into windows of an eighth of the oscillation's
 //!   period (5 to 60 samples; 10 without a regular oscillation); the free valve's gain `K` is
-//!   the median of `Δy/ΔOP` over the windows where `y` clearly moved (more than three noise
-//!   deviations; at least three such windows), since a least-squares gain over all windows
+//!   the median of `Δy/ΔOP` over the windows where both `y` and OP clearly moved (more than
+//!   three noise deviations each; one such window is enough: a sticky valve slips rarely),
+//!   since a least-squares gain over all windows
 //!   is pulled towards 0 by the stuck ones; a window is *informative* when `K·ΔOP` is
 //!   larger than four noise deviations of `Δy` (OP moved enough that a free valve would
 //!   have moved `y` visibly), and *stuck* when besides `|Δy|` is below a quarter of `|K·ΔOP|`.
 //!   Statistic: the stuck share of OP's motion over the informative windows,
 //!   `ρ = Σ_stuck |ΔOP| / Σ_informative |ΔOP|`. Verdict: stiction above 0.1, no stiction
 //!   below 0.05, inconclusive between or with fewer than ten informative windows (our
-//!   thresholds).
+//!   thresholds). Without a regular oscillation the window doubles until ten are
+//!   informative ([`stick_slip_scaled`]).
 //! * **Area ratio** — Singhal & Salsbury, "A simple method for detecting valve stiction in
 //!   oscillating control loops", Journal of Process Control 15 (2005) 371-382. In a
 //!   self-regulating PI loop oscillating through stiction the control error builds up while
@@ -36,7 +38,6 @@ use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome,
 const SMOOTH: usize = 2;
 /// Window length (samples) of the stick-slip test without a regular oscillation.
 const WINDOW: usize = 10;
-const MOVED: usize = 1;
 
 /// The stick-slip test's window: an eighth of the period (5 to 60 samples) when the loop
 /// oscillates regularly, else [`WINDOW`].
@@ -72,7 +73,7 @@ pub(crate) fn stick_slip(op: &[f64], y: &[f64], window: usize) -> Option<(f64, u
         .filter(|(dx, dy)| dy.abs() > 3.0 * sigma_dy && dx.abs() > 3.0 * sigma_dx && *dx != 0.0)
         .map(|(dx, dy)| dy / dx)
         .collect();
-    if moved.len() < MOVED {
+    if moved.is_empty() {
         return None;
     }
     let gain = median(&moved);
@@ -90,6 +91,34 @@ pub(crate) fn stick_slip(op: &[f64], y: &[f64], window: usize) -> Option<(f64, u
     (informative > 0.0).then(|| (stuck / informative, count))
 }
 
+/// [`stick_slip`] at window `w`, or — without a regular oscillation and with fewer than ten
+/// informative windows — at the shortest doubling of it (up to a tenth of the record) that has
+/// enough: a slowly moving OP needs longer windows before a free valve's proxy would move
+/// visibly. (With a regular oscillation the window stays tied to the period: a longer one
+/// would span the half cycle over which the proxy's change cancels.) A doubling that gives
+/// fewer informative windows than the last result ends the search. `(ρ, informative windows,
+/// window)`.
+pub(crate) fn stick_slip_scaled(
+    op: &[f64],
+    y: &[f64],
+    w: usize,
+    regular: bool,
+) -> Option<(f64, usize, usize)> {
+    let mut found = stick_slip(op, y, w).map(|(rho, count)| (rho, count, w));
+    let mut w = w;
+    while !regular && found.is_none_or(|(_, count, _)| count < 10) && 2 * w <= op.len() / 10 {
+        w *= 2;
+        if let Some((rho, count)) = stick_slip(op, y, w) {
+            if found.is_none_or(|(_, c, _)| count >= c) {
+                found = Some((rho, count, w));
+            } else {
+                break;
+            }
+        }
+    }
+    found
+}
+
 /// The stick-slip test (Kano et al. 2004; Yamashita 2006).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct StickSlip;
@@ -103,25 +132,8 @@ impl DetectionTest for StickSlip {
         let w = window(o.period.filter(|_| o.is_regular()));
         let px = reg.valve_proxy();
         let (proxy, y, op) = (px.name, px.y, px.op);
-        // Without a regular oscillation, the shortest window (doubling from `w`) with enough
-        // informative windows: a slowly moving OP needs longer windows before a free valve's
-        // proxy would move visibly. (With one, the window stays tied to the period: a longer
-        // one would span the half cycle over which the proxy's change cancels.)
-        let mut w = w;
-        let mut found = stick_slip(op, &y, w);
-        while !o.is_regular() && found.is_none_or(|(_, count)| count < 10) && 2 * w <= op.len() / 10
-        {
-            w *= 2;
-            if let Some(r) = stick_slip(op, &y, w) {
-                if found.is_none_or(|(_, c)| r.1 >= c) {
-                    found = Some(r);
-                } else {
-                    w /= 2;
-                    break;
-                }
-            }
-        }
-        let Some((rho, windows)) = found else {
+        let found = stick_slip_scaled(op, &y, w, o.is_regular());
+        let Some((rho, windows, w)) = found else {
             return Ok(TestOutcome::new(
                 "stick-slip",
                 None,
@@ -242,6 +254,7 @@ inventory::submit! {
 mod tests {
     use super::*;
     use crate::testing::{noise, sine};
+    use stiction_models::{InitialState, Kano, StictionModel};
 
     #[test]
     fn a_valve_that_moves_in_jumps_is_stuck_and_a_free_one_is_not() {
@@ -272,6 +285,44 @@ mod tests {
         let (rf, _) = stick_slip(&op, &free, WINDOW).unwrap();
         assert!(rs > 0.1, "sticky {rs}");
         assert!(rf < 0.05, "free {rf}");
+    }
+
+    /// OP creeping 1.5 over 400 samples and back: a free valve's PV moves too little in 10
+    /// samples to judge, so the window doubles until it can (and a sticky valve's slips are
+    /// still found); with a regular oscillation the window is not stretched.
+    #[test]
+    fn a_creeping_op_is_judged_over_longer_windows() {
+        let n = 1600;
+        let op: Vec<f64> = (0..n)
+            .map(|k| {
+                let t = (k % 800) as f64;
+                if t < 400.0 {
+                    t * 1.5 / 400.0
+                } else {
+                    (800.0 - t) * 1.5 / 400.0
+                }
+            })
+            .collect();
+        let nz = noise(n, 0.1, 7);
+        // A Kano valve S = J = 1: at each reversal it holds while OP creeps by 1, then jumps.
+        let mv = Kano::params()
+            .s(1.0)
+            .j(1.0)
+            .check()
+            .unwrap()
+            .simulate(&op, &InitialState::up())
+            .unwrap();
+        let stuck: Vec<f64> = mv.iter().zip(&nz).map(|(a, b)| a + b).collect();
+        let free: Vec<f64> = op.iter().zip(&nz).map(|(a, b)| a + b).collect();
+        assert!(stick_slip(&op, &free, WINDOW).is_none());
+        let (rf, count, w) = stick_slip_scaled(&op, &free, WINDOW, false).unwrap();
+        assert!(
+            rf < 0.05 && count >= 10 && w > WINDOW,
+            "free {rf} {count} {w}"
+        );
+        let (rs, _, _) = stick_slip_scaled(&op, &stuck, WINDOW, false).unwrap();
+        assert!(rs > 0.1, "sticky {rs}");
+        assert!(stick_slip_scaled(&op, &free, WINDOW, true).is_none());
     }
 
     #[test]
