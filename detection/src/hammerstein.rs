@@ -13,10 +13,11 @@
 //!   OP into MV, from two starts (at rest after moving down, after moving up: the paper's
 //!   unknown initial state), the better kept; the free valve is `MV = OP`;
 //! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
-//!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c` (plus a sine and a
-//!   cosine at the oscillation's frequency when the loop oscillates regularly: an external
-//!   oscillation that OP compensates would otherwise be "explained" by a deadband filtering
-//!   the compensation out of OP), `x` MV through a
+//!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c` plus nuisance
+//!   sines and cosines, at the oscillation's frequency when the loop oscillates regularly and
+//!   at OP's dominant frequency ([`dominant_frequency`]) always: an external oscillation that
+//!   OP compensates would otherwise be "explained" by a deadband filtering the compensation
+//!   out of OP; `x` is MV through a
 //!   first-order lag `x(t) = p·x(t−1) + (1−p)·MV(t−d)`, the pole `p` on a grid refined by a
 //!   golden-section search, the delay `d` from 1 to 4 samples in half samples (a continuous
 //!   dead time is rarely a whole number of samples, and a free valve with whole-sample delays
@@ -31,7 +32,10 @@
 //!   external disturbance's own dynamics, which the output-error fit would read through the
 //!   valve model;
 //! * each statistic is the likelihood ratio `LR = N ln(RSS_free / RSS_sticky)` of the best
-//!   sticky valve against the best free one (Gaussian errors; `N` the rows).
+//!   sticky valve against the best free one (Gaussian errors; `N` the rows);
+//! * the likelihood region of S: the largest S of the grid whose best valve stays within
+//!   χ²₁(95 %) = 3.84 of the best model ([`Comparison::s_upper`]). The verdict uses it to
+//!   refuse `no-stiction` when a band of 2 % or more explains PV as well as a free valve.
 //!
 //! Why one step ahead and not the simulation error the quantification uses for the ARX: with a
 //! free valve, a PI controller and a constant set point, OP(t−1) is an exact linear combination
@@ -86,6 +90,71 @@ fn arx_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> f64 {
     (yy - z.norm_squared()).max(0.0)
 }
 
+/// Nuisance regressors of the output-error target at most: a constant and two sine-cosine
+/// pairs.
+const MAX_BASIS: usize = 5;
+
+/// The dominant frequency (rad/sample) of `x` with its mean and linear trend removed, over
+/// periods from 8 samples to a quarter of the record: the periodogram's peak on the Fourier
+/// grid, refined by a golden-section search between its neighbours. `None` when the record is
+/// too short for such periods or has no power in them.
+pub fn dominant_frequency(x: &[f64]) -> Option<f64> {
+    let n = x.len();
+    if n < 64 {
+        return None;
+    }
+    let nf = n as f64;
+    let tm = 0.5 * (nf - 1.0);
+    let xm = mean(x);
+    let stt: f64 = (0..n).map(|t| (t as f64 - tm).powi(2)).sum();
+    let slope = (0..n).map(|t| (t as f64 - tm) * (x[t] - xm)).sum::<f64>() / stt;
+    let r: Vec<f64> = (0..n)
+        .map(|t| x[t] - xm - slope * (t as f64 - tm))
+        .collect();
+    let power = |w: f64| {
+        let (mut a, mut b) = (0.0, 0.0);
+        for (t, v) in r.iter().enumerate() {
+            let (s, c) = (w * t as f64).sin_cos();
+            a += v * c;
+            b += v * s;
+        }
+        a * a + b * b
+    };
+    let (k0, k1) = (4, n / 8);
+    if k1 <= k0 {
+        return None;
+    }
+    let step = 2.0 * std::f64::consts::PI / nf;
+    let grid: Vec<f64> = (k0..=k1).map(|k| power(k as f64 * step)).collect();
+    let i = (0..grid.len()).max_by(|&a, &b| grid[a].total_cmp(&grid[b]))?;
+    if grid[i].is_nan() || grid[i] <= 0.0 {
+        return None;
+    }
+    let w0 = (k0 + i) as f64 * step;
+    let (mut lo, mut hi) = (w0 - step, w0 + step);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut fa, mut fb) = (power(a), power(b));
+    for _ in 0..GOLDEN_STEPS {
+        if fa > fb {
+            hi = b;
+            (b, fb) = (a, fa);
+            a = hi - g * (hi - lo);
+            fa = power(a);
+        } else {
+            lo = a;
+            (a, fa) = (b, fb);
+            b = lo + g * (hi - lo);
+            fb = power(b);
+        }
+    }
+    let best = [(grid[i], w0), (fa, a), (fb, b)]
+        .into_iter()
+        .max_by(|p, q| p.0.total_cmp(&q.0))
+        .map(|p| p.1)?;
+    Some(best)
+}
+
 /// Poles of the first-order lag of the output-error model: a coarse grid, refined by a
 /// golden-section search between the best pole's neighbours.
 const POLES: [f64; 8] = [0.0, 0.3, 0.5, 0.7, 0.82, 0.9, 0.95, 0.98];
@@ -106,7 +175,7 @@ struct Target {
 }
 
 impl Target {
-    fn new(y: &[f64], start: usize, omega: Option<f64>) -> Target {
+    fn new(y: &[f64], start: usize, omegas: &[f64]) -> Target {
         let n = y.len();
         // A regressor over the rows from `start` (0 before).
         let rows = |f: &dyn Fn(f64) -> f64| -> Vec<f64> {
@@ -115,7 +184,7 @@ impl Target {
                 .collect()
         };
         let mut raw: Vec<Vec<f64>> = vec![rows(&|_| 1.0)];
-        if let Some(w) = omega {
+        for &w in omegas {
             raw.push(rows(&|t| (w * t).sin()));
             raw.push(rows(&|t| (w * t).cos()));
         }
@@ -158,7 +227,7 @@ fn oe_rss_at(tg: &Target, u: &[f64], d: usize, p: f64, x: &mut [f64]) -> f64 {
         x[t] = p * x[t - 1] + (1.0 - p) * u[t - d];
     }
     let (mut sxx, mut sxy) = (0.0, 0.0);
-    let mut proj = [0.0; 3];
+    let mut proj = [0.0; MAX_BASIS];
     for t in tg.start..n {
         sxx += x[t] * x[t];
         sxy += x[t] * tg.ry[t];
@@ -264,13 +333,21 @@ pub struct Comparison {
     pub lr_arx: f64,
     /// The S of the best sticky valve one step ahead.
     pub s_arx: f64,
+    /// The largest S of the grid still in the output-error likelihood region: its best valve
+    /// (over J and the two starts) within [`REGION_LR`] of the best model, free or sticky.
+    /// Below 1 (% of span, the size that already hurts) the data exclude a harmful stiction
+    /// band; at or above it they do not, whatever the likelihood ratio says.
+    pub s_upper: f64,
 }
+
+/// Likelihood-ratio margin of the S region: χ²₁ at 95 %.
+pub const REGION_LR: f64 = 3.84;
 
 /// Compare the best sticky Kano valve of the grid with a free valve: the output-error models
 /// on `y` (PV, or ΔPV for an integrating loop), the one-step ARX models on PV itself (`pv`, an
 /// ARX represents an integrator), both against `op` (all aligned). `None` when OP's range is
 /// below twice the smallest S or a residual vanishes.
-pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<Comparison> {
+pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comparison> {
     let n = y.len().min(op.len()).min(pv.len());
     let (y, pv, op) = (&y[..n], &pv[..n], &op[..n]);
     let start = MAX_DELAY + 2;
@@ -292,7 +369,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<
     let z: Vec<f64> = pv.iter().map(|v| v - zm).collect();
     let om = mean(op);
     let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
-    let tg = Target::new(&y, start, omega);
+    let tg = Target::new(&y, start, omegas);
     let mut scratch = Scratch {
         x: vec![0.0; n],
         half: Vec::with_capacity(n),
@@ -305,7 +382,10 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<
     // after moving up (a creeping OP that keeps going one way holds a valve of the second kind
     // for S, the first only for J); each node keeps the better of the two.
     let starts = [InitialState::down(), InitialState::up()];
+    // The profile over S: the best output-error residual of each S (over J and the starts).
+    let mut profile: Vec<(f64, f64)> = Vec::with_capacity(S_GRID.len());
     for &s in S_GRID.iter().filter(|&&s| s <= range) {
+        profile.push((s, f64::INFINITY));
         for j in [0.0, 0.5 * s, s] {
             let Ok(valve) = Kano::params().s(s).j(j).check() else {
                 continue;
@@ -319,6 +399,9 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<
                 if oe < best.0 {
                     best = (oe, s, j, d);
                 }
+                if let Some(last) = profile.last_mut() {
+                    last.1 = last.1.min(oe);
+                }
                 if arx < arx1.0 {
                     arx1 = (arx, s);
                 }
@@ -331,7 +414,14 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omega: Option<f64>) -> Option<
         return None;
     }
     let ratio = (oe0 / best.0).max(1.0);
+    let floor = oe0.min(best.0);
+    let s_upper = profile
+        .iter()
+        .filter(|&&(_, r)| rows as f64 * (r / floor).ln() <= REGION_LR)
+        .map(|&(s, _)| s)
+        .fold(0.0, f64::max);
     Some(Comparison {
+        s_upper,
         lr: rows as f64 * ratio.ln(),
         s: best.1,
         j: best.2,
@@ -372,7 +462,18 @@ impl DetectionTest for Hammerstein {
             .period
             .filter(|_| o.is_regular())
             .map(|p| 2.0 * std::f64::consts::PI / p);
-        let Some(c) = compare(&y, pv, op, omega) else {
+        let mut omegas: Vec<f64> = omega.into_iter().collect();
+        // OP's dominant frequency too: an external oscillation that the controller compensates
+        // shows in OP even when the control error does not oscillate regularly (a wandering
+        // set point, a slow plant), and a deadband that filters the compensation out of OP
+        // would otherwise explain PV better than the free valve does.
+        if let Some(w) = dominant_frequency(op) {
+            let resolution = 2.0 * std::f64::consts::PI / op.len() as f64;
+            if omegas.iter().all(|&v| (v - w).abs() > resolution) {
+                omegas.push(w);
+            }
+        }
+        let Some(c) = compare(&y, pv, op, &omegas) else {
             return Ok(TestOutcome::new(
                 "hammerstein",
                 None,
@@ -395,14 +496,15 @@ impl DetectionTest for Hammerstein {
             Some(c.lr),
             verdict,
             format!(
-                "simulated through a Kano valve S = {:.2}, J = {:.2} (delay {}), OP explains {proxy} with {:.1} % less residual variance than through a free valve (LR = {:.1} over {} rows); one step ahead, LR = {:.1}",
+                "simulated through a Kano valve S = {:.2}, J = {:.2} (delay {}), OP explains {proxy} with {:.1} % less residual variance than through a free valve (LR = {:.1} over {} rows); one step ahead, LR = {:.1}; the data leave S up to {:.2} in the likelihood region",
                 c.s,
                 c.j,
                 c.delay,
                 100.0 * c.reduction,
                 c.lr,
                 c.rows,
-                c.lr_arx
+                c.lr_arx,
+                c.s_upper
             ),
         );
         out.values = vec![
@@ -411,6 +513,7 @@ impl DetectionTest for Hammerstein {
             ("delay", c.delay),
             ("lr_arx", c.lr_arx),
             ("S_arx", c.s_arx),
+            ("S_upper", c.s_upper),
         ];
         Ok(out)
     }
@@ -460,13 +563,25 @@ mod tests {
     }
 
     #[test]
+    fn the_dominant_frequency_is_the_sine_in_the_noise() {
+        let e = noise(3000, 1.0, 7);
+        let x: Vec<f64> = (0..3000)
+            .map(|t| 0.05 * t as f64 + 0.8 * (0.0377 * t as f64 + 0.3).sin() + e[t])
+            .collect();
+        let w = dominant_frequency(&x).unwrap();
+        assert!((w - 0.0377).abs() < 2e-4, "{w}");
+        assert_eq!(dominant_frequency(&x[..40]), None);
+        assert_eq!(dominant_frequency(&[1.0; 500]), None);
+    }
+
+    #[test]
     fn a_sticky_valve_is_found_and_a_free_one_is_not() {
         let (y, op) = process(true);
-        let c = compare(&y, &y, &op, None).unwrap();
+        let c = compare(&y, &y, &op, &[]).unwrap();
         assert!(c.lr > STICTION_LR, "{c:?}");
         assert!((c.s - 3.0).abs() <= 1.0, "{c:?}");
         let (y, op) = process(false);
-        let c = compare(&y, &y, &op, None).unwrap();
+        let c = compare(&y, &y, &op, &[]).unwrap();
         assert!(c.lr < FREE_LR, "{c:?}");
     }
 }
