@@ -99,60 +99,10 @@ const MAX_BASIS: usize = 5;
 /// grid, refined by a golden-section search between its neighbours. `None` when the record is
 /// too short for such periods or has no power in them.
 pub fn dominant_frequency(x: &[f64]) -> Option<f64> {
-    let n = x.len();
-    if n < 64 {
+    if x.len() < 64 {
         return None;
     }
-    let nf = n as f64;
-    let tm = 0.5 * (nf - 1.0);
-    let xm = mean(x);
-    let stt: f64 = (0..n).map(|t| (t as f64 - tm).powi(2)).sum();
-    let slope = (0..n).map(|t| (t as f64 - tm) * (x[t] - xm)).sum::<f64>() / stt;
-    let r: Vec<f64> = (0..n)
-        .map(|t| x[t] - xm - slope * (t as f64 - tm))
-        .collect();
-    let power = |w: f64| {
-        let (mut a, mut b) = (0.0, 0.0);
-        for (t, v) in r.iter().enumerate() {
-            let (s, c) = (w * t as f64).sin_cos();
-            a += v * c;
-            b += v * s;
-        }
-        a * a + b * b
-    };
-    let (k0, k1) = (4, n / 8);
-    if k1 <= k0 {
-        return None;
-    }
-    let step = 2.0 * std::f64::consts::PI / nf;
-    let grid: Vec<f64> = (k0..=k1).map(|k| power(k as f64 * step)).collect();
-    let i = (0..grid.len()).max_by(|&a, &b| grid[a].total_cmp(&grid[b]))?;
-    if grid[i].is_nan() || grid[i] <= 0.0 {
-        return None;
-    }
-    let w0 = (k0 + i) as f64 * step;
-    let (mut lo, mut hi) = (w0 - step, w0 + step);
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
-    let (mut fa, mut fb) = (power(a), power(b));
-    for _ in 0..GOLDEN_STEPS {
-        if fa > fb {
-            hi = b;
-            (b, fb) = (a, fa);
-            a = hi - g * (hi - lo);
-            fa = power(a);
-        } else {
-            lo = a;
-            (a, fa) = (b, fb);
-            b = lo + g * (hi - lo);
-            fb = power(b);
-        }
-    }
-    let best = [(grid[i], w0), (fa, a), (fb, b)]
-        .into_iter()
-        .max_by(|p, q| p.0.total_cmp(&q.0))
-        .map(|p| p.1)?;
-    Some(best)
+    linear_id::dominant_frequency(x, 8.0, x.len() as f64 / 4.0)
 }
 
 /// Poles of the first-order lag of the output-error model: a coarse grid, refined by a

@@ -574,6 +574,7 @@ pub fn diagnose_with_progress(
         let holds = cost < options.lr_no_stiction;
         for f in findings.iter_mut().filter(|f| f.cause == "no-stiction") {
             f.lr = -cost;
+            f.threshold = -options.lr_no_stiction;
             f.significant = holds;
             f.reference = format!("the {cause} extension");
             f.evidence = format!(
@@ -814,13 +815,21 @@ impl ForwardCtx<'_> {
                 _ => start.fitted.as_ref(),
             };
             let Some(current) = current else { break };
-            let spec = diagnosis_combination(
+            let mut spec = diagnosis_combination(
                 baseline,
                 options,
                 current.stiction,
                 linear_id::find_identifier(current.linear)?,
                 current.delay,
             );
+            // the current model's own orders (HARX's frequency among them)
+            spec.orders = current
+                .identifier
+                .orders()
+                .into_iter()
+                .filter(|(k, _)| *k != "delay")
+                .map(|(k, v)| (k.to_string(), v))
+                .collect();
             let q = &current.result;
             let res =
                 ResidualAnalysis::new(problem.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
@@ -859,6 +868,17 @@ impl ForwardCtx<'_> {
                 );
                 if f.reference == "baseline" {
                     f.reference = format!("the {prev} extension");
+                }
+                if f.significant
+                    && f.fitted
+                        .as_ref()
+                        .is_some_and(|x| causes::notches_the_valves_cycle(problem.op, x))
+                {
+                    f.significant = false;
+                    f.evidence = format!(
+                        "{} Not admitted: on this model the disturbance's notch sits on the loop's own oscillation while the valve is sticky, so the notch removes the valve's cycle, not an external one.",
+                        f.evidence
+                    );
                 }
                 step.push(f);
             }
@@ -1231,11 +1251,14 @@ fn summarise(
         Some(i) if findings[i].cause == "no-stiction" => {
             let f = &findings[i];
             let e = f.extended.as_ref();
+            // the baseline's own valve without stiction may have no stable node; the test
+            // then stands on the extension's (its evidence says which)
+            let fitted = e.map_or(String::new(), |e| {
+                format!("; fitted S = {:.2} %, J = {:.2} %", e.s, e.j)
+            });
             format!(
-                "Cause: no-stiction. The oscillation is not the valve's: a valve with negligible stiction (S at most {} %; fitted S = {:.2} %, J = {:.2} %) explains PV as well as the stiction model (likelihood-ratio cost {:.1}, below {:.2}); look for the cause elsewhere (tuning, an external oscillation, the process). {} {baseline}",
+                "Cause: no-stiction. The oscillation is not the valve's: a valve with negligible stiction (S at most {} %{fitted}) explains PV as well as the stiction model (likelihood-ratio cost {:.1}, below {:.2}); look for the cause elsewhere (tuning, an external oscillation, the process). {} {baseline}",
                 grid_search::NEGLIGIBLE_S,
-                e.map_or(f64::NAN, |e| e.s),
-                e.map_or(f64::NAN, |e| e.j),
                 -f.lr,
                 f.threshold.abs(),
                 f.evidence,
@@ -1295,8 +1318,10 @@ pub fn action_line(dg: &Diagnosis) -> String {
     let chosen = dg.chosen.and_then(|i| dg.findings.get(i));
     match chosen {
         Some(f) if f.cause == "no-stiction" => format!(
-            "no-stiction: the oscillation is not the valve's (a valve with negligible stiction, fitted S = {:.2} %, explains PV as well); look elsewhere",
-            f.extended.as_ref().map_or(f64::NAN, |e| e.s)
+            "no-stiction: the oscillation is not the valve's (a valve with negligible stiction{} explains PV as well); look elsewhere",
+            f.extended
+                .as_ref()
+                .map_or(String::new(), |e| format!(", fitted S = {:.2} %,", e.s))
         ),
         Some(f) => match dg.final_fit().map(Fitted::summary) {
             Some(e) => format!(

@@ -308,7 +308,7 @@ impl LinearIdentifier for Arx {
     }
 }
 
-const ARX_ORDERS: [OrderSpec; 3] = [
+pub(crate) const ARX_ORDERS: [OrderSpec; 3] = [
     OrderSpec {
         name: "n",
         default: OrderValue::Int(2),

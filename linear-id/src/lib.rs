@@ -141,6 +141,7 @@ mod arx;
 mod arx_sums;
 mod error;
 mod fit;
+mod harmonic;
 mod la;
 mod lanes;
 mod model;
@@ -158,6 +159,7 @@ pub use fit::{
     e_g, fit_mv, fit_percent_unsquared, fit_pv, frequency_grid, polynomial_frequency_response,
     E_G_GRID_POINTS,
 };
+pub use harmonic::{dominant_frequency, Harx, HarxParams, HARX_MAX_OMEGA, HARX_MIN_OMEGA};
 pub use model::{BiasTracking, FitInfo, LinearFit, Structure, STABILITY_MARGIN};
 pub use order::{OrderKind, OrderParseError, OrderValue};
 pub use parsim::{ParsimK, ParsimKParams};

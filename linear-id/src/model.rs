@@ -420,6 +420,10 @@ pub struct LinearFit {
     pub(crate) y_mean: f64,
     pub(crate) bias: Option<BiasTracking>,
     pub(crate) disturbance: Option<Vec<f64>>,
+    /// HARX: the frequency (rad/sample) of the sinusoidal disturbance the one-step predictor
+    /// annihilates ([`crate::Harx`]); `None` for the other models.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) harmonic: Option<f64>,
     pub(crate) info: FitInfo,
 }
 
@@ -460,6 +464,7 @@ impl LinearFit {
             y_mean,
             bias,
             disturbance: None,
+            harmonic: None,
             info: FitInfo {
                 n_samples: 0,
                 first_sample: 0,
@@ -525,6 +530,7 @@ impl LinearFit {
             y_mean,
             bias: None,
             disturbance: None,
+            harmonic: None,
             info: FitInfo {
                 n_samples,
                 first_sample,
@@ -593,10 +599,12 @@ impl LinearFit {
 
     /// First sample whose one-step prediction uses only measured lags.
     pub fn first_sample(&self) -> usize {
+        // HARX's predictor has the notch's two more lags
+        let notch = if self.harmonic.is_some() { 2 } else { 0 };
         match &self.structure {
-            Structure::Polynomial { a, b, c, delay } => {
-                (a.len() - 1).max(b.len() + delay).max(c.len() - 1)
-            }
+            Structure::Polynomial { a, b, c, delay } => (a.len() - 1 + notch)
+                .max(b.len() + delay + notch)
+                .max(c.len() - 1),
             Structure::StateSpace { .. } => 0,
         }
     }
@@ -778,8 +786,26 @@ impl LinearFit {
         }
     }
 
+    /// The frequency of HARX's sinusoidal disturbance, rad/sample ([`crate::Harx`]); `None`
+    /// for the other models.
+    pub fn harmonic(&self) -> Option<f64> {
+        self.harmonic
+    }
+
     /// Runs the predictor; returns the β series for bias models (empty otherwise).
     fn predict_core(&self, u: &[f64], y: &[f64], out: &mut [f64]) -> Result<Vec<f64>, IdError> {
+        if let Some(omega) = self.harmonic {
+            // HARX: y_k - ŷ_k is the residual of the ARX of the notch-filtered signals
+            // (crate::harmonic), whose operating point is 0
+            let uf = crate::harmonic::notch_filter(u, self.u_mean, omega);
+            let yf = crate::harmonic::notch_filter(y, self.y_mean, omega);
+            let filtered = LinearFit::bare(&self.kind, self.structure.clone(), 0.0, 0.0, None);
+            let betas = filtered.predict_core(&uf, &yf, out)?;
+            for ((o, &f), &v) in out.iter_mut().zip(&yf).zip(y) {
+                *o += v - f;
+            }
+            return Ok(betas);
+        }
         let (um, ym) = (self.u_mean, self.y_mean);
         let n_data = y.len();
         match &self.structure {
@@ -1065,6 +1091,7 @@ mod tests {
             y_mean: -0.5,
             bias,
             disturbance: None,
+            harmonic: None,
             info: FitInfo {
                 n_samples: 0,
                 first_sample: 0,

@@ -290,6 +290,7 @@ impl Recursive {
             y_mean,
             bias,
             disturbance: self.bias.then_some(run.betas),
+            harmonic: None,
             info: crate::FitInfo {
                 n_samples: 0,
                 first_sample: 0,

@@ -1,0 +1,539 @@
+//! HARX: ARX with a harmonic (sinusoidal) disturbance of known frequency, and the periodogram
+//! peak that finds such a frequency.
+//!
+//! A sinusoidal disturbance at ω in `A(q) y = B(q) u + d + e` (an external oscillation, at the
+//! output or inside the loop: `A(q)` keeps it a sinusoid at ω) is annihilated by
+//! `N(q) = 1 − 2 cos ω q⁻¹ + q⁻²` whatever its amplitude and phase. Filtering both signals
+//! with `N` alone would colour the noise (`N e`, a moving average with zeros on the unit
+//! circle, six times white noise's variance at low ω), so HARX uses the notch filter
+//! `L(q) = N(q) / N(q/ρ)`, `N(q/ρ) = 1 − 2ρ cos ω q⁻¹ + ρ² q⁻²`: zero gain at ω, close to 1
+//! away from it, and the ARX of the filtered signals `A(q) (L y) = B(q) (L u) + e` has white
+//! residuals again, the sinusoid gone after the filter's transient. The pole radius
+//! `ρ = 1 − ω/4` gives a notch about ω/2 wide: narrow beside the process's band for the
+//! periods of 8 samples and more that are sought, wide enough to follow an oscillation whose
+//! amplitude drifts over a few periods. This is to a sinusoid what EARX's random-walk bias is
+//! to a drift. The one-step predictor follows from `L y_k = y_k + (terms in the past)`; the
+//! process (poles, gain, free-run simulation) is `B / A`, and the simulation does not contain
+//! the disturbance, which is only known through the measured output.
+
+use serde::{Deserialize, Serialize};
+
+use crate::arx::{ARX_ORDERS, MAX_DELAY};
+use crate::error::{check_data, check_order, check_real};
+use crate::registry::resolve;
+use crate::{
+    mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue, Structure,
+};
+
+/// The notch's pole radius for frequency ω (module docs).
+pub(crate) fn pole_radius(omega: f64) -> f64 {
+    (1.0 - omega / 4.0).clamp(0.5, 0.998)
+}
+
+/// `L(q) (x − centre)` from a zero state, full length (module docs).
+pub(crate) fn notch_filter(x: &[f64], centre: f64, omega: f64) -> Vec<f64> {
+    let (c, rho) = (omega.cos(), pole_radius(omega));
+    let mut out = vec![0.0; x.len()];
+    let (mut x1, mut x2, mut f1, mut f2) = (0.0, 0.0, 0.0, 0.0);
+    for (o, &v) in out.iter_mut().zip(x) {
+        let x0 = v - centre;
+        let f0 = x0 - 2.0 * c * x1 + x2 + 2.0 * rho * c * f1 - rho * rho * f2;
+        *o = f0;
+        (x2, x1, f2, f1) = (x1, x0, f1, f0);
+    }
+    out
+}
+
+/// `L(1)`, the notch's gain at zero frequency.
+fn dc_gain(omega: f64) -> f64 {
+    let (c, rho) = (omega.cos(), pole_radius(omega));
+    (2.0 - 2.0 * c) / (1.0 - 2.0 * rho * c + rho * rho)
+}
+
+/// ARX with a harmonic disturbance at a known frequency ω,
+/// `A(q) y_k = B(q) u_{k-delay} + d_k + e_k` with `d` any sinusoid at ω, identified as the
+/// ARX of the notch-filtered signals (module docs).
+///
+/// | name | default | meaning | valid range |
+/// |------|---------|---------|-------------|
+/// | `n` | 2 | order of A(q) | 0 ..= 50 |
+/// | `m` | 2 | order of B(q) | 1 ..= 50 |
+/// | `delay` | 0 | dead time `t_d` in samples | 0 ..= 10000 |
+/// | `omega` | 0.05 | the disturbance's frequency, rad/sample | [0.005, 3.1] |
+///
+/// The frequency is not estimated here: a caller that does not know it takes the dominant
+/// frequency of a model's residuals ([`dominant_frequency`]), as `stiction diagnose` does.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "HarxParams", into = "HarxParams")]
+pub struct Harx {
+    n: usize,
+    m: usize,
+    delay: usize,
+    omega: f64,
+}
+
+/// Unchecked parameters of [`Harx`]; [`HarxParams::check`] builds the identifier.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HarxParams {
+    /// Order of A(q).
+    pub n: usize,
+    /// Order of B(q).
+    pub m: usize,
+    /// Dead time in samples.
+    pub delay: usize,
+    /// Frequency of the harmonic disturbance, rad/sample.
+    pub omega: f64,
+}
+
+/// Smallest accepted ω: a period of about 1250 samples (below it `N(q)` tends to the double
+/// difference, and EARX's bias is the model for such drifts).
+pub const HARX_MIN_OMEGA: f64 = 0.005;
+/// Largest accepted ω (just below the Nyquist frequency π).
+pub const HARX_MAX_OMEGA: f64 = 3.1;
+
+impl Default for HarxParams {
+    fn default() -> Self {
+        HarxParams {
+            n: 2,
+            m: 2,
+            delay: 0,
+            omega: 0.05,
+        }
+    }
+}
+
+impl HarxParams {
+    /// Set `n`.
+    pub fn n(mut self, n: usize) -> Self {
+        self.n = n;
+        self
+    }
+    /// Set `m`.
+    pub fn m(mut self, m: usize) -> Self {
+        self.m = m;
+        self
+    }
+    /// Set `delay`.
+    pub fn delay(mut self, delay: usize) -> Self {
+        self.delay = delay;
+        self
+    }
+    /// Set `omega` (rad/sample).
+    pub fn omega(mut self, omega: f64) -> Self {
+        self.omega = omega;
+        self
+    }
+    /// Validate and build.
+    pub fn check(self) -> Result<Harx, IdError> {
+        check_order("harx", "n", self.n, 0, crate::arx::MAX_ORDER)?;
+        check_order("harx", "m", self.m, 1, crate::arx::MAX_ORDER)?;
+        check_order("harx", "delay", self.delay, 0, MAX_DELAY)?;
+        check_real("harx", "omega", self.omega, HARX_MIN_OMEGA, HARX_MAX_OMEGA)?;
+        Ok(Harx {
+            n: self.n,
+            m: self.m,
+            delay: self.delay,
+            omega: self.omega,
+        })
+    }
+}
+
+impl TryFrom<HarxParams> for Harx {
+    type Error = IdError;
+    fn try_from(p: HarxParams) -> Result<Self, IdError> {
+        p.check()
+    }
+}
+
+impl From<Harx> for HarxParams {
+    fn from(h: Harx) -> Self {
+        HarxParams {
+            n: h.n,
+            m: h.m,
+            delay: h.delay,
+            omega: h.omega,
+        }
+    }
+}
+
+impl Harx {
+    /// Start a parameter builder (`Harx::params().omega(0.04).check()?`).
+    pub fn params() -> HarxParams {
+        HarxParams::default()
+    }
+    /// The disturbance's frequency, rad/sample.
+    pub fn omega(&self) -> f64 {
+        self.omega
+    }
+}
+
+impl Harx {
+    /// Least squares of the filtered signals: `L y_k` on `-L y_{k-i}` (i = 1..n),
+    /// `L u_{k-delay-j}` (j = 1..m), an intercept and the filter's transient
+    /// `ρ^k cos ωk`, `ρ^k sin ωk` (what a sinusoid leaves after `L` from a zero state, at any
+    /// amplitude and phase). Returns the model and the intercept.
+    fn solve(&self, uf: &[f64], yf: &[f64]) -> Result<(Structure, f64), IdError> {
+        let (n, m, delay) = (self.n, self.m, self.delay);
+        let n0 = n.max(m + delay);
+        let len = yf.len();
+        let rows = len - n0;
+        let d = n + m + 3;
+        let rho = pole_radius(self.omega);
+        let mut ab = vec![0.0; rows * (d + 1)];
+        let mut cols = ab.chunks_exact_mut(rows);
+        for i in 1..=n {
+            let col = cols.next().unwrap_or_default();
+            for (dst, &v) in col.iter_mut().zip(&yf[n0 - i..len - i]) {
+                *dst = -v;
+            }
+        }
+        for j in 1..=m {
+            let lag = delay + j;
+            let col = cols.next().unwrap_or_default();
+            col.copy_from_slice(&uf[n0 - lag..len - lag]);
+        }
+        cols.next().unwrap_or_default().fill(1.0);
+        let (cos_col, sin_col) = (cols.next().unwrap_or_default(), cols.next());
+        let sin_col = sin_col.unwrap_or_default();
+        for (r, (c, s)) in cos_col.iter_mut().zip(sin_col.iter_mut()).enumerate() {
+            let k = (n0 + r) as f64;
+            let decay = rho.powf(k);
+            let (sn, cs) = (self.omega * k).sin_cos();
+            *c = decay * cs;
+            *s = decay * sn;
+        }
+        cols.next().unwrap_or_default().copy_from_slice(&yf[n0..]);
+        let sol = crate::la::lstsq_colmajor(&mut ab, rows, d + 1).map_err(|pivot| {
+            IdError::Singular {
+                identifier: "harx",
+                detail: format!(
+                    "regression matrix {rows}x{d} of the signals notched at {:.4} rad/sample: smallest relative QR pivot {pivot:.3e} < 1e-10",
+                    self.omega
+                ),
+            }
+        })?;
+        let mut a = Vec::with_capacity(n + 1);
+        a.push(1.0);
+        a.extend_from_slice(&sol.x[..n]);
+        let structure = Structure::Polynomial {
+            a,
+            b: sol.x[n..n + m].to_vec(),
+            c: vec![1.0],
+            delay,
+        };
+        Ok((structure, sol.x[n + m]))
+    }
+}
+
+#[typetag::serde(name = "harx")]
+impl LinearIdentifier for Harx {
+    fn name(&self) -> &'static str {
+        "harx"
+    }
+    fn orders(&self) -> Vec<(&'static str, OrderValue)> {
+        vec![
+            ("n", OrderValue::Int(self.n)),
+            ("m", OrderValue::Int(self.m)),
+            ("delay", OrderValue::Int(self.delay)),
+            ("omega", OrderValue::Real(self.omega)),
+        ]
+    }
+    fn min_samples(&self) -> usize {
+        // strictly more equations than the regression's n + m + 3 unknowns (intercept and
+        // the notch's transient pair)
+        self.n.max(self.m + self.delay) + self.n + self.m + 4
+    }
+    fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+        check_data(u, y, self.min_samples())?;
+        let (um, ym) = (mean(u), mean(y));
+        let (uf, yf) = (
+            notch_filter(u, um, self.omega),
+            notch_filter(y, ym, self.omega),
+        );
+        let (structure, c0) = self.solve(&uf, &yf)?;
+        // the intercept c0 of the filtered regression is the operating point's offset,
+        // times A(1) (or -B(1)) and the notch's gain L(1)
+        let Structure::Polynomial { a, b, .. } = &structure else {
+            unreachable!("harx builds a polynomial model")
+        };
+        let (a1, b1): (f64, f64) = (a.iter().sum(), b.iter().sum());
+        let gain = dc_gain(self.omega);
+        let (mut u_op, mut y_op) = (um, ym);
+        if a1.abs() >= b1.abs() && a1 != 0.0 {
+            y_op += c0 / a1 / gain;
+        } else if b1 != 0.0 {
+            u_op -= c0 / b1 / gain;
+        }
+        let mut fit = LinearFit::bare("harx", structure, u_op, y_op, None);
+        fit.harmonic = Some(self.omega);
+        fit.refresh_info(u, y)?;
+        Ok(fit)
+    }
+    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
+        Box::new(*self)
+    }
+}
+
+/// ARX's orders, then the frequency.
+const HARX_ORDERS: [OrderSpec; 4] = [
+    ARX_ORDERS[0],
+    ARX_ORDERS[1],
+    ARX_ORDERS[2],
+    OrderSpec {
+        name: "omega",
+        default: OrderValue::Real(0.05),
+        meaning: "frequency of the sinusoidal disturbance, rad/sample (2 pi / period in samples)",
+    },
+];
+
+fn build_harx(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
+    let mut v = resolve("harx", &HARX_ORDERS, pairs)?;
+    Ok(Box::new(
+        Harx::params()
+            .n(v.int()?)
+            .m(v.int()?)
+            .delay(v.int()?)
+            .omega(v.real()?)
+            .check()?,
+    ))
+}
+
+inventory::submit! {
+    IdentifierEntry {
+        name: "harx",
+        description: "ARX with a sinusoidal disturbance of frequency omega (ARX of the signals notch-filtered at omega)",
+        orders: &HARX_ORDERS,
+        build: build_harx,
+    }
+}
+
+/// Golden-section steps of the frequency refinement (the bracket of two Fourier steps shrinks
+/// by 0.618 per step, to 0.3 % of it).
+const GOLDEN_STEPS: usize = 12;
+
+/// The dominant frequency (rad/sample) of `x` with its mean and linear trend removed, over
+/// periods from `min_period` samples to `max_period` samples: the periodogram's peak on the
+/// Fourier grid `2πk/N`, refined by a golden-section search between its neighbours. `None`
+/// when the record holds no Fourier frequency in that range or has no power there.
+pub fn dominant_frequency(x: &[f64], min_period: f64, max_period: f64) -> Option<f64> {
+    let n = x.len();
+    if n < 16 || !(min_period >= 2.0 && max_period >= min_period) {
+        return None;
+    }
+    let nf = n as f64;
+    let tm = 0.5 * (nf - 1.0);
+    let xm = mean(x);
+    let stt: f64 = (0..n).map(|t| (t as f64 - tm).powi(2)).sum();
+    let slope = (0..n).map(|t| (t as f64 - tm) * (x[t] - xm)).sum::<f64>() / stt;
+    let r: Vec<f64> = (0..n)
+        .map(|t| x[t] - xm - slope * (t as f64 - tm))
+        .collect();
+    let power = |w: f64| {
+        let (mut a, mut b) = (0.0, 0.0);
+        for (t, v) in r.iter().enumerate() {
+            let (s, c) = (w * t as f64).sin_cos();
+            a += v * c;
+            b += v * s;
+        }
+        a * a + b * b
+    };
+    // period N / k within [min_period, max_period]
+    let k0 = (nf / max_period).ceil().max(1.0) as usize;
+    let k1 = (nf / min_period).floor() as usize;
+    if k1 < k0 {
+        return None;
+    }
+    let step = 2.0 * std::f64::consts::PI / nf;
+    let grid: Vec<f64> = (k0..=k1).map(|k| power(k as f64 * step)).collect();
+    let i = (0..grid.len()).max_by(|&a, &b| grid[a].total_cmp(&grid[b]))?;
+    if grid[i].is_nan() || grid[i] <= 0.0 {
+        return None;
+    }
+    let w0 = (k0 + i) as f64 * step;
+    let (mut lo, mut hi) = (w0 - step, w0 + step);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut fa, mut fb) = (power(a), power(b));
+    for _ in 0..GOLDEN_STEPS {
+        if fa > fb {
+            hi = b;
+            (b, fb) = (a, fa);
+            a = hi - g * (hi - lo);
+            fa = power(a);
+        } else {
+            lo = a;
+            (a, fa) = (b, fb);
+            b = lo + g * (hi - lo);
+            fb = power(b);
+        }
+    }
+    [(grid[i], w0), (fa, a), (fb, b)]
+        .into_iter()
+        .max_by(|p, q| p.0.total_cmp(&q.0))
+        .map(|p| p.1)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::Arx;
+
+    /// A second-order process driven by a switching input and by a sinusoidal disturbance in
+    /// its difference equation (as the hidden-effect suite's loops), with a little white
+    /// output noise.
+    fn loop_with_sine(len: usize, omega: f64, amplitude: f64) -> (Vec<f64>, Vec<f64>) {
+        let mut state: u64 = 7;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let (mut u, mut x) = (vec![0.0; len], vec![0.0; len]);
+        let mut level = 1.0;
+        for k in 0..len {
+            if rnd() > 0.45 {
+                level = -level;
+            }
+            u[k] = 50.0 + level;
+            if k >= 2 {
+                x[k] = 1.5 * x[k - 1] - 0.6 * x[k - 2]
+                    + 0.3 * (u[k - 1] - 50.0)
+                    + 0.1 * (u[k - 2] - 50.0)
+                    + amplitude * (omega * k as f64 + 0.3).sin();
+            }
+        }
+        let y = (0..len).map(|k| 20.0 + x[k] + 0.01 * rnd()).collect();
+        (u, y)
+    }
+
+    #[test]
+    fn harx_recovers_the_process_under_a_sine_that_biases_arx() {
+        let (u, y) = loop_with_sine(1500, 0.07, 2.0);
+        let harx = Harx::params().omega(0.07).check().unwrap();
+        let fit = harx.identify(&u, &y).unwrap();
+        let Structure::Polynomial { a, b, .. } = fit.structure() else {
+            panic!("polynomial expected")
+        };
+        assert!(
+            (a[1] + 1.5).abs() < 0.02 && (a[2] - 0.6).abs() < 0.02,
+            "{a:?}"
+        );
+        assert!(
+            (b[0] - 0.3).abs() < 0.02 && (b[1] - 0.1).abs() < 0.02,
+            "{b:?}"
+        );
+        assert!(
+            (fit.static_gain() - 4.0).abs() < 0.2,
+            "{}",
+            fit.static_gain()
+        );
+        // once the notch's transient has gone (time constant 1/(1-ρ) = 57 samples), the
+        // one-step prediction leaves only the noise (A w: 3.6 times the variance 8.3e-6 of w)
+        let tail_variance = |f: &LinearFit| {
+            let p = f.predict_one_step(&u, &y).unwrap();
+            (500..1500).map(|k| (y[k] - p[k]).powi(2)).sum::<f64>() / 1000.0
+        };
+        let own = tail_variance(&fit);
+        assert!(own < 1e-4, "{own}");
+        // plain ARX on the same data: the sine is left in its residuals
+        let arx = Arx::params().check().unwrap().identify(&u, &y).unwrap();
+        assert!(tail_variance(&arx) > 10.0 * own, "{}", tail_variance(&arx));
+        // a wrong frequency does not annihilate the sine: more residual, a biased process
+        let off = Harx::params()
+            .omega(0.3)
+            .check()
+            .unwrap()
+            .identify(&u, &y)
+            .unwrap();
+        assert!(tail_variance(&off) > 10.0 * own, "{}", tail_variance(&off));
+        let Structure::Polynomial { a: a_off, .. } = off.structure() else {
+            panic!("polynomial expected")
+        };
+        assert!((a_off[1] + 1.5).abs() > 0.1, "{a_off:?}");
+    }
+
+    #[test]
+    fn harx_prediction_is_the_residual_of_the_filtered_regression() {
+        let (u, y) = loop_with_sine(400, 0.11, 1.0);
+        let fit = Harx::params()
+            .omega(0.11)
+            .check()
+            .unwrap()
+            .identify(&u, &y)
+            .unwrap();
+        let pred = fit.predict_one_step(&u, &y).unwrap();
+        let Structure::Polynomial { a, b, .. } = fit.structure().clone() else {
+            panic!("polynomial expected")
+        };
+        let (um, ym) = fit.means();
+        let (uf, yf) = (notch_filter(&u, um, 0.11), notch_filter(&y, ym, 0.11));
+        for k in 10..400 {
+            // y_k - ŷ_k is the filtered ARX's residual
+            let mut v = yf[k];
+            for (i, ai) in a.iter().enumerate() {
+                v += ai * yf[k - i] - if i == 0 { ai * yf[k] } else { 0.0 };
+            }
+            for (j, bj) in b.iter().enumerate() {
+                v -= bj * uf[k - 1 - j];
+            }
+            assert!(
+                (y[k] - pred[k] - v).abs() < 1e-9,
+                "{k}: {} vs {v}",
+                y[k] - pred[k]
+            );
+        }
+        assert_eq!(fit.first_sample(), 4);
+        assert!(fit.is_stable());
+    }
+
+    #[test]
+    fn the_notch_removes_its_frequency_and_passes_the_others() {
+        let sine = |w: f64| -> Vec<f64> { (0..3000).map(|k| (w * k as f64).sin()).collect() };
+        let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+        let at = notch_filter(&sine(0.05), 0.0, 0.05);
+        assert!(rms(&at[1500..]) < 1e-3, "{}", rms(&at[1500..]));
+        for w in [0.2, 0.5, 1.0] {
+            let away = notch_filter(&sine(w), 0.0, 0.05);
+            let g = rms(&away[1500..]) / rms(&sine(w)[1500..]);
+            assert!((g - 1.0).abs() < 0.05, "gain {g} at {w}");
+        }
+        assert!((dc_gain(0.05) - 0.8).abs() < 0.2, "{}", dc_gain(0.05));
+    }
+
+    #[test]
+    fn too_short_a_record_is_an_error() {
+        let (u, y) = loop_with_sine(40, 0.1, 1.0);
+        let harx = Harx::params().omega(0.1).check().unwrap();
+        let k = harx.min_samples();
+        assert!(matches!(
+            harx.identify(&u[..k - 1], &y[..k - 1]),
+            Err(IdError::TooFewSamples { .. })
+        ));
+        assert!(harx.identify(&u[..k], &y[..k]).is_ok());
+    }
+
+    #[test]
+    fn harx_round_trips_and_checks_omega() {
+        let h: Box<dyn LinearIdentifier> = Box::new(Harx::params().omega(0.3).check().unwrap());
+        let s = serde_json::to_string(&h).unwrap();
+        let back: Box<dyn LinearIdentifier> = serde_json::from_str(&s).unwrap();
+        assert_eq!(back.orders(), h.orders());
+        assert!(matches!(
+            Harx::params().omega(0.0).check(),
+            Err(IdError::InvalidOrder { .. })
+        ));
+        assert!(Harx::params().omega(f64::NAN).check().is_err());
+    }
+
+    #[test]
+    fn the_dominant_frequency_is_the_sine_in_the_noise() {
+        let (_, y) = loop_with_sine(1200, 0.05, 0.5);
+        let w = dominant_frequency(&y, 8.0, 600.0).unwrap();
+        assert!((w - 0.05).abs() < 0.002, "{w}");
+        assert!(dominant_frequency(&y[..10], 8.0, 600.0).is_none());
+        assert!(dominant_frequency(&vec![1.0; 100], 8.0, 50.0).is_none());
+    }
+}
