@@ -245,6 +245,41 @@ impl LinearIdentifier for Harx {
         self.n.max(self.m + self.delay) + self.n + self.m + 4
     }
     fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+        let mut fit = self.fit_bare(u, y)?;
+        fit.refresh_info(u, y)?;
+        Ok(fit)
+    }
+    /// As the default, but the fit's diagnostics come from the prediction's identification
+    /// window instead of a second prediction of it (what the grid search calls per node).
+    fn identify_predict_many(
+        &self,
+        inputs: &[(usize, &[f64])],
+        y: &[f64],
+        split: usize,
+        outs: &mut [Vec<f64>],
+    ) -> Vec<Result<crate::Identified, IdError>> {
+        inputs
+            .iter()
+            .zip(outs.iter_mut())
+            .map(|(&(start, u), out)| {
+                let split = split.min(y.len());
+                let start = crate::input_start(start, u, y, split)?;
+                let fit = self.fit_bare(&u[start..split], &y[start..split])?;
+                out.resize(y.len() - start, 0.0);
+                let (u, y) = (&u[start..], &y[start..]);
+                let predicted = fit.predict_one_step_into(u, y, out);
+                fit.diagnose_from_prediction((u, y), split - start, out, predicted)
+            })
+            .collect()
+    }
+    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
+        Box::new(*self)
+    }
+}
+
+impl Harx {
+    /// The fitted model without its diagnostics (`info` not computed).
+    fn fit_bare(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
         check_data(u, y, self.min_samples())?;
         let (um, ym) = (mean(u), mean(y));
         let (uf, yf) = (
@@ -267,11 +302,7 @@ impl LinearIdentifier for Harx {
         }
         let mut fit = LinearFit::bare("harx", structure, u_op, y_op, None);
         fit.harmonic = Some(self.omega);
-        fit.refresh_info(u, y)?;
         Ok(fit)
-    }
-    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
-        Box::new(*self)
     }
 }
 
@@ -501,6 +532,14 @@ mod tests {
             assert!((g - 1.0).abs() < 0.05, "gain {g} at {w}");
         }
         assert!((dc_gain(0.05) - 0.8).abs() < 0.2, "{}", dc_gain(0.05));
+    }
+
+    #[test]
+    fn identify_predict_many_equals_one_call_each() {
+        for n in [1, 3, 6] {
+            let harx = Harx::params().omega(0.08).check().unwrap();
+            crate::test_data::identify_predict_many_matches(&harx, n);
+        }
     }
 
     #[test]
