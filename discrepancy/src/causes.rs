@@ -325,15 +325,44 @@ impl Cause for AsymmetricStiction {
         let (sym_best, sym_fit) = best_of(&sym).ok_or_else(|| DiagnoseError::EmptySearch {
             model: "kano-asym".into(),
         })?;
-        // Free search from the symmetric optimum and from one split each way (the surface
-        // is rugged; a single start often stalls at the symmetric point).
+        // Free search from the symmetric optimum, from one split each way and from the best
+        // nodes of a coarse lattice scaled by the symmetric band S_sym = D + J (the surface
+        // is rugged; a single start often stalls at the symmetric point, and a symmetric fit
+        // of a valve whose jumps differ a lot can have J = 0 and D near the larger band, far
+        // from the asymmetric optimum along every search direction: measured on suite loop
+        // 1118, true D = 3.55, J_up = 0.51, J_dn = 3.47, symmetric fit D = 6.25, J = 0, the
+        // free searches from the three starts stayed at LR 0 while a full grid finds D = 3.6,
+        // J_up = 0.45, J_dn = 3.45).
         let a = snap(sym_best[1].max(ctx.span / 20.0));
-        let starts = [
+        let mut starts = vec![
             sym_best.clone(),
             vec![sym_best[0], sym_best[1] + a, (sym_best[2] - a).max(0.0)],
             vec![sym_best[0], (sym_best[1] - a).max(0.0), sym_best[2] + a],
         ];
-        let mut free = Vec::new();
+        let band = sym_best[0] + sym_best[1];
+        let fractions = [0.0, 0.25, 0.5, 0.75, 1.0];
+        let mut lattice: Vec<Vec<f64>> = Vec::new();
+        for &d in &fractions {
+            for &ju in &fractions[..4] {
+                for &jd in fractions[..4].iter().filter(|&&jd| jd != ju) {
+                    let p: Vec<f64> = [d, ju, jd].iter().map(|f| snap(f * band)).collect();
+                    if entry.admissible(&p, ctx.span) {
+                        lattice.push(p);
+                    }
+                }
+            }
+        }
+        let coarse = grid_search::evaluate_nodes(
+            entry,
+            identifier.as_ref(),
+            ctx.problem,
+            &ctx.options.search,
+            lattice,
+        )?;
+        let mut ranked: Vec<&grid_search::NodeFit> = coarse.iter().collect();
+        ranked.sort_by(|x, y| y.score(crit).total_cmp(&x.score(crit)));
+        starts.extend(ranked.iter().take(2).map(|n| n.params.clone()));
+        let mut free = coarse.clone();
         for st in starts.iter().filter(|p| entry.admissible(p, ctx.span)) {
             free.extend(search(
                 vec![
