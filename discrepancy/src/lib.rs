@@ -1016,8 +1016,13 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
     let q = &last.result;
     let (pv, mv) = (problem.pv, &q.mv_est);
     let (ni, n) = (q.split_index, pv.len());
-    // the recent third, not before the valve's estimate holds (`k₀`)
-    let (from, recent, s_recent) = recent_fit(pv, last, 2 * ni / 3)?;
+    // the recent window, not before the valve's estimate holds (`k₀`): from a third, half or
+    // two thirds of the identification window, the one that predicts validation best (after
+    // an early change the longer window holds only the new process; docs/DIAGNOSE.md item 10)
+    let (from, recent, s_recent) = [ni / 3, ni / 2, 2 * ni / 3]
+        .into_iter()
+        .filter_map(|f| recent_fit(pv, last, f))
+        .min_by(|a, b| a.2.total_cmp(&b.2))?;
     let sse = |est: &[f64]| -> f64 {
         est.iter()
             .zip(&pv[ni..])
@@ -1058,12 +1063,12 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
     let res = ResidualAnalysis::new(pv, &q.pv_pred, &q.pv_sim, mv, ni);
     let evidence = if significant {
         format!(
-            "Cause: unexplained. Something no registered cause explains remains: the final model's linear part identified on the last third of the identification window alone (samples {from}-{ni}) predicts the validation data better than identified on the whole window (samples 0-{ni}, the valve from its best initial state; likelihood ratio {lr:.0}, threshold {threshold:.0} for {d} re-estimated coefficients): the process changed during the record (its gain, dynamics or operating point). The final model's validation residuals {}",
+            "Cause: unexplained. Something no registered cause explains remains: the final model's linear part identified on the recent part of the identification window alone (samples {from}-{ni}) predicts the validation data better than identified on the whole window (samples 0-{ni}, the valve from its best initial state; likelihood ratio {lr:.0}, threshold {threshold:.0} for {d} re-estimated coefficients): the process changed during the record (its gain, dynamics or operating point). The final model's validation residuals {}",
             res.describe()
         )
     } else {
         format!(
-            "The final model identified on the last third of its identification window (samples {from}-{ni}) does not predict the validation data significantly better than identified on the whole window (samples 0-{ni}; likelihood ratio {lr:.0}, threshold {threshold:.0}): no sign of a process that changed during the record."
+            "The final model identified on the recent part of its identification window (samples {from}-{ni}) does not predict the validation data significantly better than identified on the whole window (samples 0-{ni}; likelihood ratio {lr:.0}, threshold {threshold:.0}): no sign of a process that changed during the record."
         )
     };
     Some(Finding {
