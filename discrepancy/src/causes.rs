@@ -626,7 +626,7 @@ impl Cause for NoStiction {
 inventory::submit! {
     CauseEntry {
         name: "disturbance",
-        description: "external nonstationary disturbance: ARX -> EARX, ARMAX -> EARMAX (time-varying bias)",
+        description: "external disturbance: ARX -> EARX, ARMAX -> EARMAX (time-varying bias), or ARX -> HARX (a sine, notched at its frequency)",
         statistic: "low-frequency power of the simulation residuals / white noise's",
         build: || Box::new(Disturbance),
     }
