@@ -64,12 +64,23 @@ impl Cause for Disturbance {
     }
     fn extend(&self, ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         let name = extended_linear(ctx.baseline.linear).unwrap_or("earx");
-        let bias = disturbance_extension(ctx, name, &[], 1)?;
+        let bias = disturbance_extension(ctx, name, &[], 1, None)?;
+        // HARX by local searches from the current valve and from the bias form's (a grid of
+        // its own took 40 % of a two-cause diagnosis, docs/DIAGNOSE.md item 8)
+        let fine = ctx.options.search.grid.step();
+        let bias_valve: Vec<f64> = bias
+            .fitted
+            .result
+            .stiction
+            .param_values()
+            .iter()
+            .map(|v| (v / fine).round() * fine)
+            .collect();
         let harmonic = match (name, harmonic_frequency(ctx)) {
             ("earx", Some(omega)) => {
                 let orders = [("omega".to_string(), OrderValue::Real(omega))];
                 // a grid node that fails for HARX only leaves the bias form
-                disturbance_extension(ctx, "harx", &orders, 2)
+                disturbance_extension(ctx, "harx", &orders, 2, Some(&bias_valve))
                     .ok()
                     .filter(|h| !notches_the_valves_cycle(ctx.problem.op, &h.fitted))
             }
@@ -138,6 +149,7 @@ fn disturbance_extension(
     name: &str,
     orders: &[(String, OrderValue)],
     extra_params: i32,
+    local_from: Option<&[f64]>,
 ) -> Result<Extension, DiagnoseError> {
     let entry = ctx.baseline_spec.stiction;
     let mut combination = ctx.combination(entry, find_identifier(name)?, ctx.baseline.delay);
@@ -145,8 +157,8 @@ fn disturbance_extension(
         combination.orders.retain(|(k, _)| k != key);
         combination.orders.push((key.clone(), *value));
     }
-    let mut ext = if entry.params.len() > 2 {
-        local_disturbance(ctx, combination)?
+    let mut ext = if entry.params.len() > 2 || local_from.is_some() {
+        local_disturbance(ctx, combination, local_from)?
     } else {
         let fitted = combination.run(ctx.problem, None)?;
         let lr = ctx.lr(ctx.baseline.fit_val(), fitted.fit_val());
@@ -170,12 +182,17 @@ fn disturbance_extension(
 fn local_disturbance(
     ctx: &Context<'_>,
     combination: monitoring::Combination,
+    also_from: Option<&[f64]>,
 ) -> Result<Extension, DiagnoseError> {
     let started = Instant::now();
     let entry = ctx.baseline_spec.stiction;
     let linear = combination.linear;
     let identifier = combination.identifier(ctx.baseline.delay)?;
-    let nodes = axis_search(ctx, identifier.as_ref(), &current_valve(ctx))?;
+    let current = current_valve(ctx);
+    let mut nodes = axis_search(ctx, identifier.as_ref(), &current)?;
+    if let Some(start) = also_from.filter(|p| *p != current.as_slice()) {
+        nodes.extend(axis_search(ctx, identifier.as_ref(), start)?);
+    }
     let fit = LocalFit {
         entry,
         linear,
