@@ -86,9 +86,10 @@ def quantify(
     `data`: a DataFrame or dict of columns (`OP`, `PV`, optionally `SP`, `MV`, time) or a
     path. `stiction`: a registered stiction model (kano, he, kano-asym, or one a plugin
     registered); `linear`: an identifier (arx, armax, earx, earmax, harx, ss). Search
-    options, as the CLI's flags: `orders` ("2,2" or "n=2,m=2"), `delay` (samples or "auto"), `step` (grid
-    step, % of span), `init` ("In.1", "In.2", "In.3"), `criterion` ("prediction",
-    "simulation"), `split` (identification fraction), `max_nodes`; and the reader's options.
+    options, as the CLI's flags: `orders` ("2,2" or "n=2,m=2"), `delay` (samples or
+    "auto"), `step` (grid step, % of span), `init` ("In.1", "In.2", "In.3"), `criterion`
+    ("prediction", "simulation"), `split` (identification fraction), `max_nodes`; and the
+    reader's options.
 
     Returns the quantify document: `S`, `J` (% of valve span), `interval`, `fit_pv_val`,
     `warnings`, ... (docs/CLI.md lists every key).
