@@ -258,19 +258,7 @@ impl LinearIdentifier for Harx {
         split: usize,
         outs: &mut [Vec<f64>],
     ) -> Vec<Result<crate::Identified, IdError>> {
-        inputs
-            .iter()
-            .zip(outs.iter_mut())
-            .map(|(&(start, u), out)| {
-                let split = split.min(y.len());
-                let start = crate::input_start(start, u, y, split)?;
-                let fit = self.fit_bare(&u[start..split], &y[start..split])?;
-                out.resize(y.len() - start, 0.0);
-                let (u, y) = (&u[start..], &y[start..]);
-                let predicted = fit.predict_one_step_into(u, y, out);
-                fit.diagnose_from_prediction((u, y), split - start, out, predicted)
-            })
-            .collect()
+        crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.fit_bare(u, y))
     }
     fn box_clone(&self) -> Box<dyn LinearIdentifier> {
         Box::new(*self)

@@ -143,6 +143,7 @@ mod error;
 mod fit;
 mod harmonic;
 mod la;
+mod lagged;
 mod lanes;
 mod model;
 mod order;
@@ -160,6 +161,7 @@ pub use fit::{
     E_G_GRID_POINTS,
 };
 pub use harmonic::{dominant_frequency, Harx, HarxParams, HARX_MAX_OMEGA, HARX_MIN_OMEGA};
+pub use lagged::{Larx, LarxParams, LARX_MAX_LAG};
 pub use model::{BiasTracking, FitInfo, LinearFit, Structure, STABILITY_MARGIN};
 pub use order::{OrderKind, OrderParseError, OrderValue};
 pub use parsim::{ParsimK, ParsimKParams};
@@ -279,6 +281,32 @@ pub(crate) fn input_start(
         });
     }
     Ok(start.min(split))
+}
+
+/// [`LinearIdentifier::identify_predict_many`] for an identifier whose fit comes out of
+/// `fit_bare` without its diagnostics: each input's fit on its identification window, its
+/// one-step prediction over the record, and the diagnostics from that prediction's
+/// identification window instead of a second prediction of it (HARX, LARX).
+pub(crate) fn predict_many_from_bare(
+    inputs: &[(usize, &[f64])],
+    y: &[f64],
+    split: usize,
+    outs: &mut [Vec<f64>],
+    fit_bare: impl Fn(&[f64], &[f64]) -> Result<LinearFit, IdError>,
+) -> Vec<Result<Identified, IdError>> {
+    inputs
+        .iter()
+        .zip(outs.iter_mut())
+        .map(|(&(start, u), out)| {
+            let split = split.min(y.len());
+            let start = input_start(start, u, y, split)?;
+            let fit = fit_bare(&u[start..split], &y[start..split])?;
+            out.resize(y.len() - start, 0.0);
+            let (u, y) = (&u[start..], &y[start..]);
+            let predicted = fit.predict_one_step_into(u, y, out);
+            fit.diagnose_from_prediction((u, y), split - start, out, predicted)
+        })
+        .collect()
 }
 
 /// The default of [`LinearIdentifier::identify_predict_many`] for one input.

@@ -85,7 +85,7 @@ def quantify(
 
     `data`: a DataFrame or dict of columns (`OP`, `PV`, optionally `SP`, `MV`, time) or a
     path. `stiction`: a registered stiction model (kano, he, kano-asym, or one a plugin
-    registered); `linear`: an identifier (arx, armax, earx, earmax, harx, ss). Search
+    registered); `linear`: an identifier (arx, armax, earx, earmax, harx, larx, ss). Search
     options, as the CLI's flags: `orders` ("2,2" or "n=2,m=2"), `delay` (samples or
     "auto"), `step` (grid step, % of span), `init` ("In.1", "In.2", "In.3"), `criterion`
     ("prediction", "simulation"), `split` (identification fraction), `max_nodes`; and the

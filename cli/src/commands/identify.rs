@@ -12,7 +12,7 @@ use crate::{usage, CmdResult, Streams};
 pub struct Args {
     /// CSV file (`-` for standard input).
     file: PathBuf,
-    /// Registered linear identifier (arx, armax, earx, earmax, harx, ss; `stiction models`).
+    /// Registered linear identifier (arx, armax, earx, earmax, harx, larx, ss; `stiction models`).
     #[arg(long, value_name = "NAME", default_value = "arx")]
     linear: String,
     /// Orders: values in the identifier's order (`2,2`) or NAME=VALUE pairs (`n=3,m=2`).
