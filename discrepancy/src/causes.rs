@@ -476,15 +476,76 @@ impl Cause for TimeDelay {
             &ctx.options.search,
             ctx.options.max_delay,
         )?;
-        let best = scan
-            .scores
+        // The scan's coarse grid (span/20) finds the neighbourhood; the dead times around its
+        // best are fitted on the full grid and the best of those is taken (the range grows by
+        // one while the best is at its end). On the coarse grid the valve's
+        // misplacement outweighs a sample of dead time: on the hidden-effect suite's 24
+        // dead-time loops the full default grid at every dead time found the true one in 16
+        // and gave Kano's S within max(0.5, 10 %) of the truth there in 23, while the coarse
+        // scan's choice left S within tolerance in 16 of 24 diagnoses; with this refinement,
+        // 18 (dead time with a disturbance 14 -> 16, with an asymmetric valve 15 -> 16; the
+        // set of causes right with the asymmetric valve 21 -> 23, `cargo xtask suite`). Taking
+        // the largest dead time within the one-parameter threshold of the best instead (a dead
+        // time one sample short costs a low-order model little, one sample long drops the start
+        // of the response) reached 19 but dropped the disturbance pair to 13 (a disturbance
+        // flattens the profile) and was not kept.
+        let current = spec.fixed_delay();
+        let coarse = pick_delay(&scan.scores, current);
+        let max = ctx.options.max_delay.max(coarse);
+        let mut tried: Vec<usize> = Vec::new();
+        let mut fits: Vec<(usize, Fitted)> = Vec::new();
+        let mut want: Vec<usize> = (coarse.saturating_sub(1)..=(coarse + 1).min(max)).collect();
+        let mut last_error = None;
+        loop {
+            for d in want.drain(..).filter(|&d| d != current) {
+                if tried.contains(&d) {
+                    continue;
+                }
+                tried.push(d);
+                // a neighbour that cannot be fitted (e.g. no stable node) is not a candidate
+                match ctx.quantify(spec.stiction, spec.linear, d) {
+                    Ok(f) => fits.push((d, f)),
+                    Err(e) => last_error = Some(e),
+                }
+            }
+            let Some(pick) = fits
+                .iter()
+                .max_by(|a, b| a.1.fit_val().total_cmp(&b.1.fit_val()))
+                .map(|(d, _)| *d)
+            else {
+                break;
+            };
+            // the best at an end of the fitted range: the dead time beyond it decides
+            let (lo, hi) = (tried.iter().min(), tried.iter().max());
+            let next = pick + 1 + usize::from(pick + 1 == current);
+            if Some(&pick) == hi && next <= max && !tried.contains(&next) {
+                want.push(next);
+            } else if Some(&pick) == lo && pick > 0 {
+                let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
+                if prev != current && !tried.contains(&prev) {
+                    want.push(prev);
+                }
+            }
+            if want.is_empty() {
+                break;
+            }
+        }
+        let Some(i) = fits
             .iter()
-            .filter(|(d, _)| *d != spec.fixed_delay())
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(d, _)| *d)
-            .unwrap_or(spec.fixed_delay() + 1);
-        let mut fitted = ctx.quantify(spec.stiction, spec.linear, best)?;
-        fitted.delay_scan = Some(scan);
+            .enumerate()
+            .max_by(|a, b| a.1 .1.fit_val().total_cmp(&b.1 .1.fit_val()))
+            .map(|(i, _)| i)
+        else {
+            return Err(last_error.unwrap_or(DiagnoseError::Setting(format!(
+                "no dead time around {coarse} samples could be fitted"
+            ))));
+        };
+        let best = fits[i].0;
+        let mut fitted = fits.swap_remove(i).1;
+        fitted.delay_scan = Some(grid_search::DelayScan {
+            delay: best,
+            scores: scan.scores,
+        });
         let lr = ctx.lr(ctx.baseline.fit_val(), fitted.fit_val());
         Ok(Extension {
             fitted,
@@ -493,6 +554,16 @@ impl Cause for TimeDelay {
             reference: "baseline".into(),
         })
     }
+}
+
+/// The dead time of the extension from `(delay, validation fit %)` scores: the best one other
+/// than the `current` one (`current + 1` when none could be evaluated).
+fn pick_delay(scores: &[(usize, f64)], current: usize) -> usize {
+    scores
+        .iter()
+        .filter(|(d, f)| *d != current && f.is_finite())
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(current + 1, |(d, _)| *d)
 }
 
 /// The dead-time extension of a model whose valve has three parameters (`kano-asym`): every
@@ -521,12 +592,7 @@ fn local_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
             f.is_finite().then_some((d, f))
         })
         .collect();
-    let best = scores
-        .iter()
-        .filter(|(d, _)| *d != spec.fixed_delay())
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(d, _)| *d)
-        .unwrap_or(spec.fixed_delay() + 1);
+    let best = pick_delay(&scores, spec.fixed_delay());
     let identifier = spec.identifier(best)?;
     let nodes = axis_search(ctx, identifier.as_ref(), &start)?;
     let fit = LocalFit {

@@ -68,10 +68,15 @@ fn a_cause_that_gains_only_from_the_change_is_not_named() {
 
 #[test]
 fn a_change_that_a_cause_absorbed_is_still_found() {
-    // suite seed 1085: the slow plant, then from sample 873 the paper plant's dynamics (gain
-    // x0.84); `time-delay` gains on the whole window and its model leaves no significant
-    // change, but the baseline shows one and the dead time does not hold on the recent window
-    let c = case(1085, Effect::ProcessChange, 3000);
+    // seed 2084 (outside the suite's seeds): `asymmetric-stiction` gains on the whole window
+    // (LR 37) and its model leaves no significant change, but the baseline shows one and the
+    // asymmetry does not hold on the recent window. (Suite seed 1085 served until the dead
+    // time's extension fitted the dead times around the scan's best on the full grid: its
+    // `time-delay` then holds on the recent window too, and the change is found on the final
+    // model directly.) Without the check of the baseline the causes are
+    // `[asymmetric-stiction]`.
+    let c = case(2084, Effect::ProcessChange, 3000);
+    println!("{}", c.what);
     let d = c.diagnose(&[]);
     let dropped: Vec<(&str, f64)> = d
         .findings
@@ -89,7 +94,7 @@ fn a_change_that_a_cause_absorbed_is_still_found() {
     }
     assert_eq!(d.causes, vec![discrepancy::UNEXPLAINED]);
     assert!(
-        dropped.iter().any(|(c, _)| *c == "time-delay"),
+        dropped.iter().any(|(c, _)| *c == "asymmetric-stiction"),
         "{dropped:?}"
     );
 }
