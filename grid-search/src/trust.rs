@@ -154,7 +154,7 @@ impl fmt::Display for Doubt {
             ),
             Doubt::CompressedPv { share, segments } => write!(
                 f,
-                "PV looks read back from a historian's compressed storage ({:.0} % of the samples on {segments} straight segments between kept points): the one-step fits see interpolated values, which they predict too well, and S can be far off; get the raw values or the archive's kept points if you can",
+                "PV looks read back from a historian's compressed storage ({:.0} % of the samples on {segments} straight segments between kept points): the one-step fits see interpolated values, which they predict too well, and S can be far off (less so with `larx`, ARX at the archive's typical distance between kept points, which `stiction diagnose` fits on such data); get the raw values or the archive's kept points if you can",
                 100.0 * share
             ),
         }
