@@ -24,8 +24,8 @@
 //! paper's ARX, which put S at 1.5-2.6 for true values of 6.5-9.6 in five loops. On the 24
 //! loops of `tests/compression.rs` (S 2-8 %): 14/24 against 12/24, and S under 60 % of the
 //! truth in none of them against 8 of 24 (the ARX's smallest ratio 0.21). Tried and not used,
-//! on the suite's 24 loops with an exhaustive grid at 0.5: the lag at half the median segment
-//! (8/24) or at 1.5 or 2 times it (12/24, 5/24); MV as 2r separate lags instead of two block
+//! on the suite's 24 loops with an exhaustive grid at 0.5 (where this lag gave 20/24): the lag
+//! at half the median segment (8/24) or at 1.5 or 2 times it (12/24, 5/24); MV as 2r separate lags instead of two block
 //! means (5/24: the freer input part absorbs the valve's timing); averaging PV over the
 //! blocks as well as MV (1/24: an average is another interpolation); earlier, ranking the
 //! paper's ARX by free-run simulation and an output-error model fitted at the kept points
