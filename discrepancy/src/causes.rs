@@ -496,6 +496,8 @@ impl Cause for TimeDelay {
         let mut fits: Vec<(usize, Fitted)> = Vec::new();
         let mut want: Vec<usize> = (coarse.saturating_sub(1)..=(coarse + 1).min(max)).collect();
         let mut last_error = None;
+        // index in `fits` of the best fit so far
+        let mut best_fit: Option<usize> = None;
         loop {
             for d in want.drain(..).filter(|&d| d != current) {
                 if tried.contains(&d) {
@@ -504,15 +506,16 @@ impl Cause for TimeDelay {
                 tried.push(d);
                 // a neighbour that cannot be fitted (e.g. no stable node) is not a candidate
                 match ctx.quantify(spec.stiction, spec.linear, d) {
-                    Ok(f) => fits.push((d, f)),
+                    Ok(f) => {
+                        if best_fit.is_none_or(|b| f.fit_val() > fits[b].1.fit_val()) {
+                            best_fit = Some(fits.len());
+                        }
+                        fits.push((d, f));
+                    }
                     Err(e) => last_error = Some(e),
                 }
             }
-            let Some(pick) = fits
-                .iter()
-                .max_by(|a, b| a.1.fit_val().total_cmp(&b.1.fit_val()))
-                .map(|(d, _)| *d)
-            else {
+            let Some(pick) = best_fit.map(|b| fits[b].0) else {
                 break;
             };
             // the best at an end of the fitted range: the dead time beyond it decides
@@ -530,15 +533,11 @@ impl Cause for TimeDelay {
                 break;
             }
         }
-        let Some(i) = fits
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1 .1.fit_val().total_cmp(&b.1 .1.fit_val()))
-            .map(|(i, _)| i)
-        else {
-            return Err(last_error.unwrap_or(DiagnoseError::Setting(format!(
-                "no dead time around {coarse} samples could be fitted"
-            ))));
+        // every dead time tried failed: the last failure says why
+        let Some(i) = best_fit else {
+            return Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
+                model: spec.stiction.name.to_string(),
+            }));
         };
         let best = fits[i].0;
         let mut fitted = fits.swap_remove(i).1;

@@ -7,6 +7,14 @@ mod common;
 
 use common::{case, Effect};
 
+/// The open set's finding of a diagnosis (the check always runs on these loops).
+fn open_set_finding(d: &discrepancy::Diagnosis) -> &discrepancy::Finding {
+    d.findings
+        .iter()
+        .find(|f| f.cause == discrepancy::UNEXPLAINED)
+        .expect("the open-set check ran")
+}
+
 #[test]
 fn a_change_before_the_valve_estimate_settles_is_unexplained() {
     // seed 0: the paper plant, then from sample 964 the slow plant's dynamics (gain x0.65)
@@ -15,11 +23,7 @@ fn a_change_before_the_valve_estimate_settles_is_unexplained() {
     let d = c.diagnose(&[]);
     let f = d.final_fit().unwrap_or(&d.baseline_fit);
     let k0 = f.result.fits.valid_from;
-    let open = d
-        .findings
-        .iter()
-        .find(|f| f.cause == discrepancy::UNEXPLAINED)
-        .expect("the open-set check ran");
+    let open = open_set_finding(&d);
     println!(
         "change at {change}, k0 {k0}, causes {:?}, open-set LR {:.1} (threshold {:.0})",
         d.causes, open.lr, open.threshold
@@ -107,11 +111,7 @@ fn an_early_change_is_seen_from_a_longer_recent_window() {
     // named); the window from a third of it (sample 666) holds the new process only and does.
     let c = case(1195, Effect::ProcessChange, 3000);
     let d = c.diagnose(&[]);
-    let open = d
-        .findings
-        .iter()
-        .find(|f| f.cause == discrepancy::UNEXPLAINED)
-        .expect("the open-set check ran");
+    let open = open_set_finding(&d);
     println!(
         "causes {:?}, open-set LR {:.1}: {}",
         d.causes, open.lr, open.evidence
