@@ -144,8 +144,9 @@ def diagnose(
     **options: Any,
 ) -> Dict[str, Any]:
     """What the Hammerstein model gets wrong and why (`stiction diagnose --json`): `cause`,
-    `findings`, `extended`, `gain_fit_pv_val`, `summary` (the actionable sentence first),
-    `residuals`. `without` leaves causes out (names as `stiction models` lists them). Search
+    `causes`, `findings`, `extended` (the final model: refitted after a change of the process,
+    and with the orders n, m raised by one when that gains; `orders` says which),
+    `gain_fit_pv_val`, `summary` (the actionable sentence first), `residuals`. `without` leaves causes out (names as `stiction models` lists them). Search
     options as for `quantify`; the dead time must be a number (the diagnosis tests it).
 
     >>> d = stiction.diagnose(pd.read_csv("loop.csv"))                  # doctest: +SKIP
