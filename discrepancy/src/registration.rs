@@ -30,12 +30,7 @@ impl Diagnoser for RegistrationDiagnosis {
             .identifier(0)
             .map_err(|e| monitoring::error_line(&e))?;
         let baseline = Combination {
-            orders: identifier
-                .orders()
-                .into_iter()
-                .filter(|(k, _)| *k != "delay")
-                .map(|(k, v)| (k.to_string(), v))
-                .collect(),
+            orders: crate::orders_without_delay(identifier.as_ref()),
             delay: Delay::Fixed(0),
             grid: None,
             search: grid_search::SearchOptions::default(),

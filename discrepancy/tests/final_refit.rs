@@ -62,7 +62,7 @@ fn after_a_change_the_final_model_is_identified_on_the_new_process() {
         f.result
             .warnings
             .iter()
-            .any(|w| w.contains("identified on samples 1000-3000")),
+            .any(|w| w.contains("identified on samples 1000-2000")),
         "{:?}",
         f.result.warnings
     );
