@@ -222,16 +222,17 @@ impl Context<'_> {
 
 /// `baseline` with another stiction model, identifier and dead time, searched with the
 /// diagnosis's options.
-/// How the baseline's linear orders were chosen (`diagnose` without `--orders`).
+/// How the final model's linear orders were chosen (`diagnose` without `--orders`).
 ///
 /// The paper's ARX(2, 2) under-models a slower, higher-order process and is biased by coloured
 /// noise that a longer regression absorbs; the stiction estimate carries that bias (a deadband
-/// that stands in for missing lag). So the baseline is fitted twice, at its orders and with `n`
-/// and `m` each raised by one, and the raised orders are kept when they gain on validation data
-/// by the same likelihood-ratio rule as an extension adding two parameters
-/// ([`DiagnoseOptions::threshold`]). One step only: raising them once more (ARX(4, 4)) moved S
-/// little further and cost the causes (measured in `docs/DIAGNOSE.md`, "Orders"). Every
-/// extension then inherits the kept orders.
+/// that stands in for missing lag). So after the causes are found at the given orders, the
+/// baseline is fitted again with `n` and `m` each raised by one, and the raised orders are kept
+/// for the final refit ([`Diagnosis::refined`]) when they gain on validation data by the
+/// likelihood-ratio rule of an extension adding two parameters
+/// ([`DiagnoseOptions::threshold`]). The causes are not judged at the raised orders: an AR(3)
+/// absorbs part of a sinusoidal or drifting disturbance, which then gains nothing as a cause;
+/// and one step only: ARX(4, 4) cost the causes more (measured in `docs/DIAGNOSE.md`, item 12).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OrderSelection {
     /// The orders given (`n=2, m=2`).
