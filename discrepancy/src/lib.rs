@@ -861,14 +861,37 @@ pub fn diagnose_with_progress(
         // `no-stiction` (no forward selection after it)
         causes.extend(chosen.map(|i| findings[i].cause));
     }
+    // The final model at the orders the data support (item 12): refitted before the open set,
+    // which then asks what the best model leaves (a misfit of the given orders is not a
+    // change of the process).
+    let healthy = chosen.is_some_and(|i| findings[i].cause == "no-stiction");
+    let selected_chain: Vec<&'static str> = causes.clone();
+    let selected_model = match (picks.len(), picks.last()) {
+        (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
+        _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
+    };
+    let (pre_refit, pre_selection) = if healthy {
+        (None, None)
+    } else {
+        refit_final(
+            problem,
+            span,
+            baseline,
+            &base,
+            &selected_chain,
+            None,
+            options,
+        )
+    };
     // the open set: what the final model leaves that no registered cause explains
     let mut open = None;
     if reframed.is_none() && !options.disabled.iter().any(|d| d == UNEXPLAINED) {
-        let last = match (picks.len(), picks.last()) {
-            (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
-            _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
-        };
-        open = open_set(problem, last.unwrap_or(&base), options);
+        let last = selected_model.unwrap_or(&base);
+        let last = pre_refit
+            .as_ref()
+            .filter(|r| r.fit_val() > last.fit_val())
+            .unwrap_or(last);
+        open = open_set(problem, last, options);
     }
     // A change the chosen causes absorbed: the open set is not significant on the final model
     // but is on the baseline. The chosen causes are then re-tested on the changed process in
@@ -921,20 +944,22 @@ pub fn diagnose_with_progress(
         (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
         _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
     };
-    // the final model's orders: raised when that gains significantly (not for a valve found
-    // healthy: its S is negligible by definition)
     // the final model refitted after a change of the process, and at raised orders when they
     // gain (not for a valve found healthy: its S is negligible by definition)
     let changed_from = open
         .as_ref()
         .filter(|f| f.significant)
         .and_then(|f| f.window_from);
-    let (refined, order_selection) = if cause != "no-stiction" {
-        let chain: Vec<&'static str> = causes
-            .iter()
-            .copied()
-            .filter(|c| *c != UNEXPLAINED)
-            .collect();
+    let chain: Vec<&'static str> = causes
+        .iter()
+        .copied()
+        .filter(|c| *c != UNEXPLAINED)
+        .collect();
+    let (refined, order_selection) = if cause == "no-stiction" {
+        (None, None)
+    } else if changed_from.is_none() && chain == selected_chain {
+        (pre_refit, pre_selection)
+    } else {
         refit_final(
             problem,
             span,
@@ -944,8 +969,6 @@ pub fn diagnose_with_progress(
             changed_from,
             options,
         )
-    } else {
-        (None, None)
     };
     // The refit replaces the selected model only when it predicts the validation window (the
     // same samples: after a change too) better. Measured: on the suite's 20 process-change
