@@ -76,6 +76,9 @@ fn the_open_set_asks_what_the_refitted_model_leaves() {
     // raised orders leaves none.
     let c = case(1028, Effect::DisturbanceAsymmetric, 3000);
     let d = c.diagnose(&[]);
-    println!("{}: causes {:?}, orders {:?}", c.what, d.causes, d.order_selection);
+    println!(
+        "{}: causes {:?}, orders {:?}",
+        c.what, d.causes, d.order_selection
+    );
     assert_eq!(d.causes, ["asymmetric-stiction", "disturbance"]);
 }
