@@ -827,15 +827,22 @@ pub fn diagnose_with_progress(
     };
     let mut path = Path::default();
     if let Some(i) = chosen.filter(|&i| findings[i].cause != "no-stiction") {
-        path = fc.forward(&findings[i], &tell, done)?;
         let runner_up = findings
             .iter()
             .enumerate()
             .skip(1)
             .find(|(_, f)| f.significant && f.cause != "no-stiction" && f.fitted.is_some())
-            .map(|(k, _)| k);
-        if let Some(k) = runner_up.filter(|_| !overriding.contains(&"no-stiction")) {
-            let other = fc.forward(&findings[k], &tell, done)?;
+            .map(|(k, _)| k)
+            .filter(|_| !overriding.contains(&"no-stiction"));
+        // the two starts are independent: run at once (their local searches evaluate a few
+        // nodes at a time and leave a core idle; the grids share the pool)
+        let (first, second) = rayon::join(
+            || fc.forward(&findings[i], &tell, done),
+            || runner_up.map(|k| fc.forward(&findings[k], &tell, done)),
+        );
+        path = first?;
+        if let (Some(k), Some(other)) = (runner_up, second) {
+            let other = other?;
             let fit = |p: &Path, start: usize| {
                 p.final_fit()
                     .or(findings[start].fitted.as_ref())
@@ -1111,7 +1118,7 @@ impl ForwardCtx<'_> {
     fn forward(
         &self,
         start: &Finding,
-        tell: &dyn Fn(usize, &str),
+        tell: &(dyn Fn(usize, &str) + Sync),
         done: usize,
     ) -> Result<Path, DiagnoseError> {
         let (problem, span, baseline, options) =
