@@ -873,27 +873,19 @@ pub fn diagnose_with_progress(
     // change of the process).
     let healthy = chosen.is_some_and(|i| findings[i].cause == "no-stiction");
     let selected_chain: Vec<&'static str> = causes.clone();
-    let selected_model = match (picks.len(), picks.last()) {
-        (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
-        _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
+    let selected_before = selected_model(&picks, &steps, chosen, &findings);
+    let refit = |chain: &[&'static str], from: Option<usize>| {
+        refit_final(problem, span, baseline, &base, chain, from, options)
     };
     let (pre_refit, pre_selection) = if healthy {
         (None, None)
     } else {
-        refit_final(
-            problem,
-            span,
-            baseline,
-            &base,
-            &selected_chain,
-            None,
-            options,
-        )
+        refit(&selected_chain, None)
     };
     // the open set: what the final model leaves that no registered cause explains
     let mut open = None;
     if reframed.is_none() && !options.disabled.iter().any(|d| d == UNEXPLAINED) {
-        let last = selected_model.unwrap_or(&base);
+        let last = selected_before.unwrap_or(&base);
         let last = pre_refit
             .as_ref()
             .filter(|r| r.fit_val() > last.fit_val())
@@ -947,10 +939,7 @@ pub fn diagnose_with_progress(
     }
     let mut cause = chosen.map_or("none".to_string(), |i| findings[i].cause.to_string());
     // the final model: the last step's pick, else the first cause's extension
-    let final_fit = match (picks.len(), picks.last()) {
-        (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
-        _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
-    };
+    let final_fit = selected_model(&picks, &steps, chosen, &findings);
     // the final model refitted after a change of the process, and at raised orders when they
     // gain (not for a valve found healthy: its S is negligible by definition)
     let changed_from = open
@@ -967,15 +956,7 @@ pub fn diagnose_with_progress(
     } else if changed_from.is_none() && chain == selected_chain {
         (pre_refit, pre_selection)
     } else {
-        refit_final(
-            problem,
-            span,
-            baseline,
-            &base,
-            &chain,
-            changed_from,
-            options,
-        )
+        refit(&chain, changed_from)
     };
     // The refit replaces the selected model only when it predicts the validation window (the
     // same samples: after a change too) better. Measured: on the suite's 20 process-change
@@ -1085,6 +1066,20 @@ pub fn diagnose_with_progress(
         summary,
         elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
     })
+}
+
+/// The forward selection's model: the last step's pick, else the chosen first cause's
+/// extension (`None`: the baseline).
+fn selected_model<'a>(
+    picks: &[usize],
+    steps: &'a [Vec<Finding>],
+    chosen: Option<usize>,
+    findings: &'a [Finding],
+) -> Option<&'a Fitted> {
+    match (picks.len(), picks.last()) {
+        (n, Some(&k)) if n > 0 => steps[n - 1][k].fitted.as_ref(),
+        _ => chosen.and_then(|i| findings[i].fitted.as_ref()),
+    }
 }
 
 /// What the forward selection needs from a diagnosis.
@@ -1684,10 +1679,7 @@ impl Diagnosis {
     /// chosen cause's extension at once; `None` when no cause was found. The open set ran on
     /// this model (or the baseline).
     pub fn selected_fit(&self) -> Option<&Fitted> {
-        match (self.picks.len(), self.picks.last()) {
-            (n, Some(&k)) if n > 0 => self.steps[n - 1][k].fitted.as_ref(),
-            _ => self.chosen.and_then(|i| self.findings[i].fitted.as_ref()),
-        }
+        selected_model(&self.picks, &self.steps, self.chosen, &self.findings)
     }
 
     /// The document of `diagnose --json` for the loop of `source`, searched with `init`.
