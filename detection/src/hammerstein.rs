@@ -383,6 +383,35 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
     })
 }
 
+/// How much better the valve position `mv` explains the output `y` (PV, or ΔPV for an
+/// integrating loop) than OP does, through this test's output-error model (constant only, no
+/// nuisance sines): `N ln(RSS_OP / RSS_MV)`, at least 0. For simulated loops, where the true
+/// valve position is known, this is the evidence any PV-OP test of this model family could
+/// find at best: a sticky valve whose ratio is small never stuck visibly in the record (a valve
+/// dithered by OP's noise, or held still by a constant load). `None` when a residual vanishes
+/// or the record is too short.
+pub fn oracle_lr(y: &[f64], op: &[f64], mv: &[f64]) -> Option<f64> {
+    let n = y.len().min(op.len()).min(mv.len());
+    let start = MAX_DELAY + 2;
+    if n < start + 20 {
+        return None;
+    }
+    let ym = mean(&y[..n]);
+    let y: Vec<f64> = y[..n].iter().map(|v| v - ym).collect();
+    let om = mean(&op[..n]);
+    let u: Vec<f64> = op[..n].iter().map(|v| v - om).collect();
+    let m: Vec<f64> = mv[..n].iter().map(|v| v - om).collect();
+    let tg = Target::new(&y, start, &[]);
+    let mut scratch = Scratch {
+        x: vec![0.0; n],
+        half: Vec::with_capacity(n),
+    };
+    let (r_op, _) = best_oe(&tg, &u, &mut scratch);
+    let (r_mv, _) = best_oe(&tg, &m, &mut scratch);
+    (r_op > 0.0 && r_mv > 0.0 && r_op.is_finite() && r_mv.is_finite())
+        .then(|| (n - start) as f64 * (r_op / r_mv).max(1.0).ln())
+}
+
 /// Output-error likelihood ratio at or above which the test says stiction (with the one-step
 /// ratio at or above [`STICTION_LR_ARX`] and `S >= 0.5`).
 pub const STICTION_LR: f64 = 25.0;
@@ -510,6 +539,19 @@ mod tests {
             y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + e[t];
         }
         (y, op)
+    }
+
+    #[test]
+    fn the_oracle_sees_a_valve_that_sticks_and_not_one_that_follows_op() {
+        let (y, op) = process(true);
+        let valve = Kano::params().s(3.0).j(1.0).check().unwrap();
+        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
+        let stuck = oracle_lr(&y, &op, &mv).unwrap();
+        assert!(stuck > 100.0, "{stuck}");
+        let (y, op) = process(false);
+        let free = oracle_lr(&y, &op, &op).unwrap();
+        assert!(free < 1e-9, "{free}");
+        assert!(oracle_lr(&y[..20], &op[..20], &op[..20]).is_none());
     }
 
     #[test]
