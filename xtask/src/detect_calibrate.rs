@@ -37,10 +37,10 @@ use detection::hammerstein::{oracle_lr, REGION_LR};
 use detection::score::{features, Model, FEATURES, NO_STICTION_AT, STICTION_AT};
 use detection::{combine, logistic, registry, run_all, Registration, TestOutcome, Verdict};
 use rayon::prelude::*;
-use stiction_models::Kano;
+use stiction_models::{He, Kano, StictionModel};
 
 const USAGE: &str = "\
-usage: cargo xtask detect-calibrate [--sims N] [--plant DIR] [--ridge L] [--with-plant] [--dump DIR]
+usage: cargo xtask detect-calibrate [--sims N] [--plant DIR] [--ridge L] [--with-plant] [--dump DIR] [--valve kano|he] [--samples N]
 
   --sims N     simulated loops in the training set and again in the validation set (default 240)
   --plant DIR  the labelled plant registrations (default ../shared/data/plant beside the repo)
@@ -48,7 +48,12 @@ usage: cargo xtask detect-calibrate [--sims N] [--plant DIR] [--ridge L] [--with
   --with-plant also fit on the plant registrations (of the other valves, for leave one valve
                out); by default they only validate: measured, fitting on them made the
                leave-one-valve-out AUC worse (0.429 against 0.714 from the simulations alone)
-  --dump DIR   also write the simulated validation loops as CSV (t, SP, PV, OP) with an index.csv";
+  --dump DIR   also write the simulated validation loops as CSV (t, SP, PV, OP) with an index.csv
+  --valve M    the sticky valves of the validation loops: `kano` (default, as in training) or
+               `he` (He et al.'s friction model at the same S and J: a check that the score
+               holds for a valve model it was not fitted on)
+  --samples N  samples per validation loop (default 751, as in training): the score's
+               likelihood ratios grow with the record's length";
 
 /// SplitMix64: a small seeded generator (the draw order is the code order below).
 struct Rng(u64);
@@ -110,7 +115,7 @@ const SITUATIONS: [&str; 4] = [
 ];
 
 /// Simulated loop `index` of the set starting at `seed0`.
-fn simulated(seed0: u64, index: usize) -> Result<Case> {
+fn simulated(seed0: u64, index: usize, he: bool, samples: usize) -> Result<Case> {
     let seed = seed0 + index as u64;
     let mut rng = Rng(seed.wrapping_mul(0xD1B5_4A32_D192_ED03));
     let integrating = index % 2 == 1;
@@ -175,10 +180,10 @@ fn simulated(seed0: u64, index: usize) -> Result<Case> {
     }
     let s = rng.range(1.0, 8.0);
     let j = rng.range(0.0, 1.0) * s;
-    let valve = if sticky {
-        Kano::params().s(s).j(j).check()?
-    } else {
-        Kano::params().check()?
+    let valve: Box<dyn StictionModel> = match (sticky, he) {
+        (true, false) => Box::new(Kano::params().s(s).j(j).check()?),
+        (true, true) => Box::new(He::from_sj(s, j)?),
+        (false, _) => Box::new(Kano::params().check()?),
     };
     let noise = rng.range(0.01, 0.2);
     // Disturbances enter the plant's difference equation; they are sized in % of the valve's
@@ -215,10 +220,10 @@ fn simulated(seed0: u64, index: usize) -> Result<Case> {
         plant: PlantSpec::Explicit(plant),
         controller: Controller { kc, ki },
         setpoint,
-        valve: Box::new(valve),
+        valve,
         disturbances,
         noise_sigma: noise,
-        samples: 751,
+        samples,
         warmup: 500,
         seed,
         sample_time: 10.0,
@@ -245,7 +250,7 @@ fn simulated(seed0: u64, index: usize) -> Result<Case> {
                 "self-regulating"
             },
             if sticky {
-                format!("kano S={s:.1} J={j:.1}")
+                format!("{} S={s:.1} J={j:.1}", if he { "he" } else { "kano" })
             } else {
                 "free valve".into()
             },
@@ -451,6 +456,8 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     let mut ridge = 0.1;
     let mut with_plant = false;
     let mut dump: Option<PathBuf> = None;
+    let mut he = false;
+    let mut samples = 751;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
         let mut value = |name: &str| {
@@ -463,6 +470,23 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
             "--ridge" => ridge = value("--ridge")?.parse().context("--ridge: a number")?,
             "--with-plant" => with_plant = true,
             "--dump" => dump = Some(PathBuf::from(value("--dump")?)),
+            "--samples" => {
+                samples = value("--samples")?
+                    .parse()
+                    .context("--samples: a whole number")?;
+                if samples < 200 {
+                    bail!(
+                        "--samples: at least 200 (a registration shorter than that is not judged)"
+                    );
+                }
+            }
+            "--valve" => {
+                he = match value("--valve")?.as_str() {
+                    "kano" => false,
+                    "he" => true,
+                    other => bail!("--valve: `kano` or `he`, not {other:?}"),
+                }
+            }
             "--help" | "-h" => {
                 println!("{USAGE}");
                 return Ok(());
@@ -473,11 +497,11 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     let started = std::time::Instant::now();
     let train: Vec<Case> = (0..sims)
         .into_par_iter()
-        .map(|i| simulated(1, i))
+        .map(|i| simulated(1, i, false, 751))
         .collect::<Result<_>>()?;
     let valid: Vec<Case> = (0..sims)
         .into_par_iter()
-        .map(|i| simulated(1_000_001, i))
+        .map(|i| simulated(1_000_001, i, he, samples))
         .collect::<Result<_>>()?;
     if let Some(dir) = &dump {
         dump_cases(dir, &valid)?;
