@@ -474,9 +474,10 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
                 samples = value("--samples")?
                     .parse()
                     .context("--samples: a whole number")?;
-                if samples < 200 {
+                if samples < detection::MIN_SAMPLES {
                     bail!(
-                        "--samples: at least 200 (a registration shorter than that is not judged)"
+                        "--samples: at least {} (a shorter registration is not judged)",
+                        detection::MIN_SAMPLES
                     );
                 }
             }
