@@ -100,33 +100,49 @@ fn bad_input_with_report_gets_the_same_one_line_error() {
 
 #[test]
 fn a_flat_record_is_not_called_sticky_and_says_why() {
-    let mut csv = String::from("t,SP,PV,OP\n");
-    for k in 0..400 {
-        csv.push_str(&format!("{k},50,50,30\n"));
+    let record = |pv: &dyn Fn(usize) -> f64, op: &dyn Fn(usize) -> f64| {
+        let mut csv = String::from("t,SP,PV,OP\n");
+        for k in 0..400 {
+            csv.push_str(&format!("{k},50,{},{}\n", pv(k), op(k)));
+        }
+        csv
+    };
+    let wiggle = |k: usize| ((k * 37) % 11) as f64 * 0.1;
+    for (what, csv, reason) in [
+        ("all flat", record(&|_| 50.0, &|_| 30.0), "OP is flat"),
+        (
+            "OP flat",
+            record(&|k| 50.0 + wiggle(k), &|_| 30.0),
+            "OP is flat",
+        ),
+        (
+            "PV flat",
+            record(&|_| 50.0, &|k| 30.0 + wiggle(k)),
+            "PV is flat",
+        ),
+    ] {
+        // Read with a note, judged `inconclusive` with the reason, exit 0.
+        let o = run(&["detect", "-"], csv.as_bytes());
+        assert_eq!(o.code, 0, "{what}: {}", o.stderr);
+        assert!(o.stderr.contains("constant"), "{what}: {}", o.stderr);
+        let first = o.stdout.lines().next().unwrap_or_default();
+        assert!(first.starts_with("-: inconclusive"), "{what}: {first}");
+        assert!(first.contains(reason), "{what}: {first}");
+        let j = json(&["detect", "-", "--json"], csv.as_bytes());
+        assert_eq!(j["verdict"], "inconclusive", "{what}");
+        // Identification has nothing to fit: the reader's one-line error.
+        let q = run(&["quantify", "-"], csv.as_bytes());
+        assert_eq!(q.code, 1, "{what}");
+        assert_eq!(q.stderr.lines().count(), 1, "{what}: {}", q.stderr);
+        assert!(q.stderr.contains("constant"), "{what}: {}", q.stderr);
     }
-    // The reader refuses a record whose PV is flat over half of it: that is its one-line error.
-    let o = run(&["detect", "-"], csv.as_bytes());
-    if o.code == 0 {
-        assert!(!o.stdout.contains(": stiction "), "{}", o.stdout);
-    } else {
-        assert_eq!(o.code, 1);
-        assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
-    }
-    // OP flat but PV moving: read, judged inconclusive with the reason.
-    let mut csv = String::from("t,SP,PV,OP\n");
-    for k in 0..400 {
-        csv.push_str(&format!(
-            "{k},50,{},30\n",
-            50.0 + ((k * 37) % 11) as f64 * 0.1
-        ));
-    }
-    let o = run(&["detect", "-", "--op-range", "0,100"], csv.as_bytes());
-    if o.code == 0 {
-        assert!(o.stdout.contains("inconclusive"), "{}", o.stdout);
-        assert!(o.stdout.contains("OP is flat"), "{}", o.stdout);
-    } else {
-        assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
-    }
+    // PV frozen over more than half of the record (a historian artefact) stays bad input.
+    let half = record(&|k| if k < 250 { 50.0 } else { 50.0 + wiggle(k) }, &|k| {
+        30.0 + wiggle(k)
+    });
+    let o = run(&["detect", "-"], half.as_bytes());
+    assert_eq!(o.code, 1);
+    assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
 }
 
 /// A slow self-regulating plant, PI 0.3/0.1, Kano S = 4, J = 1, constant set point: a limit

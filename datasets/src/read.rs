@@ -110,6 +110,11 @@ pub struct ReadOptions {
     pub op_range: OpRange,
     /// Input limits (bytes, line and cell length, rows).
     pub limits: Limits,
+    /// Keep a PV or OP that is constant over the whole record, with a note, instead of
+    /// refusing it ([`DataError::Constant`]). For a detector, which answers such a record
+    /// itself (`inconclusive`: the valve was never asked to move, or the transmitter is
+    /// frozen); identification has nothing to fit and keeps the default, `false`.
+    pub accept_constant: bool,
 }
 
 impl Default for ReadOptions {
@@ -127,6 +132,7 @@ impl Default for ReadOptions {
             mat_loop: None,
             op_range: OpRange::Detect,
             limits: Limits::default(),
+            accept_constant: false,
         }
     }
 }
@@ -769,11 +775,11 @@ fn finish(
             }
             Role::Sp => data.sp = Some(values),
             Role::Pv => {
-                check_constant(&file, &col.name, &values)?;
+                check_constant(&file, &col.name, &values, opts, &mut data.notes)?;
                 data.pv = Some(values);
             }
             Role::Op => {
-                check_constant(&file, &col.name, &values)?;
+                check_constant(&file, &col.name, &values, opts, &mut data.notes)?;
                 data.op = values;
             }
             Role::Mv => data.mv = Some(values),
@@ -796,14 +802,34 @@ fn finish(
     Ok(data)
 }
 
-fn check_constant(file: &str, column: &str, values: &[f64]) -> Result<(), DataError> {
+/// A constant PV or OP: refused, or kept with a note under [`ReadOptions::accept_constant`].
+fn check_constant(
+    file: &str,
+    column: &str,
+    values: &[f64],
+    opts: &ReadOptions,
+    notes: &mut Vec<Note>,
+) -> Result<(), DataError> {
     match values.first() {
-        Some(&v0) if values.iter().all(|&v| v == v0) => Err(DataError::Constant {
-            file: file.to_string(),
-            column: column.to_string(),
-            value: v0,
-            rows: values.len(),
-        }),
+        Some(&v0) if values.iter().all(|&v| v == v0) => {
+            let e = DataError::Constant {
+                file: file.to_string(),
+                column: column.to_string(),
+                value: v0,
+                rows: values.len(),
+            };
+            if !opts.accept_constant {
+                return Err(e);
+            }
+            notes.push(Note::new(
+                NoteKind::Flat,
+                format!(
+                    "column {column}: constant ({v0:?}) over all {} rows; kept",
+                    values.len()
+                ),
+            ));
+            Ok(())
+        }
         _ => Ok(()),
     }
 }

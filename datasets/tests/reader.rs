@@ -497,3 +497,22 @@ fn start_time_comes_from_time_stamps() {
     assert_eq!(datasets::format_epoch(d.start.unwrap()), "2024-06-09 07:50");
     assert_eq!(d.t.as_deref(), Some(&[0.0, 10.0, 20.0][..]));
 }
+
+#[test]
+fn a_constant_column_is_refused_unless_the_caller_accepts_it() {
+    let text = "PV,OP\n1,2\n2,2\n1,2\n";
+    assert_eq!(
+        message(read(text)),
+        "loop.csv: column OP: constant (2.0) over all 3 rows"
+    );
+    let opts = ReadOptions {
+        accept_constant: true,
+        ..ReadOptions::default()
+    };
+    let d = read_with(text, &opts).unwrap();
+    assert_eq!(d.op, vec![2.0, 2.0, 2.0]);
+    assert_eq!(
+        d.notes,
+        vec!["column OP: constant (2.0) over all 3 rows; kept"]
+    );
+}

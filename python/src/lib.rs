@@ -122,6 +122,7 @@ impl ReadArgs {
             mat_loop: None,
             op_range,
             limits,
+            accept_constant: false,
         })
     }
 }

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 use anyhow::anyhow;
 
 use super::batch::IntegratingFlag;
-use super::load::{load, DataFlags};
+use datasets::ReadOptions;
+
+use super::load::{load_with, DataFlags};
 use crate::reporting::{self, ReportFlags};
 use crate::{CmdResult, Failure, Streams};
 
@@ -32,7 +34,13 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let refused = |f: Failure, s: &mut Streams<'_>| {
         reporting::refused(Some(&args.file), f, &args.report, "detect", s)
     };
-    let d = load(&args.file, &args.data, true, 30, s).map_err(|f| refused(f, s))?;
+    // A constant PV or OP is read (with a note): the detector answers it, `inconclusive` with
+    // the reason, where identification refuses it.
+    let opts = ReadOptions {
+        accept_constant: true,
+        ..args.data.read_options(true, 30)
+    };
+    let d = load_with(&args.file, &opts, s).map_err(|f| refused(f, s))?;
     d.require_pv().map_err(|e| refused(e.into(), s))?;
     let det = match monitoring::detect_file(&d, Some(&args.file), args.integrating.into()) {
         monitoring::Detected::Ran(det) => det,

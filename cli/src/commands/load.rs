@@ -88,6 +88,7 @@ impl DataFlags {
                 ..Limits::default()
             },
             op_range: self.op_range.unwrap_or_default(),
+            accept_constant: false,
         }
     }
 }
@@ -100,7 +101,16 @@ pub(crate) fn load(
     min_rows: usize,
     s: &mut Streams<'_>,
 ) -> Result<LoopData, Failure> {
-    let opts = flags.read_options(require_pv, min_rows);
+    load_with(file, &flags.read_options(require_pv, min_rows), s)
+}
+
+/// [`load`] with the reader's options given.
+pub(crate) fn load_with(
+    file: &Path,
+    opts: &ReadOptions,
+    s: &mut Streams<'_>,
+) -> Result<LoopData, Failure> {
+    let opts = opts.clone();
     let d = if file.as_os_str() == "-" {
         let bytes = read_all(s.stdin).map_err(|e| anyhow!("-: cannot read standard input: {e}"))?;
         read_csv(bytes.as_slice(), "-", &opts)?
