@@ -32,7 +32,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use datasets::simulate::{Controller, Disturbance, Plant, PlantSpec, Scenario, Setpoint};
+use datasets::simulate::{
+    Controller, Disturbance, Plant, PlantPreset, PlantSpec, Scenario, Setpoint,
+};
 use detection::hammerstein::{oracle_lr, REGION_LR};
 use detection::score::{features, Model, FEATURES, NO_STICTION_AT, STICTION_AT};
 use detection::{combine, logistic, registry, run_all, Registration, TestOutcome, Verdict};
@@ -760,6 +762,91 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     for (name, a, n) in test_aucs(&refs) {
         println!("  {name:18} AUC {} over {n:>3}", fmt_auc(a));
     }
+    paper_benchmark(&model)?;
     println!("\n[{:.1} s]", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The valves of [`paper_benchmark`]: `(S, J)`.
+const PAPER_VALVES: [(f64, f64); 4] = [(0.0, 0.0), (1.0, 0.5), (3.0, 1.0), (9.0, 3.0)];
+/// Seeds per cell of [`paper_benchmark`].
+const PAPER_SEEDS: u64 = 6;
+
+/// One loop of the reference paper's benchmark (`stiction simulate` with these settings):
+/// its third-order ARMAX plant (or the slower preset), PI 0.5/0.5, random-walk set point,
+/// the paper's two-sine disturbance of amplitude `a`, 1 500 samples.
+fn paper_case(preset: PlantPreset, a: f64, s: f64, j: f64, seed: u64) -> Result<Case> {
+    let sim = Scenario {
+        plant: PlantSpec::Preset(preset),
+        valve: Box::new(Kano::params().s(s).j(j).check()?),
+        disturbances: if a > 0.0 {
+            vec![Disturbance::Paper { a }]
+        } else {
+            Vec::new()
+        },
+        samples: 1500,
+        seed,
+        ..Scenario::default()
+    }
+    .simulate()
+    .with_context(|| format!("paper benchmark {preset:?} a = {a} S = {s} seed {seed}"))?;
+    Case {
+        group: "paper".into(),
+        what: format!("{preset:?} a={a} S={s} J={j} seed {seed}"),
+        sticky: s > 0.0,
+        oracle: None,
+        sp: Some(sim.sp),
+        pv: sim.pv,
+        op: sim.op,
+        ts: 1.0,
+        integrating: false,
+        outcomes: Vec::new(),
+        x: Vec::new(),
+    }
+    .evaluate()
+}
+
+/// The final model on loops of another generator: the reference paper's benchmark, whose
+/// plants (third order, coloured noise) and disturbance are not those of the training loops.
+fn paper_benchmark(model: &Model) -> Result<()> {
+    let mut cells = Vec::new();
+    for preset in [PlantPreset::Paper, PlantPreset::Slow] {
+        for a in [0.0, 0.25] {
+            for (s, j) in PAPER_VALVES {
+                cells.push((preset, a, s, j));
+            }
+        }
+    }
+    let judged: Vec<Vec<(Verdict, bool)>> = cells
+        .par_iter()
+        .map(|&(preset, a, s, j)| {
+            (1..=PAPER_SEEDS)
+                .map(|seed| {
+                    let c = paper_case(preset, a, s, j, seed)?;
+                    Ok((judge(&c, model)?.1, c.sticky))
+                })
+                .collect::<Result<Vec<_>>>()
+        })
+        .collect::<Result<_>>()?;
+    println!(
+        "\nthe reference paper's benchmark (`stiction simulate`: plant preset, disturbance a, Kano S/J; {PAPER_SEEDS} seeds, 1 500 samples), final model:"
+    );
+    println!("plant  a     S    J    stiction  no-stiction  inconclusive");
+    for ((preset, a, s, j), v) in cells.iter().zip(&judged) {
+        let count = |d: Verdict| v.iter().filter(|(x, _)| *x == d).count();
+        println!(
+            "{:6} {a:<5} {s:<4} {j:<4} {:>8}  {:>11}  {:>12}",
+            format!("{preset:?}").to_lowercase(),
+            count(Verdict::Stiction),
+            count(Verdict::NoStiction),
+            count(Verdict::Inconclusive)
+        );
+    }
+    let all: Vec<(Verdict, bool)> = judged.into_iter().flatten().collect();
+    let (right, inc, right_all) = rates(&all);
+    println!(
+        "verdict right on {right_all:.1} % of all {} ({right:.1} % of the conclusive, {inc:.1} % inconclusive)",
+        all.len()
+    );
     Ok(())
 }
