@@ -15,9 +15,10 @@
 //! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
 //!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c` plus nuisance
 //!   sines and cosines, at the oscillation's frequency when the loop oscillates regularly and
-//!   at OP's dominant frequency ([`dominant_frequency`]) always: an external oscillation that
-//!   OP compensates would otherwise be "explained" by a deadband filtering the compensation
-//!   out of OP; `x` is MV through a
+//!   at OP's dominant frequency ([`dominant_frequency`]) always, and at OP's next tone when it
+//!   is strong and not a harmonic of those ([`second_frequency`]): an external oscillation
+//!   that OP compensates would otherwise be "explained" by a deadband filtering the
+//!   compensation out of OP; `x` is MV through a
 //!   first-order lag `x(t) = p·x(t−1) + (1−p)·MV(t−d)`, the pole `p` on a grid refined by a
 //!   golden-section search, the delay `d` from 1 to 4 samples in half samples (a continuous
 //!   dead time is rarely a whole number of samples, and a free valve with whole-sample delays
@@ -90,9 +91,9 @@ fn arx_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> f64 {
     (yy - z.norm_squared()).max(0.0)
 }
 
-/// Nuisance regressors of the output-error target at most: a constant and two sine-cosine
+/// Nuisance regressors of the output-error target at most: a constant and three sine-cosine
 /// pairs.
-const MAX_BASIS: usize = 5;
+const MAX_BASIS: usize = 7;
 
 /// The dominant frequency (rad/sample) of `x` with its mean and linear trend removed, over
 /// periods from 8 samples to a quarter of the record: the periodogram's peak on the Fourier
@@ -103,6 +104,39 @@ pub fn dominant_frequency(x: &[f64]) -> Option<f64> {
         return None;
     }
     linear_id::dominant_frequency(x, 8.0, x.len() as f64 / 4.0)
+}
+
+/// Least share of OP's variance (what the first tones leave) at its next tone for
+/// [`second_frequency`] to keep it. Set once, before measuring, at the 15 % that the first
+/// tone's former condition used (DETECTION.md, "Choices measured"); not tuned.
+const SECOND_TONE_SHARE: f64 = 0.15;
+
+/// OP's dominant frequency once a constant and the sines at `omegas` are projected out, when
+/// it carries at least [`SECOND_TONE_SHARE`] of what they leave of OP's variance and is not a
+/// harmonic of one of them (within a tenth of the fundamental: a limit cycle's OP has
+/// harmonics, an external disturbance of several tones has incommensurate frequencies) nor
+/// within two Fourier bins of one.
+fn second_frequency(op: &[f64], omegas: &[f64]) -> Option<f64> {
+    let n = op.len();
+    if omegas.is_empty() || n < 64 {
+        return None;
+    }
+    let tg = Target::new(op, 0, omegas);
+    let w = dominant_frequency(&tg.ry)?;
+    let resolution = 2.0 * std::f64::consts::PI / n as f64;
+    let harmonic = omegas.iter().any(|&v| {
+        let k = (w / v).round();
+        (w - v).abs() <= 2.0 * resolution || (k >= 2.0 && (w / v - k).abs() <= 0.1)
+    });
+    // Enough power: the residual's share at w (a pair's projection) at least 15 %.
+    let (mut a, mut b) = (0.0, 0.0);
+    for (t, v) in tg.ry.iter().enumerate() {
+        let (sn, cs) = (w * t as f64).sin_cos();
+        a += v * cs;
+        b += v * sn;
+    }
+    let share = 2.0 * (a * a + b * b) / n as f64 / tg.yy.max(f64::MIN_POSITIVE);
+    (!harmonic && share >= SECOND_TONE_SHARE).then_some(w)
 }
 
 /// Poles of the first-order lag of the output-error model: a coarse grid, refined by a
@@ -451,6 +485,13 @@ impl DetectionTest for Hammerstein {
             if omegas.iter().all(|&v| (v - w).abs() > resolution) {
                 omegas.push(w);
             }
+        }
+        // And OP's next tone, when it is not a harmonic of those: an external disturbance of
+        // several tones (the reference paper's two sines) leaves the free valve a second
+        // oscillation to miss, which a small deadband would otherwise "explain"; a limit
+        // cycle's OP has harmonics, which stay evidence.
+        if let Some(w2) = second_frequency(op, &omegas) {
+            omegas.push(w2);
         }
         let Some(c) = compare(&y, pv, op, &omegas) else {
             return Ok(TestOutcome::new(

@@ -811,7 +811,7 @@ fn paper_case(preset: PlantPreset, a: f64, s: f64, j: f64, seed: u64) -> Result<
 fn paper_benchmark(model: &Model) -> Result<()> {
     let mut cells = Vec::new();
     for preset in [PlantPreset::Paper, PlantPreset::Slow] {
-        for a in [0.0, 0.25] {
+        for a in [0.0, 0.25, 1.0] {
             for (s, j) in PAPER_VALVES {
                 cells.push((preset, a, s, j));
             }
