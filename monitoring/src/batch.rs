@@ -551,10 +551,16 @@ pub fn resume(
     let row_key = |r: &Row| key(&r.file, r.size, r.mtime);
     // A row of a registration that was read always has the detector's verdict; one without
     // it was written before the detector existed and is computed again.
+    // Likewise a row without the repair assessment (neither `repair` nor its reason).
+    let unassessed = |r: &Row| {
+        r.ok()
+            .is_some_and(|o| o.quantify.repair.is_none() && o.quantify.repair_reason.is_none())
+    };
     kept.retain(|r| {
         r.settings == settings
             && current.contains(&row_key(r))
             && !(r.is_ok() && r.detect_verdict.is_empty())
+            && !unassessed(r)
     });
     let done: HashSet<String> = kept.iter().map(row_key).collect();
     let todo: Vec<PathBuf> = files

@@ -217,6 +217,31 @@ impl Fitted {
 }
 
 impl Fitted {
+    /// What a repair of the valve would buy on the record `d` as read (SP, PV, OP and its
+    /// time column; not the increments of an integrating loop): the identified controller and
+    /// this fitted loop replayed with the fitted valve and with a free one
+    /// ([`repair::assess`]). `integrating`: the linear model maps MV to ΔPV.
+    pub fn repair(
+        &self,
+        d: &datasets::LoopData,
+        integrating: bool,
+    ) -> Result<repair::Repair, repair::NoRepair> {
+        let pv = d.pv.as_deref().unwrap_or(&[]);
+        let signals = repair::Signals {
+            sp: d.sp.as_deref(),
+            pv,
+            op: &d.op,
+            sample_time: crate::sample_time(d),
+        };
+        let fitted = repair::FittedLoop {
+            valve: self.result.stiction.as_ref(),
+            mv_est: &self.result.mv_est,
+            linear: &self.result.linear,
+            integrating,
+        };
+        repair::assess(&signals, &fitted)
+    }
+
     /// Write the fit over the whole grid as CSV (`quantify --surface`): the model's
     /// parameters, S, J, the four fits, F_MV, the first valid sample, and the reason of a
     /// skipped node.

@@ -147,6 +147,29 @@ pub struct QuantifyRecord {
     pub elapsed_ms: Option<f64>,
     /// What limits the estimate, in words.
     pub warnings: Vec<String>,
+    /// What a repair of the valve would buy ([`repair::Repair`]): `null` when it could not be
+    /// estimated ([`QuantifyRecord::repair_reason`] says why).
+    #[serde(default)]
+    pub repair: Option<repair::Repair>,
+    /// Why `repair` is `null` (`null` when it is not).
+    #[serde(default)]
+    pub repair_reason: Option<String>,
+}
+
+impl QuantifyRecord {
+    /// Fill `repair` and `repair_reason` from an assessment ([`Fitted::repair`]).
+    pub fn set_repair(&mut self, outcome: Result<repair::Repair, repair::NoRepair>) {
+        match outcome {
+            Ok(r) => {
+                self.repair = Some(r);
+                self.repair_reason = None;
+            }
+            Err(e) => {
+                self.repair = None;
+                self.repair_reason = Some(e.to_string());
+            }
+        }
+    }
 }
 
 impl Fitted {
@@ -221,6 +244,8 @@ impl Fitted {
             static_gain: rounded(q.linear.static_gain(), 9),
             elapsed_ms: rounded(self.elapsed_ms, 3),
             warnings: q.warnings.clone(),
+            repair: None,
+            repair_reason: Some("not assessed (the record's set point was not at hand)".into()),
         }
     }
 }

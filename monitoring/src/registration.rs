@@ -426,23 +426,30 @@ fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
     }
     reg.notes = d.notes.clone();
     reg.detection = Some(detect_loop(&d, reg.integrating));
-    let used = if reg.integrating { increments(&d) } else { d };
+    let used = if reg.integrating {
+        increments(&d)
+    } else {
+        d.clone()
+    };
     let combos = plan
         .combinations
         .iter()
         .map(|c| ComboOutcome {
             stiction: c.stiction.name,
             linear: c.linear.name,
-            result: fit_one(c, &used, &reg.notes, plan),
+            result: fit_one(c, (&d, &used), reg.integrating, &reg.notes, plan),
         })
         .collect();
     reg.outcome = Ok(combos);
     reg
 }
 
+/// One combination on `used` (the record, or its increments for an integrating loop), with
+/// the repair estimate on the record as read.
 fn fit_one(
     c: &Combination,
-    d: &LoopData,
+    (read, d): (&LoopData, &LoopData),
+    integrating: bool,
     notes: &[Note],
     plan: &Plan<'_>,
 ) -> Result<ComboFit, RegistrationError> {
@@ -459,8 +466,10 @@ fn fit_one(
             error,
         })?;
     let q = &r.result;
+    let mut record = r.record(&c.search.init);
+    record.set_repair(r.repair(read, integrating));
     Ok(ComboFit {
-        record: r.record(&c.search.init),
+        record,
         s: q.s,
         s_range: q.interval.s,
         j: q.j,

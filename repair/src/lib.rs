@@ -79,7 +79,9 @@ pub struct Controller {
     pub kind: ControllerKind,
     /// Proportional gain `kc` (OP units per PV unit; negative for a direct-acting controller).
     pub kc: f64,
-    /// Integral time `ti`, seconds (`kc·Ts/θ_i`).
+    /// Integral time `ti`, seconds (`kc·Ts/θ_i`; infinite, JSON `null`, without integral
+    /// action).
+    #[serde(deserialize_with = "null_as_inf")]
     pub ti: f64,
     /// Derivative time `td`, seconds (0 for PI).
     pub td: f64,
@@ -101,6 +103,11 @@ impl Controller {
         let d2e = e[i] - 2.0 * e[i - 1] + e[i - 2];
         self.theta[0] * de + self.theta[1] * e[i] + self.theta[2] * d2e
     }
+}
+
+/// Reads `null` (how JSON writes a non-finite number) as infinity.
+fn null_as_inf<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::INFINITY))
 }
 
 /// What a repair of the valve would buy: the JSON object `repair` of the contract.
