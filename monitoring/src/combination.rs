@@ -220,7 +220,10 @@ impl Fitted {
     /// What a repair of the valve would buy on the record `d` as read (SP, PV, OP and its
     /// time column; not the increments of an integrating loop): the identified controller and
     /// this fitted loop replayed with the fitted valve and with a free one
-    /// ([`repair::assess`]). `integrating`: the linear model maps MV to ΔPV.
+    /// ([`repair::assess`]). `integrating`: the linear model maps MV to ΔPV. A fit with
+    /// negligible S ([`grid_search::trust::NEGLIGIBLE_S`]) or with S = 0 inside its region
+    /// ([`grid_search::Doubt::NoEvidence`]) cannot tell the valve from a free one: its
+    /// reduction is 0, with a note.
     pub fn repair(
         &self,
         d: &datasets::LoopData,
@@ -238,6 +241,8 @@ impl Fitted {
             mv_est: &self.result.mv_est,
             linear: &self.result.linear,
             integrating,
+            indistinguishable: self.result.s <= grid_search::trust::NEGLIGIBLE_S
+                || self.result.doubts.contains(&grid_search::Doubt::NoEvidence),
         };
         repair::assess(&signals, &fitted)
     }

@@ -132,7 +132,14 @@ pub struct Repair {
     pub sample_time: f64,
     /// Samples simulated (the first samples of the record are given, not simulated).
     pub samples: usize,
+    /// What qualifies the numbers, in words (`None` when nothing does).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
+
+/// [`Repair::note`] of a valve the fit cannot tell from a free one.
+pub const INDISTINGUISHABLE_NOTE: &str =
+    "the fit cannot tell this valve from a free one (negligible S, or S = 0 inside its region): a repair buys nothing the record shows";
 
 /// Why a loop gets no repair estimate.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -211,6 +218,10 @@ pub struct FittedLoop<'a> {
     pub linear: &'a LinearFit,
     /// Whether the model's output is ΔPV.
     pub integrating: bool,
+    /// The fit cannot tell this valve from a free one (its S is negligible, or S = 0 lies in
+    /// its likelihood region): both runs then use the free valve, and the reduction is 0 with
+    /// a note, for the record shows nothing a repair would remove.
+    pub indistinguishable: bool,
 }
 
 /// Identify the loop's controller from SP, PV and OP (see the crate docs).
@@ -634,9 +645,13 @@ pub fn replay(s: &Signals<'_>, m: &FittedLoop<'_>) -> Result<Replay, NoRepair> {
         .valve
         .start(op[shift], &init)
         .map_err(|e| NoRepair::Model(format!("valve: {e}")))?;
-    let now = run(Valve::Fitted(start))?;
     let offset = m.mv_est[i0 - 1 - shift] - op[i0 - 1];
     let repaired = run(Valve::Free { offset })?;
+    let now = if m.indistinguishable {
+        repaired.clone()
+    } else {
+        run(Valve::Fitted(start))?
+    };
 
     Ok(Replay {
         controller,
@@ -691,6 +706,9 @@ fn summarise(s: &Signals<'_>, m: &FittedLoop<'_>, r: Replay) -> Result<Repair, N
         error_std_measured: measured,
         sample_time: ts,
         samples: n - i0,
+        note: m
+            .indistinguishable
+            .then(|| INDISTINGUISHABLE_NOTE.to_string()),
     })
 }
 

@@ -90,6 +90,7 @@ fn now_run_reproduces_the_record_and_repaired_matches_the_healthy_twin() {
             mv_est: &sticky.mv,
             linear: &model,
             integrating: false,
+            indistinguishable: false,
         };
         // the replayed loop is the record, until round-off meets a stick-or-slip decision
         // (the valve is discontinuous, so the runs part after a while; their spread stays)
@@ -128,6 +129,7 @@ fn a_healthy_valve_buys_nothing() {
         mv_est: &sim.mv,
         linear: &model,
         integrating: false,
+        indistinguishable: false,
     };
     let r = assess(&signals(&sim), &fitted).unwrap();
     assert!(r.reduction < 1e-6, "{}", r.reduction);
