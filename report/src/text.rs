@@ -92,6 +92,59 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
     Ok(text)
 }
 
+/// The `repair:` line of `quantify` and `diagnose`: what a free valve would change in the
+/// identified loop ([`repair::assess`]), or why that could not be estimated.
+pub fn repair_line(outcome: &Result<repair::Repair, repair::NoRepair>) -> String {
+    match outcome {
+        Err(e) => format!("  repair: not estimated: {e}"),
+        Ok(r) => {
+            let c = &r.controller;
+            let kind = match c.kind {
+                repair::ControllerKind::Pi => "PI",
+                repair::ControllerKind::Pid => "PID",
+            };
+            let td = if c.kind == repair::ControllerKind::Pid {
+                format!(", td {} s", sig3(c.td))
+            } else {
+                String::new()
+            };
+            let mut line = format!(
+                "  repair: a free valve would remove {:.0} % of the control error's spread ({} -> {}; the record's {}), valve reversals {:.0} -> {:.0} per hour; controller {kind} kc {}, ti {} s{td} (explains {:.1} % of the OP moves)",
+                100.0 * r.reduction,
+                sig3(r.error_std_now),
+                sig3(r.error_std_repaired),
+                sig3(r.error_std_measured),
+                r.reversals_per_hour_now,
+                r.reversals_per_hour_repaired,
+                sig3(c.kc),
+                sig3(c.ti),
+                c.fit
+            );
+            if let Some(note) = &r.note {
+                line.push_str(&format!("\n  note: {note}"));
+            }
+            line
+        }
+    }
+}
+
+/// `x` with three significant digits (plain notation in the usual range).
+fn sig3(x: f64) -> String {
+    if !x.is_finite() {
+        return "none".into();
+    }
+    let a = x.abs();
+    if a != 0.0 && !(1e-3..1e6).contains(&a) {
+        return format!("{x:.2e}");
+    }
+    let decimals = if a == 0.0 {
+        0
+    } else {
+        (2 - a.log10().floor() as i32).max(0) as usize
+    };
+    format!("{x:.decimals$}")
+}
+
 /// One combination of a `compare`: its names and its fit or its error.
 pub type CompareRow<'a> = (&'a str, &'a str, Result<&'a Fitted, String>);
 

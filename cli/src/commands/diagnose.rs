@@ -61,11 +61,23 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     reporting::write(&args.report, s, || {
         report::pages::diagnose_page(&d, &dg, &det)
     })?;
+    // what a repair would buy, in the final model (the baseline when no cause was found)
+    let repair = dg.final_fit().unwrap_or(&dg.baseline_fit).repair(&d, false);
     if args.json {
         let mut v = dg.record(&d.source, &args.search.init);
         v["detection"] = serde_json::json!(det.record());
+        let (value, reason) = match &repair {
+            Ok(r) => (serde_json::json!(r), serde_json::Value::Null),
+            Err(e) => (serde_json::Value::Null, serde_json::json!(e.to_string())),
+        };
+        v["repair"] = value;
+        v["repair_reason"] = reason;
         return s.json(&v);
     }
     let text = report::text::diagnose(&d, &dg)?;
-    s.text(format!("{text}{}\n", report::text::detection_line(&det)))
+    s.text(format!(
+        "{text}{}\n{}\n",
+        report::text::repair_line(&repair),
+        report::text::detection_line(&det)
+    ))
 }

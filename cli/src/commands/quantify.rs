@@ -153,14 +153,21 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     reporting::write(&args.report, s, || {
         report::pages::quantify_page(&d, &r, &det)
     })?;
+    let repair = r.repair(&d, false);
     if args.json {
-        let mut v = serde_json::to_value(r.record(&args.search.init))?;
+        let mut record = r.record(&args.search.init);
+        record.set_repair(repair);
+        let mut v = serde_json::to_value(record)?;
         v["source"] = json!(d.source);
         v["detection"] = json!(det.record());
         return s.json(&v);
     }
     let text = report::text::quantify(&d.source, &r, args.search.init.label())?;
-    s.text(format!("{text}{}\n", report::text::detection_line(&det)))
+    s.text(format!(
+        "{text}{}\n{}\n",
+        report::text::repair_line(&repair),
+        report::text::detection_line(&det)
+    ))
 }
 
 pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
@@ -201,7 +208,15 @@ pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
     if args.json {
         let mut doc = monitoring::CompareRecord::new(&d.source);
         for (st, li, r) in &view {
-            doc.push(st, li, r.clone().map(|r| r.record(&args.search.init)));
+            doc.push(
+                st,
+                li,
+                r.clone().map(|r| {
+                    let mut record = r.record(&args.search.init);
+                    record.set_repair(r.repair(&d, false));
+                    record
+                }),
+            );
         }
         return s.json(&doc);
     }
