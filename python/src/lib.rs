@@ -242,7 +242,9 @@ fn quantify_record(
     let fitted = combination
         .run(problem, None)
         .map_err(|e| search_err(&d.source, e))?;
-    Ok(fitted.record(&req.settings.search.init))
+    let mut record = fitted.record(&req.settings.search.init);
+    record.set_repair(fitted.repair(d, false));
+    Ok(record)
 }
 
 /// The detector on a record, integrating decided as the CLI decides it from the file's valve tag
@@ -271,6 +273,17 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
     })?;
     let mut v = dg.record(&d.source, &req.settings.search.init);
     v["detection"] = serde_json::json!(detected(d).record());
+    // what a repair would buy, in the final model (as `stiction diagnose --json`)
+    match dg.final_fit().unwrap_or(&dg.baseline_fit).repair(d, false) {
+        Ok(r) => {
+            v["repair"] = serde_json::json!(r);
+            v["repair_reason"] = serde_json::Value::Null;
+        }
+        Err(e) => {
+            v["repair"] = serde_json::Value::Null;
+            v["repair_reason"] = serde_json::json!(e.to_string());
+        }
+    }
     Ok(v)
 }
 
