@@ -701,14 +701,21 @@ fn summarise(s: &Signals<'_>, m: &FittedLoop<'_>, r: Replay) -> Result<Repair, N
     let hours = (n - i0) as f64 * ts / 3600.0;
     let (mlo, mhi) = min_max(&op[shift..]);
     let tol = 1e-9 * (mhi - mlo).abs().max(1.0);
+    let mut controller = controller;
+    controller.kc = sig6(controller.kc);
+    controller.ti = sig6(controller.ti);
+    controller.td = sig6(controller.td);
+    controller.fit = sig6(controller.fit);
+    controller.theta = controller.theta.map(sig6);
+    let reversals = |mv: &[f64]| sig6(reversals(mv, tol) as f64 / hours);
     Ok(Repair {
-        error_std_now: sn,
-        error_std_repaired: sr,
-        reduction,
-        reversals_per_hour_now: reversals(&now.mv[i0 - 1..], tol) as f64 / hours,
-        reversals_per_hour_repaired: reversals(&repaired.mv[i0 - 1..], tol) as f64 / hours,
+        error_std_now: sig6(sn),
+        error_std_repaired: sig6(sr),
+        reduction: sig6(reduction),
+        reversals_per_hour_now: reversals(&now.mv[i0 - 1..]),
+        reversals_per_hour_repaired: reversals(&repaired.mv[i0 - 1..]),
         controller,
-        error_std_measured: measured,
+        error_std_measured: sig6(measured),
         sample_time: ts,
         samples: n - i0,
         note: if m.indistinguishable {
@@ -757,6 +764,14 @@ fn op_limits(op: &[f64]) -> (f64, f64) {
     } else {
         (f64::NEG_INFINITY, f64::INFINITY)
     }
+}
+
+/// `x` to six significant digits (the reported numbers; no round-off noise in JSON).
+fn sig6(x: f64) -> f64 {
+    if !x.is_finite() || x == 0.0 {
+        return x;
+    }
+    format!("{x:.5e}").parse().unwrap_or(x)
 }
 
 fn std_dev(x: impl Iterator<Item = f64> + Clone) -> f64 {
