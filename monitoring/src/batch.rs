@@ -265,15 +265,23 @@ impl Row {
             .unwrap_or_else(|e| format!("{{\"error\":\"unserialisable row: {e}\"}}"))
     }
 
-    /// The row's cells in [`CSV_COLUMNS`] order (lists joined with ` | `, null empty).
+    /// The row's cells in [`CSV_COLUMNS`] order (lists joined with ` | `, null empty; the
+    /// repair columns from the quantify object's `repair`).
     pub fn csv_record(&self) -> Vec<String> {
         let v = serde_json::to_value(self).unwrap_or_default();
-        CSV_COLUMNS.iter().map(|k| csv_cell(&v[*k])).collect()
+        CSV_COLUMNS
+            .iter()
+            .map(|k| match *k {
+                "reduction" => csv_cell(&v["quantify"]["repair"]["reduction"]),
+                "repair_reason" => csv_cell(&v["quantify"]["repair_reason"]),
+                key => csv_cell(&v[key]),
+            })
+            .collect()
     }
 }
 
 /// The columns of `OUT.csv`.
-pub const CSV_COLUMNS: [&str; 21] = [
+pub const CSV_COLUMNS: [&str; 23] = [
     "file",
     "valve",
     "time",
@@ -295,6 +303,8 @@ pub const CSV_COLUMNS: [&str; 21] = [
     "error",
     "detect_score",
     "detect_verdict",
+    "reduction",
+    "repair_reason",
 ];
 
 fn csv_cell(v: &serde_json::Value) -> String {

@@ -158,12 +158,18 @@ fn rows_carry_the_detector_answer_and_old_rows_still_read() {
     }
     let header = batch::CSV_COLUMNS.join(",");
     assert!(
-        header.ends_with(",error,detect_score,detect_verdict"),
+        header.ends_with(",error,detect_score,detect_verdict,reduction,repair_reason"),
         "{header}"
     );
     let cells = rows[0].csv_record();
-    assert_eq!(cells[cells.len() - 2], score.to_string());
-    assert_eq!(cells[cells.len() - 1], direct.verdict().as_str());
+    assert_eq!(cells[cells.len() - 4], score.to_string());
+    assert_eq!(cells[cells.len() - 3], direct.verdict().as_str());
+    // the repair columns: the reduction, or the reason there is none
+    let q = &rows[0].ok().unwrap().quantify;
+    match &q.repair {
+        Some(r) => assert_eq!(cells[cells.len() - 2], r.reduction.to_string()),
+        None => assert_eq!(Some(&cells[cells.len() - 1]), q.repair_reason.as_ref()),
+    }
     // A file that cannot be read: no score, no verdict.
     let missing = batch::run_file(&dir.join("V9_nope.csv"), &opts);
     assert_eq!(missing[0].detect_score, None);

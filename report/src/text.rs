@@ -607,8 +607,8 @@ pub fn identify(source: &str, id: &Identification) -> Result<String, fmt::Error>
 /// The rows of `batch` as a table (without `-o`).
 pub fn batch_table(rows: &[Row]) -> String {
     let mut out = format!(
-        "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  error\n",
-        "file", "valve", "time", "status", "S", "S range", "J", "F_PV val"
+        "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8} {:>6}  {:<12}  error\n",
+        "file", "valve", "time", "status", "S", "S range", "J", "F_PV val", "repair", "detect"
     );
     for r in rows {
         let num = |f: &dyn Fn(&OkRow) -> f64| {
@@ -619,7 +619,7 @@ pub fn batch_table(rows: &[Row]) -> String {
         };
         let _ = writeln!(
             out,
-            "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8}  {}",
+            "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8} {:>6}  {:<12}  {}",
             r.file,
             r.valve,
             r.time.as_deref().unwrap_or("?"),
@@ -628,6 +628,15 @@ pub fn batch_table(rows: &[Row]) -> String {
             format!("{}-{}", num(&|o| o.s_lo), num(&|o| o.s_hi)),
             num(&|o| o.j),
             num(&|o| o.fit_pv_val),
+            // the fraction of the control error a repair would remove, in %
+            r.ok()
+                .and_then(|o| o.quantify.repair.as_ref())
+                .map_or("-".into(), |p| format!("{:.0} %", 100.0 * p.reduction)),
+            if r.detect_verdict.is_empty() {
+                "-"
+            } else {
+                &r.detect_verdict
+            },
             r.error().unwrap_or("")
         );
     }
