@@ -259,7 +259,12 @@ pub fn run_figures(
 
 /// The page of `quantify`: the numbers, the verdict, the figures, then what the detection
 /// tests say on the same record (`det`, [`monitoring::detect_file`]).
-pub fn quantify_page(d: &LoopData, r: &Fitted, det: &Detected) -> Result<Report, ReportError> {
+pub fn quantify_page(
+    d: &LoopData,
+    r: &Fitted,
+    det: &Detected,
+    repair: &Result<repair::Repair, repair::NoRepair>,
+) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let mut result = Section::new("Result");
     result.push(facts(r));
@@ -267,6 +272,7 @@ pub fn quantify_page(d: &LoopData, r: &Fitted, det: &Detected) -> Result<Report,
         "Verdict: {}.",
         verdict_line(&r.result)
     )));
+    result.push(repair_paragraph(repair));
     for w in &r.result.warnings {
         result.push(Block::Note(w.clone()));
     }
@@ -395,10 +401,37 @@ pub fn compare_page(
     })
 }
 
+/// What a repair would buy, as a paragraph of the `quantify` and `diagnose` pages.
+fn repair_paragraph(repair: &Result<repair::Repair, repair::NoRepair>) -> Block {
+    Block::Paragraph(match repair {
+        Ok(r) => format!(
+            "Repair: a free valve would remove {:.0} % of the control error's spread \
+             (standard deviation {:.3} now, {:.3} repaired; the record's {:.3}) in the identified \
+             loop, replayed with the same set point and disturbance; the valve would reverse \
+             {:.0} times an hour instead of {:.0}.{}",
+            100.0 * r.reduction,
+            r.error_std_now,
+            r.error_std_repaired,
+            r.error_std_measured,
+            r.reversals_per_hour_repaired,
+            r.reversals_per_hour_now,
+            r.note
+                .as_ref()
+                .map_or(String::new(), |n| format!(" Note: {n}."))
+        ),
+        Err(e) => format!("Repair: not estimated: {e}."),
+    })
+}
+
 /// The report of `diagnose`: the verdict, the findings, the baseline's and the extended
 /// model's figures, what the residuals show, and what the detection tests say on the same
-/// record (`det`, [`monitoring::detect_file`]).
-pub fn diagnose_page(d: &LoopData, dg: &Diagnosis, det: &Detected) -> Result<Report, ReportError> {
+/// record (`det`, [`monitoring::detect_file`]), with what a repair would buy in the final model.
+pub fn diagnose_page(
+    d: &LoopData,
+    dg: &Diagnosis,
+    det: &Detected,
+    repair: &Result<repair::Repair, repair::NoRepair>,
+) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let base = &dg.baseline_fit;
     let base_label = combo(base);
@@ -466,6 +499,7 @@ pub fn diagnose_page(d: &LoopData, dg: &Diagnosis, det: &Detected) -> Result<Rep
         discrepancy::action_line(dg)
     )));
     first.push(Block::Paragraph(dg.summary.clone()));
+    first.push(repair_paragraph(repair));
     let mut sections = vec![first];
     let mut later = vec![findings];
     let sig = signals(d, &name);

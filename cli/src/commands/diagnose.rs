@@ -58,11 +58,11 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         Err(other) => return Err(refused(anyhow!("{}: {other}", d.source).into(), s)),
     };
     let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
-    reporting::write(&args.report, s, || {
-        report::pages::diagnose_page(&d, &dg, &det)
-    })?;
     // what a repair would buy, in the final model (the baseline when no cause was found)
     let repair = dg.final_fit().unwrap_or(&dg.baseline_fit).repair(&d, false);
+    reporting::write(&args.report, s, || {
+        report::pages::diagnose_page(&d, &dg, &det, &repair)
+    })?;
     if args.json {
         let mut v = dg.record(&d.source, &args.search.init);
         v["detection"] = serde_json::json!(det.record());

@@ -150,10 +150,10 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
         r.write_surface(path)?;
     }
     let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
-    reporting::write(&args.report, s, || {
-        report::pages::quantify_page(&d, &r, &det)
-    })?;
     let repair = r.repair(&d, false);
+    reporting::write(&args.report, s, || {
+        report::pages::quantify_page(&d, &r, &det, &repair)
+    })?;
     if args.json {
         let mut record = r.record(&args.search.init);
         record.set_repair(repair);
