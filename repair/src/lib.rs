@@ -4,7 +4,9 @@
 //! change. This crate answers that from a fitted loop model:
 //!
 //! 1. [`identify_controller`]: the controller, a PI or PID law in velocity form, from SP, PV and
-//!    OP by least squares (Householder QR),
+//!    OP by least squares (Householder QR; the derivative term kept when it gains
+//!    [`MIN_DERIVATIVE_GAIN`] points, a proportional law when the integral term comes out with
+//!    the other sign),
 //!    `ΔOP_k = θ_p Δe_{k-L} + θ_i e_{k-L} + θ_d Δ²e_{k-L}` with `e = SP − PV` and a timing lag
 //!    `L` of 0 or 1 samples (a historian may stamp OP with the sample before or after the PV it
 //!    answered). Samples where OP is pinned at its extreme are left out (the law does not act
@@ -69,6 +71,9 @@ pub const DIVERGENCE_RATIO: f64 = 20.0;
 /// The controller's law.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ControllerKind {
+    /// Proportional only (`ti` infinite, JSON `null`).
+    #[serde(rename = "P")]
+    P,
     /// Proportional + integral.
     #[serde(rename = "PI")]
     Pi,
@@ -274,21 +279,41 @@ pub fn identify_controller(s: &Signals<'_>) -> Result<Controller, NoRepair> {
                 _ => e[i] - 2.0 * e[i - 1] + e[i - 2],
             }
         };
-        for kind in [ControllerKind::Pi, ControllerKind::Pid] {
-            let p = if kind == ControllerKind::Pi { 2 } else { 3 };
-            let x = DMatrix::from_fn(rows.len(), p, |r, c| column(c, rows[r]));
-            let Some(theta) = least_squares(x.clone(), &target) else {
-                continue;
-            };
+        let fit_law = |kind: ControllerKind, cols: &[usize]| -> Option<Controller> {
+            let x = DMatrix::from_fn(rows.len(), cols.len(), |r, c| column(cols[c], rows[r]));
+            let theta = least_squares(x.clone(), &target)?;
             let resid = &target - &x * &theta;
-            let fit = fit_index(&target, &resid);
             let mut th = [0.0; 3];
-            th[..p].copy_from_slice(theta.as_slice());
-            let c = controller_from(kind, th, fit, lag, rows.len(), s.sample_time);
-            best = Some(match best {
-                None => c,
-                Some(b) => prefer(b, c),
-            });
+            for (k, &c) in cols.iter().enumerate() {
+                th[c] = theta[k];
+            }
+            let fit = fit_index(&target, &resid);
+            Some(controller_from(
+                kind,
+                th,
+                fit,
+                lag,
+                rows.len(),
+                s.sample_time,
+            ))
+        };
+        let Some(pi) = fit_law(ControllerKind::Pi, &[0, 1]) else {
+            continue;
+        };
+        // an integral action of the other sign than the proportional one is no controller's:
+        // the law is proportional only
+        let law = if pi.theta[0] * pi.theta[1] <= 0.0 {
+            fit_law(ControllerKind::P, &[0])
+        } else {
+            match fit_law(ControllerKind::Pid, &[0, 1, 2]) {
+                Some(pid) if pid.fit >= pi.fit + MIN_DERIVATIVE_GAIN && pid.td > 0.0 => Some(pid),
+                _ => Some(pi),
+            }
+        };
+        if let Some(law) = law {
+            if best.as_ref().is_none_or(|b| law.fit > b.fit) {
+                best = Some(law);
+            }
         }
     }
     let c = best.ok_or(NoRepair::TooFewSamples {
@@ -304,37 +329,6 @@ pub fn identify_controller(s: &Signals<'_>) -> Result<Controller, NoRepair> {
     Ok(c)
 }
 
-/// The better of two candidate laws: a PID only when its derivative time is positive and it
-/// gains [`MIN_DERIVATIVE_GAIN`] points over the PI of the same lag; between lags, the better fit.
-fn prefer(a: Controller, b: Controller) -> Controller {
-    let usable = |c: &Controller| {
-        c.kind == ControllerKind::Pi || (c.td > 0.0 && c.td.is_finite() && c.kc.is_finite())
-    };
-    match (usable(&a), usable(&b)) {
-        (true, false) => return a,
-        (false, true) => return b,
-        (false, false) => return a,
-        _ => {}
-    }
-    if a.lag == b.lag && a.kind != b.kind {
-        let (pi, pid) = if a.kind == ControllerKind::Pi {
-            (a, b)
-        } else {
-            (b, a)
-        };
-        return if pid.fit >= pi.fit + MIN_DERIVATIVE_GAIN {
-            pid
-        } else {
-            pi
-        };
-    }
-    if b.fit > a.fit {
-        b
-    } else {
-        a
-    }
-}
-
 fn controller_from(
     kind: ControllerKind,
     theta: [f64; 3],
@@ -344,7 +338,7 @@ fn controller_from(
     ts: f64,
 ) -> Controller {
     let kc = theta[0];
-    let ti = if theta[1] != 0.0 {
+    let ti = if kind != ControllerKind::P && theta[1] != 0.0 {
         kc * ts / theta[1]
     } else {
         f64::INFINITY

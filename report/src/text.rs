@@ -99,25 +99,24 @@ pub fn repair_line(outcome: &Result<repair::Repair, repair::NoRepair>) -> String
         Err(e) => format!("  repair: not estimated: {e}"),
         Ok(r) => {
             let c = &r.controller;
-            let kind = match c.kind {
-                repair::ControllerKind::Pi => "PI",
-                repair::ControllerKind::Pid => "PID",
-            };
-            let td = if c.kind == repair::ControllerKind::Pid {
-                format!(", td {} s", sig3(c.td))
-            } else {
-                String::new()
+            let law = match c.kind {
+                repair::ControllerKind::P => format!("P kc {}", sig3(c.kc)),
+                repair::ControllerKind::Pi => format!("PI kc {}, ti {} s", sig3(c.kc), sig3(c.ti)),
+                repair::ControllerKind::Pid => format!(
+                    "PID kc {}, ti {} s, td {} s",
+                    sig3(c.kc),
+                    sig3(c.ti),
+                    sig3(c.td)
+                ),
             };
             let mut line = format!(
-                "  repair: a free valve would remove {:.0} % of the control error's spread ({} -> {}; the record's {}), valve reversals {:.0} -> {:.0} per hour; controller {kind} kc {}, ti {} s{td} (explains {:.1} % of the OP moves)",
+                "  repair: a free valve would remove {:.0} % of the control error's spread ({} -> {}; the record's {}), valve reversals {:.0} -> {:.0} per hour; controller {law} (explains {:.1} % of the OP moves)",
                 100.0 * r.reduction,
                 sig3(r.error_std_now),
                 sig3(r.error_std_repaired),
                 sig3(r.error_std_measured),
                 r.reversals_per_hour_now,
                 r.reversals_per_hour_repaired,
-                sig3(c.kc),
-                sig3(c.ti),
                 c.fit
             );
             if let Some(note) = &r.note {
