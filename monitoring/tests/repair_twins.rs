@@ -141,3 +141,59 @@ fn a_healthy_loop_gets_no_reduction() {
         lines.join("\n")
     );
 }
+
+/// An integrating (level-like) loop: the model maps MV to ΔPV, the runs integrate it.
+#[test]
+fn an_integrating_loop_is_replayed_on_its_increments() {
+    let (mut within, mut total) = (0, 0);
+    let mut lines = Vec::new();
+    for (k, (s, j)) in [
+        (1.0, 0.3),
+        (2.0, 0.5),
+        (3.0, 1.0),
+        (4.0, 1.0),
+        (6.0, 2.0),
+        (2.5, 0.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let json = format!(
+            r#"{{"plant": {{"a": [1, -1.6, 0.6], "b": [0, 0.05, 0.03], "c": [1, 0.2], "delay": 0}},
+                "controller": {{"kc": 0.8, "ki": 0.02}},
+                "valve": {{"kind": "kano", "S": {s}, "J": {j}}},
+                "samples": 2000, "warmup": 500, "seed": {}, "sample_time": 5}}"#,
+            700 + k
+        );
+        let sc = Scenario::from_json(&json).unwrap();
+        let sim = sc.simulate().unwrap();
+        let twin = twin_of(&sc).simulate().unwrap();
+        let mut d = sim.to_loop_data();
+        d.mv = None;
+        let used = monitoring::registration::increments(&d);
+        let fitted = Combination::paper()
+            .unwrap()
+            .run(monitoring::problem(&used).unwrap(), None)
+            .unwrap();
+        total += 1;
+        match fitted.repair(&d, true) {
+            Ok(r) => {
+                let from = d.len() - r.samples;
+                let truth = (1.0 - error_std(&twin, from) / error_std(&sim, from)).clamp(0.0, 1.0);
+                let ok = (r.reduction - truth).abs() <= 0.10;
+                within += usize::from(ok);
+                lines.push(format!(
+                    "S={s} J={j}: predicted {:.3}, twin {truth:.3} (fitted S {:.2})",
+                    r.reduction, fitted.result.s
+                ));
+            }
+            Err(e) => lines.push(format!("S={s} J={j}: no prediction: {e}")),
+        }
+    }
+    println!("{}", lines.join("\n"));
+    assert!(
+        within + 1 >= total,
+        "{within} of {total}:\n{}",
+        lines.join("\n")
+    );
+}
