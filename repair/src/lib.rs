@@ -320,7 +320,7 @@ pub fn identify_controller(s: &Signals<'_>) -> Result<Controller, NoRepair> {
         got: n.saturating_sub(3),
         needed: MIN_SAMPLES,
     })?;
-    if !(c.fit >= MIN_CONTROLLER_FIT) {
+    if c.fit.is_nan() || c.fit < MIN_CONTROLLER_FIT {
         return Err(NoRepair::NotPiLike {
             fit: if c.fit.is_finite() { c.fit } else { 0.0 },
             min: MIN_CONTROLLER_FIT,
