@@ -292,17 +292,17 @@ fn safe_link(link: &str) -> Option<&str> {
 const STYLE: &str = "\
 html{font-size:16px}\
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;\
-margin:1.2em 1.5em;color:#1a1a1a;line-height:1.4}\
+margin:1em 1.2em;color:#1a1a1a;line-height:1.4}\
 h1{font-size:1.7em;margin:0 0 .2em}.sub{color:#555;margin:0 0 .8em}\
 .controls{display:flex;flex-wrap:wrap;gap:.6em 1.4em;align-items:center;margin:.6em 0}\
 .controls input,.controls select{font:inherit;padding:.25em .5em;border:1px solid #aaa;border-radius:4px}\
 .controls input{width:16em}#count{color:#333;font-weight:600}\
 table{border-collapse:collapse;width:100%;font-size:1em}\
-th,td{border:1px solid #ddd;padding:.35em .55em;vertical-align:middle;text-align:left}\
+th,td{border:1px solid #ddd;padding:.3em .45em;vertical-align:middle;text-align:left}\
 thead th{background:#f0f2f5;position:sticky;top:0;cursor:pointer;user-select:none;white-space:nowrap}\
 thead th:hover{background:#e2e7ee}th .arrow{display:inline-block;width:1em;color:#1f5fa0}\
 tbody tr:nth-child(even){background:#fafbfc}tbody tr:hover{background:#eef4fb}\
-td.n,th.n{text-align:right;font-variant-numeric:tabular-nums}td.nw{white-space:nowrap}\
+td.n,th.n{text-align:right;font-variant-numeric:tabular-nums}.nw{white-space:nowrap}\
 td.tag{font-weight:600;white-space:nowrap}\
 .badge{display:inline-block;padding:.1em .55em;border-radius:1em;font-size:.9em;font-weight:600;white-space:nowrap}\
 .b-stiction{background:#fde2df;color:#9b1c10;border:1px solid #e8a39b}\
@@ -311,10 +311,10 @@ td.tag{font-weight:600;white-space:nowrap}\
 .b-unknown{background:#eee;color:#555;border:1px solid #ccc}\
 .b-error{background:#3a3a3a;color:#fff;border:1px solid #3a3a3a}\
 .ben{display:flex;align-items:center;gap:.45em;justify-content:flex-end;white-space:nowrap}\
-.bar{display:inline-block;width:70px;height:.7em;background:#e8ecf0;border-radius:2px;overflow:hidden}\
+.bar{display:inline-block;width:56px;height:.7em;background:#e8ecf0;border-radius:2px;overflow:hidden}\
 .bar i{display:block;height:100%;background:#2e7d4f}\
 .missing{color:#888;cursor:help;border-bottom:1px dotted #888}\
-.range{color:#666}td.causes{max-width:28em;font-size:.93em}\
+.range{color:#666;white-space:nowrap;font-size:.93em}td.causes{min-width:14em;max-width:30em;font-size:.93em}\
 td.causes ul{margin:.3em 0 0;padding-left:1.2em}summary{cursor:pointer}\
 .err{color:#9b1c10}svg.spark{display:block}\
 footer{margin-top:1.5em;color:#555;font-size:.92em;max-width:70em}";
@@ -397,7 +397,7 @@ fn s_text(v: &FleetValve) -> String {
         None => "-".to_string(),
         Some(s) => match (finite(v.s_lo), finite(v.s_hi)) {
             (Some(lo), Some(hi)) => {
-                format!("{s:.2} % <span class=\"range\">[{lo:.2}, {hi:.2}]</span>")
+                format!("<span class=\"nw\">{s:.2} %</span> <span class=\"range\">[{lo:.2}, {hi:.2}]</span>")
             }
             _ => format!("{s:.2} %"),
         },
@@ -557,10 +557,10 @@ pub fn fleet_page(title: &str, valves: &[FleetValve]) -> String {
              <td class=\"n\" data-value=\"{rank}\">{rank}</td>\
              <td class=\"tag\" data-value=\"{tag}\">{tag}</td>\
              <td data-value=\"{ae}\">{ae}</td>\
-             <td class=\"nw\" data-value=\"{de}\">{de}</td>\
+             <td data-value=\"{de}\">{dh}</td>\
              <td data-value=\"{ve}\"><span class=\"badge b-{badge}\">{ve}</span></td>\
              <td class=\"n\" data-value=\"{}\">{}</td>\
-             <td class=\"n nw\" data-value=\"{}\">{}</td>",
+             <td class=\"n\" data-value=\"{}\">{}</td>",
             priority(v),
             dv(finite(v.score)),
             finite(v.score).map_or_else(|| "-".to_string(), |s| format!("{s:.2}")),
@@ -569,6 +569,12 @@ pub fn fleet_page(title: &str, valves: &[FleetValve]) -> String {
             tag = escape(&v.valve),
             ae = escape(&a),
             de = escape(&date),
+            // Wrap between the day and the time, never inside the day.
+            dh = date
+                .split(' ')
+                .map(|p| format!("<span class=\"nw\">{}</span>", escape(p)))
+                .collect::<Vec<_>>()
+                .join(" "),
             ve = escape(verdict),
         );
         match unit(v.reduction) {
@@ -605,10 +611,8 @@ pub fn fleet_page(title: &str, valves: &[FleetValve]) -> String {
                 let _ = write!(h, "<td data-value=\"{npts}\">{svg}</td>");
             }
             None => {
-                let _ = write!(
-                    h,
-                    "<td class=\"range\" data-value=\"{npts}\">{npts} reg.</td>"
-                );
+                let text = if npts == 1 { "1 reg." } else { "no S" };
+                let _ = write!(h, "<td class=\"range\" data-value=\"{npts}\">{text}</td>");
             }
         }
         match v.link.as_deref().and_then(safe_link) {

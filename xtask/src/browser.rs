@@ -257,7 +257,20 @@ pub fn report_check(rest: &[String]) -> Result<()> {
         let what = format!("{} (sort, filters, link)", f.index.display());
         match browser.check_fleet(f) {
             Ok(r) => {
-                r.print(Path::new(&what));
+                let shot = r
+                    .screenshot
+                    .as_ref()
+                    .map_or_else(|| "none".to_string(), |p| p.display().to_string());
+                println!(
+                    "{}  {what}: {} problems, {} console errors, {:.1} s, screenshot after sorting {shot}",
+                    if r.problems.is_empty() { "ok  " } else { "FAIL" },
+                    r.problems.len(),
+                    r.console_errors,
+                    r.elapsed.as_secs_f64(),
+                );
+                for p in &r.problems {
+                    println!("        {p}");
+                }
                 if r.problems.is_empty() {
                     passed += 1;
                 } else {
