@@ -528,7 +528,7 @@ pub fn fleet_page(title: &str, valves: &[FleetValve]) -> String {
             if num { "num" } else { "text" },
             // rank: 1 first; numbers otherwise largest first; text A-Z.
             if num && key != "rank" { "desc" } else { "asc" },
-            if num { " class=\"n\"" } else { "" },
+            if num && key != "trend" { " class=\"n\"" } else { "" },
             escape(tip),
             escape(label)
         );

@@ -9,8 +9,12 @@
 //! module talks JSON to that websocket ([`tungstenite`], synchronous). Every page gets its own
 //! target (tab) attached in "flat" mode, so commands and events carry a `sessionId`.
 //!
-//! Every run starts with a self-test on hand-written pages (a good one and broken ones) to
-//! prove that the check can fail.
+//! Besides the CLI's reports, the fleet page (`report::fleet`) of a synthetic fleet is written
+//! into `OUT/fleet/`, checked like the others, and driven: sort by the benefit header, tag
+//! filter, area select, the first row's `latest` link ([`fleet`]).
+//!
+//! Every run starts with a self-test on hand-written pages (a good one and broken ones, and a
+//! fleet page whose sort toggle is broken) to prove that the check can fail.
 
 use std::collections::{BTreeSet, VecDeque};
 use std::io::{BufRead, BufReader};
@@ -46,7 +50,12 @@ is loaded in headless Chromium (/usr/bin/chromium, or $CHROMIUM) and fails on: c
 uncaught exceptions, failed resource loads, <img> not loaded, top-level <svg> of zero size, no
 figure at all, links to figure files that do not exist. Closed <details> are opened before
 measuring. A full-page screenshot is saved next to each page (index.html -> screenshot.png,
-X.html -> X.screenshot.png). A self-test on hand-written good and broken pages runs first.";
+X.html -> X.screenshot.png). Also writes the fleet page of six synthetic valves into OUT/fleet/
+(report::fleet), checks it the same way and then drives it: a click on the benefit header sorts
+largest first, a second smallest first; the tag filter and the area select leave the expected
+rows and count; the first row's `latest` link opens its page without console errors
+(OUT/fleet/sorted.screenshot.png after the first sort). A self-test on hand-written good and
+broken pages (and a fleet page with a broken sort toggle) runs first.";
 
 /// The reports generated in the default mode: (directory name under `--out`, CLI arguments).
 /// `--report OUT/<name>` is appended to the arguments.
