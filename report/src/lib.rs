@@ -14,6 +14,8 @@
 //!   script) and the summary, plus each plot as its own file.
 //! * [`pages`]: the page of each command (`quantify`, `compare`, `diagnose`, `trend`,
 //!   `detect`, a refused loop) from the typed results of `monitoring` and `discrepancy`.
+//! * [`fleet`]: one page for a whole plant: every valve once, ranked by the repair benefit to
+//!   expect (benefit × detector score), with sorting and filters in a small inline script.
 //! * [`text`]: the plain-text output of each command.
 //! * [`inspect`]: reads a figure's SVG back (title, panels, axis descriptions, legend, series)
 //!   for structure snapshots and for checking that every plot says what it shows.
@@ -23,6 +25,7 @@
 
 pub mod chart;
 pub mod figures;
+pub mod fleet;
 pub mod html;
 pub mod inspect;
 pub mod pages;

@@ -9,8 +9,12 @@
 //! module talks JSON to that websocket ([`tungstenite`], synchronous). Every page gets its own
 //! target (tab) attached in "flat" mode, so commands and events carry a `sessionId`.
 //!
-//! Every run starts with a self-test on hand-written pages (a good one and broken ones) to
-//! prove that the check can fail.
+//! Besides the CLI's reports, the fleet page (`report::fleet`) of a synthetic fleet is written
+//! into `OUT/fleet/`, checked like the others, and driven: sort by the benefit header, tag
+//! filter, area select, the first row's `latest` link ([`fleet`]).
+//!
+//! Every run starts with a self-test on hand-written pages (a good one and broken ones, and a
+//! fleet page whose sort toggle is broken) to prove that the check can fail.
 
 use std::collections::{BTreeSet, VecDeque};
 use std::io::{BufRead, BufReader};
@@ -26,6 +30,8 @@ use base64::Engine as _;
 use serde_json::{json, Value};
 use tungstenite::protocol::WebSocketConfig;
 use tungstenite::{Message, WebSocket};
+
+mod fleet;
 
 const USAGE: &str = "\
 usage: cargo xtask report-check [--out DIR] [--plant DIR] [--profile P] [--html FILE...]
@@ -44,7 +50,12 @@ is loaded in headless Chromium (/usr/bin/chromium, or $CHROMIUM) and fails on: c
 uncaught exceptions, failed resource loads, <img> not loaded, top-level <svg> of zero size, no
 figure at all, links to figure files that do not exist. Closed <details> are opened before
 measuring. A full-page screenshot is saved next to each page (index.html -> screenshot.png,
-X.html -> X.screenshot.png). A self-test on hand-written good and broken pages runs first.";
+X.html -> X.screenshot.png). Also writes the fleet page of six synthetic valves into OUT/fleet/
+(report::fleet), checks it the same way and then drives it: a click on the benefit header sorts
+largest first, a second smallest first; the tag filter and the area select leave the expected
+rows and count; the first row's `latest` link opens its page without console errors
+(OUT/fleet/sorted.screenshot.png after the first sort). A self-test on hand-written good and
+broken pages (and a fleet page with a broken sort toggle) runs first.";
 
 /// The reports generated in the default mode: (directory name under `--out`, CLI arguments).
 /// `--report OUT/<name>` is appended to the arguments.
@@ -208,10 +219,24 @@ pub fn report_check(rest: &[String]) -> Result<()> {
 
     // Pages to check, and failures that happened before any page could be checked.
     let mut failures: Vec<(String, String)> = Vec::new();
-    let pages = if args.html.is_empty() {
+    let mut pages = if args.html.is_empty() {
         generate(&args, &mut failures)?
     } else {
         args.html.clone()
+    };
+
+    // The fleet page (report::fleet) of a synthetic fleet: checked like every page, then
+    // driven (sort, filters, link) below.
+    let fleet = if args.html.is_empty() {
+        let f = fleet::write_example(&args.out.join("fleet"), |h| h)?;
+        eprintln!(
+            "report-check: fleet page of {} synthetic valves written",
+            fleet::example_valves().len()
+        );
+        pages.push(f.index.clone());
+        Some(f)
+    } else {
+        None
     };
 
     let mut passed = 0usize;
@@ -235,19 +260,50 @@ pub fn report_check(rest: &[String]) -> Result<()> {
             }
         }
     }
+    let mut checks = pages.len();
+    if let Some(f) = &fleet {
+        checks += 1;
+        let what = format!("{} (sort, filters, link)", f.index.display());
+        match browser.check_fleet(f) {
+            Ok(r) => {
+                let shot = r
+                    .screenshot
+                    .as_ref()
+                    .map_or_else(|| "none".to_string(), |p| p.display().to_string());
+                println!(
+                    "{}  {what}: {} problems, {} console errors, {:.1} s, screenshot after sorting {shot}",
+                    if r.problems.is_empty() { "ok  " } else { "FAIL" },
+                    r.problems.len(),
+                    r.console_errors,
+                    r.elapsed.as_secs_f64(),
+                );
+                for p in &r.problems {
+                    println!("        {p}");
+                }
+                if r.problems.is_empty() {
+                    passed += 1;
+                } else {
+                    failures.push((what, r.problems.join("\n")));
+                }
+            }
+            Err(e) => {
+                println!("FAIL  {what}: the check did not finish: {e:#}");
+                failures.push((what, format!("the check did not finish: {e:#}")));
+            }
+        }
+    }
     drop(browser);
 
     if failures.is_empty() {
         println!(
-            "report-check: all {passed} pages passed ({:.1} s); screenshots are next to the pages",
+            "report-check: all {passed} checks passed ({:.1} s); screenshots are next to the pages",
             started.elapsed().as_secs_f64()
         );
         return Ok(());
     }
     let mut msg = format!(
-        "report-check: {} failure(s), {passed} of {} pages passed:",
-        failures.len(),
-        pages.len()
+        "report-check: {} failure(s), {passed} of {checks} checks passed:",
+        failures.len()
     );
     for (what, why) in &failures {
         msg.push_str(&format!("\n  {what}:"));
@@ -749,6 +805,28 @@ fn self_test(browser: &mut Browser) -> Result<()> {
         }
         caught.push(*name);
     }
+    // A fleet page whose sort toggle is broken (the second click sorts like the first) must
+    // fail the sort assertion.
+    let fleet_dir = dir.path().join("fleet-broken-sort");
+    let broken = fleet::write_example(&fleet_dir, |h| {
+        assert!(
+            h.contains(fleet::TOGGLE),
+            "the fleet script has no {:?}",
+            fleet::TOGGLE
+        );
+        h.replace(fleet::TOGGLE, "dir = dir;")
+    })?;
+    let r = browser
+        .check_fleet(&broken)
+        .context("self-test: driving the fleet page with a broken sort")?;
+    if !r.problems.iter().any(|p| p.contains("after 2 click(s)")) {
+        bail!(
+            "self-test: the fleet check cannot detect a broken sort toggle (page {}: got {:?})",
+            broken.index.display(),
+            r.problems
+        );
+    }
+    caught.push("fleet-broken-sort");
     eprintln!(
         "report-check: self-test ok in {:.1} s (good page passes; caught: {})",
         started.elapsed().as_secs_f64(),
@@ -893,8 +971,19 @@ impl Browser {
             }
         };
         let url = file_url(&abs)?;
-        let deadline = started + PAGE_TIMEOUT;
+        self.in_new_tab(started + PAGE_TIMEOUT, |cdp, target_id, deadline| {
+            cdp.check_in_target(target_id, &url, shot, deadline, &mut report)
+        })?;
+        report.elapsed = started.elapsed();
+        Ok(report)
+    }
 
+    /// Runs `f` in a new tab (target) and closes the tab whatever happened.
+    fn in_new_tab<T>(
+        &mut self,
+        deadline: Instant,
+        f: impl FnOnce(&mut Cdp, &str, Instant) -> Result<T>,
+    ) -> Result<T> {
         let cdp = self.cdp()?;
         let target = cdp.call(
             None,
@@ -907,7 +996,7 @@ impl Browser {
             .as_str()
             .context("Target.createTarget returned no targetId")?
             .to_string();
-        let result = cdp.check_in_target(&target_id, &url, shot, deadline, &mut report);
+        let result = f(cdp, &target_id, deadline);
         // Close the tab whatever happened (with a fresh deadline: the page's may be spent).
         let closed = cdp.call(
             None,
@@ -916,10 +1005,9 @@ impl Browser {
             Instant::now() + Duration::from_secs(5),
             &mut Vec::new(),
         );
-        result?;
+        let value = result?;
         closed?;
-        report.elapsed = started.elapsed();
-        Ok(report)
+        Ok(value)
     }
 }
 
@@ -1189,22 +1277,20 @@ impl Cdp {
         }
     }
 
-    /// Attaches to the tab `target_id`, loads `url`, measures, screenshots; fills `report`.
-    fn check_in_target(
+    /// Attaches to the tab `target_id` (flat session), enables the page, runtime and log
+    /// events and sets the viewport; returns the session id.
+    fn attach(
         &mut self,
         target_id: &str,
-        url: &str,
-        shot: &Path,
         deadline: Instant,
-        report: &mut PageReport,
-    ) -> Result<()> {
-        let mut events = Vec::new();
+        events: &mut Vec<Value>,
+    ) -> Result<String> {
         let attached = self.call(
             None,
             "Target.attachToTarget",
             json!({ "targetId": target_id, "flatten": true }),
             deadline,
-            &mut events,
+            events,
         )?;
         let session = attached["sessionId"]
             .as_str()
@@ -1212,53 +1298,75 @@ impl Cdp {
             .to_string();
         let s = Some(session.as_str());
         for domain in ["Page.enable", "Runtime.enable", "Log.enable"] {
-            self.call(s, domain, json!({}), deadline, &mut events)?;
+            self.call(s, domain, json!({}), deadline, events)?;
         }
         self.call(
             s,
             "Emulation.setDeviceMetricsOverride",
             json!({ "width": VIEWPORT.0, "height": VIEWPORT.1, "deviceScaleFactor": 1, "mobile": false }),
             deadline,
-            &mut events,
+            events,
         )?;
+        Ok(session)
+    }
 
+    /// Navigates the session's tab to `url` and waits for its load event. `Ok(Some(text))` when
+    /// the navigation itself failed.
+    fn navigate(
+        &mut self,
+        session: &str,
+        url: &str,
+        deadline: Instant,
+        events: &mut Vec<Value>,
+    ) -> Result<Option<String>> {
         let from = events.len();
         let nav = self.call(
-            s,
+            Some(session),
             "Page.navigate",
             json!({ "url": url }),
             deadline,
-            &mut events,
+            events,
         )?;
         if let Some(err) = nav["errorText"].as_str() {
-            report.problems.push(format!("navigation failed: {err}"));
-            return Ok(());
+            return Ok(Some(err.to_string()));
         }
-        self.wait_event(&session, "Page.loadEventFired", from, deadline, &mut events)?;
+        self.wait_event(session, "Page.loadEventFired", from, deadline, events)?;
+        Ok(None)
+    }
 
+    /// Evaluates `expression` in the page and returns its value (by value); an exception in
+    /// the expression is an error.
+    fn evaluate(
+        &mut self,
+        session: &str,
+        expression: &str,
+        deadline: Instant,
+        events: &mut Vec<Value>,
+    ) -> Result<Value> {
         let eval = self.call(
-            s,
+            Some(session),
             "Runtime.evaluate",
-            json!({ "expression": MEASURE_JS, "returnByValue": true }),
+            json!({ "expression": expression, "returnByValue": true }),
             deadline,
-            &mut events,
+            events,
         )?;
         if let Some(ex) = eval.get("exceptionDetails") {
-            bail!("the measuring script failed: {ex}");
+            bail!("the script failed: {ex}");
         }
-        let m = Measured::from_json(&eval["result"]["value"]);
-        if m.href != url {
-            report.problems.push(format!(
-                "the tab shows {:?} instead of the page (readyState {})",
-                m.href, m.ready_state
-            ));
-        }
-        report.svgs = m.svgs.len();
-        report.imgs = m.imgs.len();
-        judge_figures(&m, report);
+        Ok(eval["result"]["value"].clone())
+    }
 
-        // Full-page screenshot.
-        let metrics = self.call(s, "Page.getLayoutMetrics", json!({}), deadline, &mut events)?;
+    /// Full-page screenshot of the session's tab into `shot`.
+    fn screenshot(
+        &mut self,
+        session: &str,
+        shot: &Path,
+        deadline: Instant,
+        events: &mut Vec<Value>,
+        report: &mut PageReport,
+    ) -> Result<()> {
+        let s = Some(session);
+        let metrics = self.call(s, "Page.getLayoutMetrics", json!({}), deadline, events)?;
         let size = &metrics["cssContentSize"];
         let width = size["width"]
             .as_f64()
@@ -1279,7 +1387,7 @@ impl Cdp {
                 "clip": { "x": 0, "y": 0, "width": width, "height": height, "scale": 1 },
             }),
             deadline,
-            &mut events,
+            events,
         )?;
         let data = png["data"]
             .as_str()
@@ -1289,7 +1397,38 @@ impl Cdp {
             .context("decoding the screenshot")?;
         std::fs::write(shot, bytes).with_context(|| format!("writing {}", shot.display()))?;
         report.screenshot = Some(shot.to_path_buf());
+        Ok(())
+    }
 
+    /// Attaches to the tab `target_id`, loads `url`, measures, screenshots; fills `report`.
+    fn check_in_target(
+        &mut self,
+        target_id: &str,
+        url: &str,
+        shot: &Path,
+        deadline: Instant,
+        report: &mut PageReport,
+    ) -> Result<()> {
+        let mut events = Vec::new();
+        let session = self.attach(target_id, deadline, &mut events)?;
+        if let Some(err) = self.navigate(&session, url, deadline, &mut events)? {
+            report.problems.push(format!("navigation failed: {err}"));
+            return Ok(());
+        }
+        let value = self
+            .evaluate(&session, MEASURE_JS, deadline, &mut events)
+            .context("the measuring script")?;
+        let m = Measured::from_json(&value);
+        if m.href != url {
+            report.problems.push(format!(
+                "the tab shows {:?} instead of the page (readyState {})",
+                m.href, m.ready_state
+            ));
+        }
+        report.svgs = m.svgs.len();
+        report.imgs = m.imgs.len();
+        judge_figures(&m, report);
+        self.screenshot(&session, shot, deadline, &mut events, report)?;
         judge_events(&events, report);
         Ok(())
     }

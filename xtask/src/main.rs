@@ -9,7 +9,7 @@
 //! | `suite [--size N]` | the hidden-effect suite of `diagnose` at full size (release build) |
 //! | `fuzz [--minutes N]` | mutated plant and generated loop data through the reader and the search, in process, with a time and memory budget per case ([`fuzz`]) |
 //! | `detect-calibrate [--sims N] [--plant DIR] [--ridge L] [--valve M] [--samples N]` | fit the detection score's coefficients on simulated loops and the shared plant data, validated leaving one valve out ([`detect_calibrate`]) |
-//! | `report-check [--out DIR] [--plant DIR] [--html FILE...]` | the CLI's HTML reports (`--report DIR`) opened in headless Chromium and checked, screenshots saved ([`browser`]) |
+//! | `report-check [--out DIR] [--plant DIR] [--html FILE...]` | the CLI's HTML reports (`--report DIR`) opened in headless Chromium and checked, screenshots saved; the fleet page of a synthetic fleet written and driven (sort, filters, link) ([`browser`]) |
 
 use std::process::Command;
 
@@ -47,7 +47,8 @@ tasks:
   report-check [--out DIR] [--plant DIR] [--html FILE...]
                        build the CLI, write its HTML reports (--report) into DIR (default
                        target/report-check) and check them in headless Chromium (console errors,
-                       broken images, empty plots), screenshots next to each page; --plant also
+                       broken images, empty plots), screenshots next to each page; also the
+                       fleet page of a synthetic fleet, sorted and filtered in the browser; --plant also
                        diagnoses every CSV in DIR; `report-check --help` for details
 
 examples:
