@@ -203,8 +203,12 @@ impl Store {
         let err = sql_err(path);
         let mut conn = Connection::open(path).map_err(err)?;
         conn.busy_timeout(BUSY_TIMEOUT).map_err(err)?;
-        // Check before writing anything: an unrelated file is left as it is.
-        check(&conn, path)?;
+        // Check before writing anything: an unrelated file is left as it is. One read
+        // transaction, so that the checks see one state of a file another process may be
+        // creating.
+        let read = conn.transaction().map_err(err)?;
+        check(&read, path)?;
+        read.commit().map_err(err)?;
         let mode: String = conn
             .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
             .map_err(err)?;
