@@ -482,6 +482,28 @@ pub struct AuditRun {
     pub total_rows: usize,
 }
 
+impl AuditRun {
+    /// The run in one line, as `stiction audit` prints it: `audit: 49 registration(s): 49
+    /// computed, 0 already in audit.sqlite; 49 row(s) added, 49 in the database`.
+    pub fn summary(&self, db: &Path) -> String {
+        let name = db.file_name().map_or_else(
+            || db.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        let mut line = format!(
+            "audit: {} registration(s): {} computed, {} already in {name}; {} row(s) added, {} in the database",
+            self.files, self.computed, self.skipped, self.rows_inserted, self.total_rows
+        );
+        if self.duplicates > 0 {
+            line.push_str(&format!(
+                " ({} path(s) given twice, counted once)",
+                self.duplicates
+            ));
+        }
+        line
+    }
+}
+
 /// Audit `files` (as `monitoring::registration::expand` lists them) into the database `db`:
 /// hash each file, skip those whose rows for `opts` are all there, run the others in parallel
 /// (rayon, `monitoring::batch::run_file`) and append each file's rows as soon as it is done,
