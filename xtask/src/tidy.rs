@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 /// The library crates the rules apply to.
-pub const LIBRARIES: [&str; 8] = [
+pub const LIBRARIES: [&str; 9] = [
     "stiction-models",
     "linear-id",
     "grid-search",
@@ -19,6 +19,7 @@ pub const LIBRARIES: [&str; 8] = [
     "detection",
     "discrepancy",
     "report",
+    "audit",
 ];
 
 /// One broken rule: file, line (1-based) and what is wrong.
