@@ -36,7 +36,9 @@ pub struct Args {
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let opts = args.run.options(&args.combos, args.min_fit)?;
     let labels = args.labels.as_deref().map(Labels::read).transpose()?;
-    let exclude: Vec<PathBuf> = args.labels.iter().cloned().collect();
+    let exclude: Vec<PathBuf> = (args.labels.iter().cloned())
+        .chain(std::iter::once(args.db.clone()))
+        .collect();
     let mut files = args.run.files(&args.paths, &exclude, s)?;
     if let Some(v) = &args.valve {
         files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
