@@ -69,6 +69,9 @@ enum Command {
     /// Quantify many loops in parallel: one row per loop (JSON lines and CSV), resumable.
     #[command(after_help = include_str!("../help/batch.txt"))]
     Batch(commands::batch::Args),
+    /// Append the batch's rows to a results history in SQLite; registrations already there are skipped.
+    #[command(after_help = include_str!("../help/audit.txt"))]
+    Audit(commands::audit::Args),
 }
 
 /// A failure and its exit status: 1 bad data or a failed computation, 2 bad usage.
@@ -174,6 +177,7 @@ where
         Command::Diagnose(a) => commands::diagnose::run(a, streams),
         Command::Trend(a) => commands::trend::run(a, streams),
         Command::Batch(a) => commands::batch::run(a, streams),
+        Command::Audit(a) => commands::audit::run(a, streams),
         Command::Detect(a) => commands::detect::run(a, streams),
     };
     match result {

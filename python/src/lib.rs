@@ -13,6 +13,8 @@
 
 use std::collections::BTreeMap;
 
+mod audit;
+
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
@@ -883,5 +885,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(default_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(csv_text, m)?)?;
+    m.add_function(wrap_pyfunction!(audit::audit_append, m)?)?;
     Ok(())
 }

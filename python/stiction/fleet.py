@@ -6,7 +6,9 @@ row). The driver lists the files and skips those whose rows are already in `OUT.
 name, size, modification time and settings: the library's resume step, the one the CLI uses),
 sends the rest to Dask's distributed scheduler, appends each file's rows to `OUT.jsonl` as they
 arrive (an interrupted run resumes where it stopped, with this module or with the CLI) and
-writes `OUT.csv` at the end as the CLI does.
+writes `OUT.csv` at the end as the CLI does. With `db=`, each file's rows also go to the audit
+database (`stiction audit`'s SQLite results history, `stiction.audit.load` reads it) as they
+arrive.
 
 Each task runs the Rust search with the interpreter released; the default `LocalCluster` has
 one single-threaded worker process per core. Under another engine the same per-file function
@@ -91,6 +93,7 @@ def run(
     client: Any = None,
     n_workers: Optional[int] = None,
     progress: bool = True,
+    db: Optional[PathLike] = None,
     **batch_options: Any,
 ) -> pd.DataFrame:
     """`stiction batch` on Dask: the rows (the columns of OUT.csv) as a DataFrame.
@@ -101,7 +104,10 @@ def run(
     labels fill the rows (the summary then has the ROC AUC of S). `client`: a
     `distributed.Client`; else `scheduler`: a scheduler address ("tcp://host:8786"); else a
     `LocalCluster` of `n_workers` single-threaded worker processes (default: one per core) is
-    started and closed. Other keyword arguments are the batch options (see `options`).
+    started and closed. `db`: an audit database (SQLite, created when missing) to which the
+    driver appends each file's rows as they arrive, one transaction per file, each row once
+    (rows already there are left as they are); the rows an earlier run left in OUT.jsonl are
+    appended too. Other keyword arguments are the batch options (see `options`).
 
     The summary (rows, ok, errors, and with labels the AUC) is in the frame's `attrs`.
     """
@@ -116,11 +122,14 @@ def run(
         out = Path(tmp.name) / "rows"
     jsonl, csv = Path(f"{out}.jsonl"), Path(f"{out}.csv")
     exclude = [str(jsonl), str(csv)] + ([str(labels)] if labels is not None else [])
+    exclude += [str(db)] if db is not None else []
     files, notes = _native.batch_files([str(p) for p in paths], exclude, opts, valve)
     for note in notes:
         sys.stderr.write(f"note: {note}\n")
     label_of = _native.batch_labels(str(labels)) if labels is not None else {}
     todo, kept, torn = _native.batch_resume(files, opts, str(jsonl))
+    if db is not None and kept:
+        _append_kept(db, jsonl, set(todo))
     if torn:
         sys.stderr.write(
             f"note: {jsonl}: {len(torn)} torn line(s) (first: line {torn[0]}): computed again\n"
@@ -148,10 +157,14 @@ def run(
             options_json=opts,
             pure=False,
         )
+        path_of = {fut.key: path for fut, path in zip(futures, todo)}
         with open(jsonl, "a", encoding="utf-8") as sink:
             for done, fut in enumerate(as_completed(futures), start=1):
-                sink.write("".join(line + "\n" for line in fut.result()))
+                lines = fut.result()
+                sink.write("".join(line + "\n" for line in lines))
                 sink.flush()
+                if db is not None:
+                    _native.audit_append(str(db), path_of[fut.key], lines)
                 if progress:
                     _progress(done, len(todo), started)
     finally:
@@ -168,6 +181,22 @@ def run(
     if tmp is not None:
         tmp.cleanup()
     return frame
+
+
+def _append_kept(db: PathLike, jsonl: Path, todo: set) -> None:
+    """Append to the audit database the rows OUT.jsonl keeps from an earlier run (after the
+    resume step it holds only rows of these settings), one transaction per file."""
+    by_path: Dict[str, List[str]] = {}
+    with open(jsonl, encoding="utf-8") as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            path = json.loads(line).get("path")
+            if path is not None and path not in todo:
+                by_path.setdefault(path, []).append(line)
+    for path, lines in by_path.items():
+        _native.audit_append(str(db), path, lines)
 
 
 def _progress(done: int, total: int, started: float) -> None:

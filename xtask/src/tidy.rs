@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 /// The library crates the rules apply to.
-pub const LIBRARIES: [&str; 9] = [
+pub const LIBRARIES: [&str; 10] = [
     "stiction-models",
     "linear-id",
     "grid-search",
@@ -20,6 +20,7 @@ pub const LIBRARIES: [&str; 9] = [
     "discrepancy",
     "report",
     "repair",
+    "audit",
 ];
 
 /// One broken rule: file, line (1-based) and what is wrong.

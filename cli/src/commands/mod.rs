@@ -1,5 +1,6 @@
 //! One module per subcommand, plus the argument helpers they share.
 
+pub mod audit;
 pub mod batch;
 pub mod detect;
 pub mod diagnose;

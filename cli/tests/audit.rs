@@ -1,0 +1,156 @@
+//! `stiction audit`: the batch's rows in an SQLite database, each registration once; a second
+//! run adds nothing; a newer database is refused with one line; bad options are bad usage.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::run;
+
+/// A fresh temporary directory.
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("stiction-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Two simulated registrations of valve V1 (the CLI's `simulate`, 500 samples) and a file the
+/// reader refuses.
+fn registrations(dir: &Path) {
+    for (k, s) in ["2", "5"].iter().enumerate() {
+        let out = dir.join(format!("V1_2024010{}-0800.csv", k + 1));
+        let sim = run(
+            &[
+                "simulate",
+                "--valve",
+                "kano",
+                "--param",
+                &format!("S={s}"),
+                "--param",
+                "J=1",
+                "--samples",
+                "500",
+                "--seed",
+                &format!("{}", k + 3),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            b"",
+        );
+        assert_eq!(sim.code, 0, "{}", sim.stderr);
+    }
+    std::fs::write(dir.join("V1_20240301-0800.csv"), "t,SP,PV,OP\n0,1,2,x\n").unwrap();
+}
+
+#[test]
+fn audit_appends_each_registration_once() {
+    let dir = temp_dir("audit");
+    registrations(&dir);
+    let db = dir.join("audit.sqlite");
+    let args = [
+        "audit",
+        dir.to_str().unwrap(),
+        "--db",
+        db.to_str().unwrap(),
+        "--stiction",
+        "kano,he",
+        "--step",
+        "1",
+    ];
+    let first = run(&args, b"");
+    assert_eq!(first.code, 0, "{}", first.stderr);
+    assert_eq!(
+        first.stdout,
+        "audit: 3 registration(s): 3 computed, 0 already in audit.sqlite; 6 row(s) added, 6 in the database\n"
+    );
+    let second = run(&args, b"");
+    assert_eq!(second.code, 0, "{}", second.stderr);
+    assert_eq!(
+        second.stdout,
+        "audit: 3 registration(s): 0 computed, 3 already in audit.sqlite; 0 row(s) added, 6 in the database\n"
+    );
+    let store = audit::Store::open(&db).unwrap();
+    assert_eq!(store.count().unwrap(), 6);
+    let valves = store.valves().unwrap();
+    assert_eq!(valves.len(), 1);
+    let regs = &valves[0].registrations;
+    assert_eq!(regs.len(), 3);
+    assert!(regs[0].ok && regs[1].ok && !regs[2].ok);
+    assert!(regs[2].error.is_some());
+    drop(store);
+
+    // --valve keeps that valve's files only.
+    let other = run(
+        &[
+            "audit",
+            dir.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--valve",
+            "V9",
+        ],
+        b"",
+    );
+    assert_eq!(other.code, 0, "{}", other.stderr);
+    assert!(
+        other.stdout.starts_with("audit: 0 registration(s)"),
+        "{}",
+        other.stdout
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_newer_database_is_bad_data_and_an_unknown_model_bad_usage() {
+    let dir = temp_dir("audit-errors");
+    registrations(&dir);
+    let db = dir.join("audit.sqlite");
+    drop(audit::Store::open(&db).unwrap());
+    assert!(bump_schema_version(&db));
+    let out = run(
+        &["audit", dir.to_str().unwrap(), "--db", db.to_str().unwrap()],
+        b"",
+    );
+    assert_eq!(out.code, 1);
+    assert_eq!(out.stderr.lines().count(), 1, "{}", out.stderr);
+    assert!(out.stderr.starts_with("error: "), "{}", out.stderr);
+    assert!(
+        out.stderr.contains("schema version 2 is newer"),
+        "{}",
+        out.stderr
+    );
+
+    let out = run(
+        &[
+            "audit",
+            dir.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--stiction",
+            "nope",
+        ],
+        b"",
+    );
+    assert_eq!(out.code, 2, "{}", out.stderr);
+    let out = run(&["audit", dir.to_str().unwrap()], b"");
+    assert_eq!(out.code, 2, "{}", out.stderr);
+    assert!(out.stderr.contains("--db"), "{}", out.stderr);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Set the database's `user_version` to 2 by editing its header (bytes 60-63, big-endian),
+/// without an SQLite client in this crate's tests.
+fn bump_schema_version(db: &Path) -> bool {
+    let mut bytes = std::fs::read(db).unwrap();
+    // A WAL database may hold the header's latest version in its -wal file: checkpointed
+    // when the last connection closed, so the main file is current.
+    if bytes.len() < 100 || &bytes[..16] != b"SQLite format 3\0" {
+        return false;
+    }
+    bytes[60..64].copy_from_slice(&2u32.to_be_bytes());
+    std::fs::write(db, bytes).unwrap();
+    true
+}
