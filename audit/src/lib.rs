@@ -339,7 +339,7 @@ impl Store {
             .prepare(
                 "SELECT valve, start_time, content_hash, file, path, stiction_model,
                         linear_model, status, S, S_lo, S_hi, fit_pv_val, detect_verdict,
-                        detect_score, reduction, why, error
+                        detect_score, reduction, why, error, repair_reason
                  FROM results
                  ORDER BY valve, start_time = '', start_time, file, content_hash,
                           stiction_model, linear_model, settings",
@@ -368,6 +368,7 @@ impl Store {
                         reduction: r.get(14)?,
                         causes: serde_json::from_str(&r.get::<_, String>(15)?).unwrap_or_default(),
                         error: r.get(16)?,
+                        repair_reason: r.get(17)?,
                         combinations: 1,
                     },
                 ))
@@ -461,6 +462,8 @@ pub struct RegistrationSummary {
     pub causes: Vec<String>,
     /// The one-line error of an `error` row.
     pub error: Option<String>,
+    /// Why `reduction` is `None` (the repair estimate's reason).
+    pub repair_reason: Option<String>,
     /// How many rows (combinations × settings) the registration has.
     pub combinations: usize,
 }

@@ -154,3 +154,83 @@ fn bump_schema_version(db: &Path) -> bool {
     std::fs::write(db, bytes).unwrap();
     true
 }
+
+#[test]
+fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
+    let dir = temp_dir("audit-fleet");
+    registrations(&dir);
+    // a second valve, healthy
+    let healthy = dir.join("V2_20240105-0800.csv");
+    let sim = run(
+        &[
+            "simulate",
+            "--valve",
+            "kano",
+            "--param",
+            "S=0",
+            "--param",
+            "J=0",
+            "--samples",
+            "500",
+            "--seed",
+            "9",
+            "-o",
+            healthy.to_str().unwrap(),
+        ],
+        b"",
+    );
+    assert_eq!(sim.code, 0, "{}", sim.stderr);
+    let db = dir.join("audit.sqlite");
+    let site = dir.join("site");
+    let (d, dbs, sites) = (
+        dir.to_str().unwrap(),
+        db.to_str().unwrap(),
+        site.to_str().unwrap(),
+    );
+    let out = run(
+        &["audit", d, "--db", dbs, "--step", "0.5", "--report", sites],
+        b"",
+    );
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    assert!(out.stderr.contains("report: "), "{}", out.stderr);
+    assert!(
+        out.stderr.contains("(2 valves, 1 registration pages"),
+        "{}",
+        out.stderr
+    );
+    let page = std::fs::read_to_string(site.join("index.html")).unwrap();
+    // each valve once; V1's latest registration is the unreadable one: its error, no link
+    assert_eq!(page.matches(">V1<").count(), 1, "{page}");
+    assert_eq!(page.matches(">V2<").count(), 1, "{page}");
+    assert!(page.contains("valves/V2/index.html"), "{page}");
+    assert!(!page.contains("valves/V1/index.html"), "{page}");
+    assert!(site.join("valves/V2/index.html").exists());
+    let linked = std::fs::read_to_string(site.join("valves/V2/index.html")).unwrap();
+    assert!(
+        linked.contains("Repair: "),
+        "the latest registration's page says what a repair buys"
+    );
+    // from the database alone, the same page
+    std::fs::remove_dir_all(&site).unwrap();
+    let again = run(&["audit", "--db", dbs, "--report", sites], b"");
+    assert_eq!(again.code, 0, "{}", again.stderr);
+    assert_eq!(again.stdout, "", "no run without PATH");
+    assert_eq!(
+        std::fs::read_to_string(site.join("index.html")).unwrap(),
+        page
+    );
+    // no database and no PATH: an error
+    let none = run(
+        &[
+            "audit",
+            "--db",
+            dir.join("nope.sqlite").to_str().unwrap(),
+            "--report",
+            sites,
+        ],
+        b"",
+    );
+    assert_eq!(none.code, 1, "{}", none.stderr);
+    assert!(none.stderr.contains("no such database"), "{}", none.stderr);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,10 +1,17 @@
 //! `stiction audit`: the batch's rows appended to a results history in SQLite, each
-//! registration once (`audit`).
+//! registration once (`audit`), and the fleet page drawn from that history
+//! (`report::fleet`): every valve once, ranked by what a repair would buy, each linked to the
+//! page of its latest registration.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-use monitoring::batch::{Labels, DEFAULT_MIN_FIT};
+use ::audit::{RegistrationSummary, Store, ValveHistory};
+use anyhow::anyhow;
+use monitoring::batch::{BatchOptions, Labels, DEFAULT_MIN_FIT};
 use monitoring::registration::file_name;
+use rayon::prelude::*;
+use report::fleet::{FleetRegistration, FleetValve};
 
 use super::batch::{Combos, RunFlags};
 use crate::{CmdResult, Streams};
@@ -12,8 +19,9 @@ use crate::{CmdResult, Streams};
 /// Arguments of `stiction audit`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Directories or files of registrations (.csv, .tsv, .txt, .mat).
-    #[arg(required = true, value_name = "PATH")]
+    /// Directories or files of registrations (.csv, .tsv, .txt, .mat); none with --report
+    /// draws the page from the database alone.
+    #[arg(required_unless_present = "report", value_name = "PATH")]
     paths: Vec<PathBuf>,
     /// The SQLite database (created when missing; registrations already in it are skipped).
     #[arg(long, value_name = "FILE")]
@@ -31,6 +39,10 @@ pub struct Args {
     min_fit: f64,
     #[command(flatten)]
     run: RunFlags,
+    /// Write the fleet page to DIR/index.html (every valve once, ranked by what a repair would
+    /// buy) and the page of each valve's latest registration to DIR/valves/TAG/index.html.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
@@ -43,9 +55,160 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     if let Some(v) = &args.valve {
         files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
     }
-    let bar = crate::progress::Progress::new(s.progress, "audit");
-    let run = ::audit::run(&files, &opts, labels.as_ref(), &args.db, Some(&bar.tick()));
+    if !files.is_empty() || args.report.is_none() {
+        let bar = crate::progress::Progress::new(s.progress, "audit");
+        let run = ::audit::run(&files, &opts, labels.as_ref(), &args.db, Some(&bar.tick()));
+        bar.finish();
+        let run = run?;
+        s.text(format!("{}\n", run.summary(&args.db)))?;
+    } else if !args.db.exists() {
+        return Err(anyhow!(
+            "{}: no such database (give registrations to audit)",
+            args.db.display()
+        )
+        .into());
+    }
+    if let Some(dir) = &args.report {
+        write_fleet(dir, &args.db, &opts, s)?;
+    }
+    Ok(())
+}
+
+/// The fleet page of the database `db` in `dir`, with each valve's latest registration's
+/// `quantify` page (searched again with `opts`, the combination the database chose for it)
+/// under `dir/valves/TAG/`.
+fn write_fleet(dir: &Path, db: &Path, opts: &BatchOptions, s: &mut Streams<'_>) -> CmdResult {
+    let started = Instant::now();
+    let history = Store::open(db)?.valves()?;
+    let bar = crate::progress::Progress::new(s.progress, "fleet page");
+    let tick = bar.tick();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let pages: Vec<Result<Option<String>, String>> = history
+        .par_iter()
+        .map(|h| {
+            let out = match h.registrations.last() {
+                Some(latest) => latest_page(dir, &h.valve, latest, opts).map(Some),
+                None => Ok(None),
+            };
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            tick(k, history.len());
+            out
+        })
+        .collect();
     bar.finish();
-    let run = run?;
-    s.text(format!("{}\n", run.summary(&args.db)))
+    let mut valves = Vec::with_capacity(history.len());
+    for (h, page) in history.iter().zip(pages) {
+        let link = match page {
+            Ok(link) => link,
+            Err(e) => {
+                let _ = writeln!(
+                    s.stderr,
+                    "note: {}: no page of its latest registration: {e}",
+                    h.valve
+                );
+                None
+            }
+        };
+        valves.push(fleet_valve(h, link));
+    }
+    let name = db.file_name().map_or_else(
+        || db.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let index = report::fleet::write(dir, &format!("Fleet: {name}"), &valves)
+        .map_err(|e| anyhow!("report: {e}"))?;
+    let _ = writeln!(
+        s.stderr,
+        "report: {} ({} valves, {} registration pages, {:.0} ms)",
+        index.display(),
+        valves.len(),
+        valves.iter().filter(|v| v.link.is_some()).count(),
+        started.elapsed().as_secs_f64() * 1e3
+    );
+    Ok(())
+}
+
+/// A valve of the fleet page from its history: the latest registration's answers, S over the
+/// dates of them all.
+fn fleet_valve(h: &ValveHistory, link: Option<String>) -> FleetValve {
+    let registrations = h
+        .registrations
+        .iter()
+        .map(|r| FleetRegistration {
+            date: (!r.start_time.is_empty()).then(|| r.start_time.clone()),
+            s: r.s,
+            s_lo: r.s_range.map(|x| x[0]),
+            s_hi: r.s_range.map(|x| x[1]),
+            file: r.file.clone(),
+        })
+        .collect();
+    let Some(latest) = h.registrations.last() else {
+        return FleetValve {
+            valve: h.valve.clone(),
+            ..FleetValve::default()
+        };
+    };
+    FleetValve {
+        valve: h.valve.clone(),
+        registrations,
+        verdict: latest.detect_verdict.clone(),
+        score: latest.detect_score,
+        s: latest.s,
+        s_lo: latest.s_range.map(|x| x[0]),
+        s_hi: latest.s_range.map(|x| x[1]),
+        causes: latest.causes.clone(),
+        reduction: latest.reduction,
+        repair_reason: latest.repair_reason.clone(),
+        error: latest.error.clone(),
+        link,
+    }
+}
+
+/// The `quantify` page of a valve's latest registration in `dir/valves/TAG/`, its link
+/// relative to `dir`.
+fn latest_page(
+    dir: &Path,
+    valve: &str,
+    latest: &RegistrationSummary,
+    opts: &BatchOptions,
+) -> Result<String, String> {
+    if !latest.ok {
+        return Err(latest.error.clone().unwrap_or_else(|| "no estimate".into()));
+    }
+    let path = Path::new(&latest.path);
+    let d = datasets::read_path(path, &opts.read).map_err(|e| e.to_string())?;
+    let integrating = opts.integrating.applies(valve);
+    let used = if integrating {
+        monitoring::registration::increments(&d)
+    } else {
+        d.clone()
+    };
+    let combination = opts
+        .settings
+        .combination(&latest.stiction_model, &latest.linear_model)
+        .map_err(|e| e.to_string())?;
+    let problem = monitoring::problem(&used).map_err(|e| e.to_string())?;
+    let fitted = combination.run(problem, None).map_err(|e| e.to_string())?;
+    let det = monitoring::detect_loop(&d, integrating);
+    let repair = fitted.repair(&d, integrating);
+    let safe: String = valve
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let rel = format!("valves/{safe}/index.html");
+    report::pages::quantify_page(&used, &fitted, &det, &repair)
+        .and_then(|page| {
+            page.write(
+                &dir.join("valves").join(&safe),
+                report::WriteOptions { png: false },
+            )
+        })
+        .map_err(|e| e.to_string())?;
+    Ok(rel)
 }
