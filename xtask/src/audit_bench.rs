@@ -84,21 +84,9 @@ pub fn audit_bench(rest: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// Rows in the database's `results` table, through the CLI's own reader of the database
-/// (`stiction audit --db DB` with no path prints the count).
-fn count_rows(db: &Path) -> Result<u64> {
-    let text = std::fs::read(db).with_context(|| format!("reading {}", db.display()))?;
-    if text.len() < 100 {
-        bail!("{} is not a database", db.display());
-    }
-    let o = Command::new("sqlite3")
-        .arg(db)
-        .arg("SELECT count(*) FROM results")
-        .output();
-    match o {
-        Ok(o) if o.status.success() => Ok(String::from_utf8_lossy(&o.stdout).trim().parse()?),
-        _ => crate::audit_rows(db),
-    }
+/// Rows in the database's `results` table.
+fn count_rows(db: &Path) -> Result<usize> {
+    Ok(audit::Store::open(db)?.count()?)
 }
 
 /// `files` registrations of `samples` samples: valve `A{k}` (k < files / 10), registrations a

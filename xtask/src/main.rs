@@ -15,6 +15,7 @@ use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 
+mod audit_bench;
 mod browser;
 mod detect_calibrate;
 mod fuzz;
@@ -50,6 +51,10 @@ tasks:
                        broken images, empty plots), screenshots next to each page; also the
                        fleet page of a synthetic fleet, sorted and filtered in the browser; --plant also
                        diagnoses every CSV in DIR; `report-check --help` for details
+  audit-bench [--files N] [--samples M] [--out DIR]
+                       the plant audit at scale: N generated registrations of M samples (default
+                       1000 x 3000) through `stiction audit --db --report`, timed as a whole
+                       process (release), then the resume (must add nothing)
 
 examples:
   cargo xtask test
@@ -81,6 +86,12 @@ fn run() -> Result<()> {
         "fuzz" => fuzz_release(rest),
         "suite" => suite(rest),
         "report-check" => browser::report_check(rest),
+        "audit-bench" => in_release(
+            "audit-bench",
+            "XTASK_AUDIT_BENCH_NO_RELEASE",
+            rest,
+            audit_bench::audit_bench,
+        ),
         "detect-calibrate" => in_release(
             "detect-calibrate",
             "XTASK_DETECT_NO_RELEASE",
