@@ -148,6 +148,54 @@ pub fn ranked(valves: &[FleetValve]) -> Vec<&FleetValve> {
     out
 }
 
+/// The first `n` valves of the ranking as a text table (what `stiction audit --report`
+/// prints): rank, valve, expected benefit, benefit, verdict and score, S with its range, latest
+/// registration.
+pub fn ranking_text(valves: &[FleetValve], n: usize) -> String {
+    use std::fmt::Write as _;
+    let mut out = format!(
+        "{:>3}  {:<16} {:>8} {:>8}  {:<20} {:>20}  {}\n",
+        "#", "valve", "expected", "benefit", "verdict (score)", "S % [range]", "latest"
+    );
+    let num = |x: Option<f64>, f: &dyn Fn(f64) -> String| finite(x).map_or("-".into(), f);
+    for (k, v) in ranked(valves).into_iter().take(n).enumerate() {
+        let verdict = match finite(v.score) {
+            Some(s) if !v.verdict.is_empty() => format!("{} ({s:.2})", v.verdict),
+            _ if v.error.is_some() => "error".into(),
+            _ if v.verdict.is_empty() => "-".into(),
+            _ => v.verdict.clone(),
+        };
+        let s_text = match (finite(v.s), finite(v.s_lo), finite(v.s_hi)) {
+            (Some(s), Some(lo), Some(hi)) => format!("{s:.2} [{lo:.2}, {hi:.2}]"),
+            (Some(s), _, _) => format!("{s:.2}"),
+            _ => "-".into(),
+        };
+        let expected = if unit(v.reduction).is_some() {
+            format!("{:.0} %", 100.0 * priority(v))
+        } else {
+            "-".into()
+        };
+        let _ = writeln!(
+            out,
+            "{:>3}  {:<16} {:>8} {:>8}  {:<20} {:>20}  {}",
+            k + 1,
+            v.valve,
+            expected,
+            num(v.reduction, &|r| format!("{:.0} %", 100.0 * r)),
+            verdict,
+            s_text,
+            v.registrations
+                .last()
+                .and_then(|r| r.date.clone())
+                .unwrap_or_else(|| "-".into())
+        );
+    }
+    if valves.len() > n {
+        let _ = writeln!(out, "     ... {} more valves on the page", valves.len() - n);
+    }
+    out
+}
+
 /// The plant area of a tag: its leading digits, else its leading letters, else `-`.
 pub fn area(tag: &str) -> String {
     let t = tag.trim();

@@ -29,7 +29,9 @@ pub fn audit_bench(rest: &[String]) -> Result<()> {
     let mut out = PathBuf::from("target/audit-bench");
     let mut it = rest.iter();
     while let Some(flag) = it.next() {
-        let value = it.next().with_context(|| format!("{flag} needs a value\n{USAGE}"))?;
+        let value = it
+            .next()
+            .with_context(|| format!("{flag} needs a value\n{USAGE}"))?;
         match flag.as_str() {
             "--files" => files = value.parse().context("--files: a number")?,
             "--samples" => samples = value.parse().context("--samples: a number")?,

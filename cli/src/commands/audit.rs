@@ -74,6 +74,9 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     Ok(())
 }
 
+/// Valves of the ranking printed on standard output with `--report` (the page has them all).
+const RANKING_LINES: usize = 10;
+
 /// The fleet page of the database `db` in `dir`, with each valve's latest registration's
 /// `quantify` page (searched again with `opts`, the combination the database chose for it)
 /// under `dir/valves/TAG/`.
@@ -125,7 +128,7 @@ fn write_fleet(dir: &Path, db: &Path, opts: &BatchOptions, s: &mut Streams<'_>) 
         valves.iter().filter(|v| v.link.is_some()).count(),
         started.elapsed().as_secs_f64() * 1e3
     );
-    Ok(())
+    s.text(report::fleet::ranking_text(&valves, RANKING_LINES))
 }
 
 /// A valve of the fleet page from its history: the latest registration's answers, S over the
