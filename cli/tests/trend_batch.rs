@@ -198,12 +198,13 @@ fn batch_writes_rows_reports_failures_and_resumes() {
     let csv = std::fs::read_to_string(dir.join("out.csv")).unwrap();
     assert_eq!(csv.lines().count(), 7, "{csv}");
     assert!(csv.starts_with("file,valve,time,status,stiction_model,linear_model,S,S_lo,S_hi"));
-    // The detector's answer: the last two columns and keys; none for the unreadable file.
+    // The detector's answer, then the repair estimate: the last four columns; none for the
+    // unreadable file.
     assert!(
         csv.lines()
             .next()
             .unwrap()
-            .ends_with(",error,detect_score,detect_verdict"),
+            .ends_with(",error,detect_score,detect_verdict,reduction,repair_reason"),
         "{csv}"
     );
     let score = good["detect_score"].as_f64().unwrap();

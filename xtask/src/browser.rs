@@ -412,6 +412,65 @@ fn generate(args: &Args, failures: &mut Vec<(String, String)>) -> Result<Vec<Pat
             &args.out.join("trend"),
             failures,
         )?);
+        pages.extend(generate_audit(
+            &exe,
+            plant,
+            &args.out.join("plant-fleet"),
+            failures,
+        )?);
+    }
+    Ok(pages)
+}
+
+/// `stiction audit PLANT --db OUT.sqlite --report OUT`: the fleet page of the plant data and
+/// the page of each valve's latest registration.
+fn generate_audit(
+    exe: &Path,
+    plant: &Path,
+    out: &Path,
+    failures: &mut Vec<(String, String)>,
+) -> Result<Vec<PathBuf>> {
+    let mut db = out.as_os_str().to_owned();
+    db.push(".sqlite");
+    let db = PathBuf::from(db);
+    for suffix in ["", "-wal", "-shm"] {
+        let mut p = db.as_os_str().to_owned();
+        p.push(suffix);
+        let _ = std::fs::remove_file(PathBuf::from(p));
+    }
+    let started = Instant::now();
+    let cli_args: [&std::ffi::OsStr; 4] = [
+        "audit".as_ref(),
+        plant.as_os_str(),
+        "--db".as_ref(),
+        db.as_os_str(),
+    ];
+    let run = run_report(exe, cli_args.into_iter(), out)?;
+    eprintln!(
+        "report-check: {} ({:.1} s)",
+        run.command,
+        started.elapsed().as_secs_f64()
+    );
+    let index = out.join("index.html");
+    if !(run.success && index.is_file()) {
+        failures.push((
+            run.command.clone(),
+            format!(
+                "failed ({}); its stderr:\n{}",
+                run.status,
+                tail(&run.stderr, 30)
+            ),
+        ));
+        return Ok(Vec::new());
+    }
+    let mut pages = vec![index];
+    if let Ok(entries) = std::fs::read_dir(out.join("valves")) {
+        let mut valves: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path().join("index.html")))
+            .filter(|p| p.is_file())
+            .collect();
+        valves.sort();
+        pages.extend(valves);
     }
     Ok(pages)
 }
