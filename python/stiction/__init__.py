@@ -289,3 +289,9 @@ def simulate(config: Optional[Mapping[str, Any]] = None, **overrides: Any) -> pd
     df = pd.DataFrame(columns, columns=["t", "SP", "PV", "OP", "MV"])
     df.attrs["summary"] = summary
     return df
+
+
+def __dir__() -> list:
+    """What `dir(stiction)` lists: the public functions, errors and submodules, not the
+    modules this one imports for itself (`json`, `np`, `pd`, `typing`'s names)."""
+    return sorted(__all__ + ["SEARCH_OPTIONS", "audit", "fleet"])

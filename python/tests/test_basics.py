@@ -116,3 +116,13 @@ def test_a_frame_reads_as_its_csv_text():
         assert a["notes"] == b["notes"] and a["start"] == b["start"]
         for k in ("t", "pv", "op"):
             np.testing.assert_array_equal(a[k], b[k])
+
+
+def test_dir_lists_the_public_names_only():
+    import stiction
+
+    names = dir(stiction)
+    for public in ("quantify", "diagnose", "fleet", "audit", "DataError"):
+        assert public in names
+    for private in ("np", "pd", "json", "Any", "Dict"):
+        assert private not in names
