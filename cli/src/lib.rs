@@ -42,7 +42,7 @@ enum Command {
     /// List the registered stiction models and linear identifiers with their parameters.
     #[command(after_help = include_str!("../help/models.txt"))]
     Models(commands::models::Args),
-    /// Run a stiction model over the OP column of a CSV file; writes CSV `OP,MV`.
+    /// Run a stiction model over the OP column of a CSV or MAT file; writes CSV `OP,MV`.
     #[command(after_help = include_str!("../help/valve.txt"))]
     Valve(commands::valve::Args),
     /// Identify a linear model from an input column (MV, or OP) to PV and print its fits.

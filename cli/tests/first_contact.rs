@@ -134,11 +134,14 @@ fn a_folder_skips_files_that_are_not_loops() {
         "file,label\nV7_20240101-0800.csv,stiction\n",
     )
     .expect("write");
+    std::fs::write(dir.join("results.csv"), "valve,S\nV7,3\n").expect("write");
     let d = dir.to_str().expect("utf-8");
     let o = run(&["trend", d, "--no-diagnose", "--json"], b"");
     assert_eq!(o.code, 0, "{}", o.stderr);
+    // a results table is skipped with a note; a labels table quietly
     assert!(o.stderr.contains("skipped"), "{}", o.stderr);
-    assert!(o.stderr.contains("labels.csv"), "{}", o.stderr);
+    assert!(o.stderr.contains("results.csv"), "{}", o.stderr);
+    assert!(!o.stderr.contains("labels.csv"), "{}", o.stderr);
     let v: Value = serde_json::from_str(&o.stdout).expect("json");
     assert_eq!(v["valve"], "V7");
     let out = dir.join("rows");
@@ -146,6 +149,7 @@ fn a_folder_skips_files_that_are_not_loops() {
     assert_eq!(b.code, 0, "{}", b.stderr);
     let rows = std::fs::read_to_string(dir.join("rows.jsonl")).expect("rows");
     assert!(!rows.contains("labels.csv"), "{rows}");
+    assert!(!rows.contains("results.csv"), "{rows}");
     assert_eq!(rows.lines().count(), 2, "{rows}");
     let _ = std::fs::remove_dir_all(&dir);
 }

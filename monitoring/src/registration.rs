@@ -85,33 +85,54 @@ impl fmt::Display for NotALoop {
     }
 }
 
-/// Whether a delimited text file looks like a loop registration: its header names the OP
-/// column `op` (case-insensitive). A folder's `labels.csv` or a results table does not. `.mat`
-/// files are always taken (their reader lists the loops inside).
-fn looks_like_loop(f: &Path, op: &str) -> bool {
+/// What a file of a folder is, from its header.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// A loop registration (or a file the reader will explain in its row).
+    Loop,
+    /// A labels table (columns `file` and `label`): left out without a note.
+    Labels,
+    /// Something else: left out with a note.
+    Other,
+}
+
+/// What a delimited text file is: a loop registration when its header names the OP column
+/// `op` (case-insensitive), a labels table when it names `file` and `label`, else something
+/// else (a results table). `.mat` files are always taken (their reader lists the loops inside).
+fn kind_of(f: &Path, op: &str) -> Kind {
     let is_text = f
         .extension()
         .is_some_and(|e| !e.eq_ignore_ascii_case("mat"));
     if !is_text {
-        return true;
+        return Kind::Loop;
     }
     let Ok(file) = std::fs::File::open(f) else {
-        return true; // the reader says why, in the file's row
+        return Kind::Loop; // the reader says why, in the file's row
     };
     let mut first = String::new();
     let _ = std::io::BufRead::read_line(
         &mut std::io::BufReader::new(std::io::Read::take(file, 64 * 1024)),
         &mut first,
     );
-    first
+    let names: Vec<&str> = first
         .trim_start_matches('\u{feff}')
         .split([',', ';', '\t'])
-        .any(|c| c.trim().trim_matches('"').eq_ignore_ascii_case(op))
+        .map(|c| c.trim().trim_matches('"'))
+        .collect();
+    let has = |name: &str| names.iter().any(|c| c.eq_ignore_ascii_case(name));
+    if has(op) {
+        Kind::Loop
+    } else if has("file") && has("label") {
+        Kind::Labels
+    } else {
+        Kind::Other
+    }
 }
 
 /// Expand files and directories into registration files: a directory gives its files with a
 /// known extension whose header names the OP column `op`, sorted by name, minus `exclude`; the
-/// files of a directory left out as not being loops are returned beside them.
+/// files of a directory left out as not being loops are returned beside them, except labels
+/// tables (a header with `file` and `label`), which are left out quietly.
 pub fn expand(
     paths: &[PathBuf],
     exclude: &[PathBuf],
@@ -141,13 +162,13 @@ pub fn expand(
                 .collect();
             files.sort();
             for f in files {
-                if looks_like_loop(&f, op) {
-                    out.push(f);
-                } else {
-                    skipped.push(NotALoop {
+                match kind_of(&f, op) {
+                    Kind::Loop => out.push(f),
+                    Kind::Labels => {}
+                    Kind::Other => skipped.push(NotALoop {
                         path: f,
                         column: op.to_string(),
-                    });
+                    }),
                 }
             }
         } else if p.exists() {

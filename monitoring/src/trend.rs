@@ -102,7 +102,8 @@ pub fn trend(points: &[Point], min_fit: f64) -> Trend {
         let m = median(&s);
         let mad = median(&s.iter().map(|x| (x - m).abs()).collect::<Vec<_>>());
         let half = (3.0 * 1.4826 * mad).max(MIN_BAND);
-        band = Some([m - half, m + half]);
+        // S is never negative: the band's lower end is at least 0 (no flag changes)
+        band = Some([(m - half).max(0.0), m + half]);
         for &i in &usable {
             if (s_of(i) - m).abs() > half {
                 flags[i] = Flag::Outlier;

@@ -172,7 +172,7 @@ def run(
             client.close()
         if own_cluster is not None:
             own_cluster.close()
-    if progress and todo:
+    if progress and todo and sys.stderr.isatty():
         sys.stderr.write("\n")
     summary = _native.batch_finish(str(jsonl), str(csv), opts)
     summary.update(files=len(files), computed=len(todo), skipped=len(files) - len(todo))
@@ -203,5 +203,10 @@ def _progress(done: int, total: int, started: float) -> None:
     elapsed = time.monotonic() - started
     rate = done / elapsed if elapsed > 0 else 0.0
     left = (total - done) / rate if rate > 0 else 0.0
-    sys.stderr.write(f"\rfleet {done}/{total} registrations, {elapsed:.0f} s, ~{left:.0f} s left ")
+    text = f"fleet {done}/{total} registrations, {elapsed:.0f} s, ~{left:.0f} s left"
+    if sys.stderr.isatty():
+        sys.stderr.write(f"\r{text} ")
+    elif done == total or done % max(1, total // 10) == 0:
+        # a log file gets a line per tenth of the run, no carriage returns
+        sys.stderr.write(text + "\n")
     sys.stderr.flush()

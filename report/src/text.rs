@@ -70,8 +70,12 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
     ?;
     writeln!(
         out,
-        "  [S, J] ranges: {} nodes within the {:.0} % likelihood-ratio region; grid {} nodes ({} skipped), step {}, OP span {:.2}; {:.0} ms",
-        q.interval.nodes,
+        "  [S, J] ranges: {} within the {:.0} % likelihood-ratio region; grid {} nodes ({} skipped), step {}, OP span {:.2}; {:.0} ms",
+        if q.interval.nodes == 1 {
+            "1 node".to_string()
+        } else {
+            format!("{} nodes", q.interval.nodes)
+        },
         100.0 * q.interval.confidence,
         q.nodes_evaluated,
         q.nodes_skipped,

@@ -10,7 +10,7 @@ use crate::{usage, CmdResult, Streams};
 /// Arguments of `stiction identify`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// CSV file (`-` for standard input).
+    /// CSV or MAT file (`-` for standard input, CSV).
     file: PathBuf,
     /// Registered linear identifier (arx, armax, earx, earmax, harx, larx, ss; `stiction models`).
     #[arg(long, value_name = "NAME", default_value = "arx")]

@@ -26,7 +26,7 @@ pub(crate) enum Example {
 /// The loop to analyse: a file or an embedded example.
 #[derive(Debug, clap::Args)]
 pub(crate) struct LoopFlags {
-    /// CSV file with PV and OP columns (`-` for standard input).
+    /// CSV or MAT file with PV and OP columns (`-` for standard input, CSV).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     pub file: Option<PathBuf>,
     /// Use an embedded example loop instead of a file.

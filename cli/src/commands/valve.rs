@@ -12,7 +12,7 @@ use crate::{usage, CmdResult, Streams};
 /// Arguments of `stiction valve`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// CSV file with an OP column (`-` for standard input).
+    /// CSV or MAT file with an OP column (`-` for standard input, CSV).
     file: PathBuf,
     /// Registered stiction model (see `stiction models`).
     #[arg(long, value_name = "NAME")]
