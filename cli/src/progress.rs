@@ -15,6 +15,33 @@ pub(crate) struct Progress {
     unit: &'static str,
     started: Instant,
     bar: Mutex<Option<ProgressBar>>,
+    stages: Mutex<Stages>,
+}
+
+/// The stages of a count that restarts (a grid's coarse nodes, then its refinement): the bar
+/// shows them end to end, so it never moves backwards.
+#[derive(Debug, Default)]
+struct Stages {
+    /// Units of the stages before the current one.
+    offset: usize,
+    /// The current stage's total.
+    total: usize,
+    /// The last count reported.
+    last: usize,
+}
+
+impl Stages {
+    /// `(position, length)` of the bar for a report of `done` of `total`: a new stage when the
+    /// total changes and the count restarts below the last one.
+    fn place(&mut self, done: usize, total: usize) -> (usize, usize) {
+        if total != self.total && done < self.last {
+            self.offset += self.total;
+            self.last = 0;
+        }
+        self.total = total;
+        self.last = self.last.max(done);
+        (self.offset + done, self.offset + total)
+    }
 }
 
 impl Progress {
@@ -32,12 +59,20 @@ impl Progress {
             unit,
             started,
             bar: Mutex::new(None),
+            stages: Mutex::new(Stages::default()),
         }
     }
 
     /// Report `done` of `total` (called from worker threads).
     pub(crate) fn update(&self, done: usize, total: usize) {
-        if !self.enabled || self.started.elapsed() < Duration::from_secs(1) {
+        if !self.enabled {
+            return;
+        }
+        let (done, total) = match self.stages.lock() {
+            Ok(mut st) => st.place(done, total),
+            Err(_) => (done, total),
+        };
+        if self.started.elapsed() < Duration::from_secs(1) {
             return;
         }
         let Ok(mut guard) = self.bar.lock() else {
@@ -76,5 +111,24 @@ impl Progress {
                 b.finish_and_clear();
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Stages;
+
+    #[test]
+    fn a_restarting_count_never_moves_the_bar_backwards() {
+        let mut st = Stages::default();
+        assert_eq!(st.place(1, 800), (1, 800));
+        assert_eq!(st.place(800, 800), (800, 800));
+        // the refinement restarts its count: appended after the coarse grid
+        assert_eq!(st.place(1, 300), (801, 1100));
+        assert_eq!(st.place(300, 300), (1100, 1100));
+        // a count whose total grows without restarting stays one stage
+        let mut st = Stages::default();
+        assert_eq!(st.place(3, 10), (3, 10));
+        assert_eq!(st.place(4, 12), (4, 12));
     }
 }
