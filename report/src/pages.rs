@@ -464,14 +464,14 @@ pub fn diagnose_page(
             };
             vec![
                 f.cause.to_string(),
-                format!("{:.2}", f.statistic),
-                format!("{:.1}", f.lr),
-                format!("{:.1}", f.threshold.abs()),
+                crate::text::finite_or_dash(f.statistic, 2, false),
+                crate::text::finite_or_dash(f.lr, 1, false),
+                crate::text::finite_or_dash(f.threshold.abs(), 1, false),
                 if f.significant { "yes" } else { "no" }.into(),
                 ext,
                 s_,
                 j_,
-                format!("{:+.2}", f.gain_fit_pv_val),
+                crate::text::finite_or_dash(f.gain_fit_pv_val, 2, true),
                 f.evidence.clone(),
             ]
         })

@@ -96,6 +96,16 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
     Ok(text)
 }
 
+/// `x` with `decimals` decimals (and its sign when `signed`), or `-` when it is not a finite
+/// number: tables never show `NaN` or `inf`.
+pub fn finite_or_dash(x: f64, decimals: usize, signed: bool) -> String {
+    match (x.is_finite(), signed) {
+        (false, _) => "-".into(),
+        (true, true) => format!("{x:+.decimals$}"),
+        (true, false) => format!("{x:.decimals$}"),
+    }
+}
+
 /// The `repair:` line of `quantify` and `diagnose`: what a free valve would change in the
 /// identified loop ([`repair::assess`]), or why that could not be estimated.
 pub fn repair_line(outcome: &Result<repair::Repair, repair::NoRepair>) -> String {
@@ -269,17 +279,17 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
         };
         writeln!(
             out,
-            "{:<20} {:>9.2} {:>11.1} {:>8.1} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>+8.2}",
+            "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>8}",
             f.cause,
-            f.statistic,
-            f.lr,
-            f.threshold.abs(),
+            finite_or_dash(f.statistic, 2, false),
+            finite_or_dash(f.lr, 1, false),
+            finite_or_dash(f.threshold.abs(), 1, false),
             if f.significant { "yes" } else { "no" },
             ext,
             s_,
             j_,
             fv,
-            f.gain_fit_pv_val
+            finite_or_dash(f.gain_fit_pv_val, 2, true)
         )?;
     }
     writeln!(
