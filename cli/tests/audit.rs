@@ -221,6 +221,32 @@ fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
         std::fs::read_to_string(site.join("index.html")).unwrap(),
         page
     );
+    // --diagnose: the latest registration's page is its diagnosis, the causes the diagnosis'
+    std::fs::remove_dir_all(&site).unwrap();
+    let diag = run(
+        &[
+            "audit",
+            "--db",
+            dbs,
+            "--report",
+            sites,
+            "--diagnose",
+            "--step",
+            "0.5",
+        ],
+        b"",
+    );
+    assert_eq!(diag.code, 0, "{}", diag.stderr);
+    let linked = std::fs::read_to_string(site.join("valves/V2/index.html")).unwrap();
+    assert!(linked.contains("diagnose: loop"), "the diagnosis page");
+    assert!(linked.contains("Repair: "), "with what a repair buys");
+    let page = std::fs::read_to_string(site.join("index.html")).unwrap();
+    assert!(
+        page.contains("no-stiction") || page.contains("none (the baseline explains PV)"),
+        "the healthy valve's causes are the diagnosis': {page}"
+    );
+    let needs_report = run(&["audit", "--db", dbs, "--diagnose"], b"");
+    assert_eq!(needs_report.code, 2, "{}", needs_report.stderr);
     // no database and no PATH: an error
     let none = run(
         &[

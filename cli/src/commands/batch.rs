@@ -65,6 +65,11 @@ pub(crate) struct RunFlags {
 }
 
 impl RunFlags {
+    /// The search flags as the library's arguments (what `diagnose` takes).
+    pub(crate) fn search_args(&self) -> monitoring::SearchArgs {
+        self.search.args()
+    }
+
     /// The options of a run over `c` (a model name or a setting is bad usage).
     pub(crate) fn options(&self, c: &Combos, min_fit: f64) -> Result<BatchOptions, Failure> {
         for name in &c.stiction {
