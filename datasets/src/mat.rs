@@ -149,7 +149,7 @@ fn element_values(e: &Element<'_>, order: Order) -> Result<Vec<f64>, String> {
         9 | 12 | 13 => 8,
         k => return Err(format!("unknown numeric storage type {k} at byte {}", e.at)),
     };
-    if b.len() % size != 0 {
+    if !b.len().is_multiple_of(size) {
         return Err(format!(
             "numeric data of {} bytes at byte {} is not a whole number of values",
             b.len(),

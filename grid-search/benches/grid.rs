@@ -177,7 +177,7 @@ fn fleet(bencher: divan::Bencher) {
             .map(|(op, pv)| {
                 let found = compare_cells(op, pv, NodePath::Fast);
                 let i = done.fetch_add(1, Ordering::Relaxed) + 1;
-                if i % 10 == 0 || i == data.len() {
+                if i.is_multiple_of(10) || i == data.len() {
                     eprintln!(
                         "fleet: {i}/{} loops, {:.1} s",
                         data.len(),

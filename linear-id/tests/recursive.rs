@@ -20,7 +20,7 @@ fn coeffs(s: &Structure) -> Vec<f64> {
 fn square_wave(len: usize, period: usize) -> Vec<f64> {
     (0..len)
         .map(|k| {
-            if (k / (period / 2)) % 2 == 0 {
+            if (k / (period / 2)).is_multiple_of(2) {
                 1.0
             } else {
                 -1.0

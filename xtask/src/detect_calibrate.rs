@@ -121,7 +121,7 @@ fn simulated(seed0: u64, index: usize, he: bool, samples: usize) -> Result<Case>
     let seed = seed0 + index as u64;
     let mut rng = Rng(seed.wrapping_mul(0xD1B5_4A32_D192_ED03));
     let integrating = index % 2 == 1;
-    let sticky = (index / 2) % 2 == 0;
+    let sticky = (index / 2).is_multiple_of(2);
     let situation = (index / 4) % SITUATIONS.len();
     // Plant.
     let delay = (rng.next() * 3.0) as usize;
