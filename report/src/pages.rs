@@ -701,10 +701,11 @@ pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError>
         det.verdict, det.score
     )));
     first.push(Block::Paragraph(format!(
-        "Why: {}. The score is the probability of stiction in [0, 1] that a calibrated \
-         logistic model gives from the tests' statistics; a loop that neither oscillates \
-         regularly, nor shows stick-slip, nor is explained by a sticky valve is never called \
-         sticky.",
+        "Why: {}. The score, in [0, 1], is what a logistic model fitted on simulated loops \
+         makes of the tests' statistics: a ranking of the evidence, not a probability for \
+         this valve, and the verdict needs more than a high score (a loop that neither \
+         oscillates regularly, nor shows stick-slip, nor is explained by a sticky valve is \
+         never called sticky, and a record that cannot show stiction is inconclusive).",
         det.reason
     )));
     let mut tests = Section::new("The tests");
