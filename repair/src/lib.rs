@@ -60,8 +60,8 @@ pub const MIN_DERIVATIVE_GAIN: f64 = 1.0;
 pub const MIN_SAMPLES: usize = 20;
 
 /// A "now" run whose control error spreads more than this factor above or below the record's
-/// gets a note (on simulated twin loops the factor stays within 0.79-1.15,
-/// `monitoring/tests/repair_twins.rs`).
+/// gets a note (what simulated twin loops give is in
+/// `docs/decisions/2026-11-26-repair-audit.md`).
 pub const LOOSE_REPLAY: f64 = 1.5;
 
 /// A closed-loop run whose control error spreads this many times more than the record's is
