@@ -136,9 +136,19 @@ where
     // not an unknown flag `-0`); no flag of ours is a digit.
     let command = <Cli as clap::CommandFactory>::command()
         .mut_subcommands(|c| c.allow_negative_numbers(true));
-    command
-        .try_get_matches_from(args)
-        .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m))
+    let m = command.try_get_matches_from(args)?;
+    // `--png` in a build without PNG support: refused before any work is done.
+    let wants_png = m
+        .subcommand()
+        .and_then(|(_, sub)| sub.try_get_one::<bool>("png").ok().flatten().copied())
+        .unwrap_or(false);
+    if wants_png && !report::PNG {
+        return Err(clap::Error::raw(
+            clap::error::ErrorKind::ArgumentConflict,
+            format!("--png: {}\n", report::NO_PNG),
+        ));
+    }
+    <Cli as clap::FromArgMatches>::from_arg_matches(&m)
 }
 
 /// Run with explicit arguments (the first is the program name) and streams; returns the exit

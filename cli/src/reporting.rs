@@ -17,7 +17,8 @@ pub struct ReportFlags {
     /// each plot as DIR/<name>.svg.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
-    /// Also write each plot of the report as PNG.
+    /// Also write each plot of the report as PNG (in a CLI built with the `png` feature:
+    /// `cargo install --path cli --features png`).
     #[arg(long, requires = "report")]
     pub png: bool,
 }

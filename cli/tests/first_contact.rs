@@ -197,12 +197,15 @@ fn split_reads_fractions_and_shows_a_readable_default() {
 fn diagnose_says_what_to_do_first() {
     let o = run(&["diagnose", "--example", "paper"], b"");
     assert_eq!(o.code, 0, "{}", o.stderr);
+    // The decision first: the action with the S to use and its range, then the causes held.
     let second = o.stdout.lines().nth(1).expect("two lines");
     assert!(
-        second.starts_with("cause: none: the baseline stands, S = 9.00 %"),
+        second.starts_with("action: schedule valve maintenance: S = 9.00 % [9.00, 9.00]"),
         "{}",
         o.stdout
     );
+    let third = o.stdout.lines().nth(2).expect("three lines");
+    assert!(third.starts_with("causes: none"), "{}", o.stdout);
     // One meaning per column: F_PV val is absolute on every row, ΔF_PV the difference.
     assert!(o.stdout.contains("F_PV val"), "{}", o.stdout);
     assert!(o.stdout.contains("ΔF_PV"), "{}", o.stdout);

@@ -631,15 +631,22 @@ impl Cause for NoStiction {
         let loss = q
             .fit_no_stiction
             .map_or(f64::INFINITY, |f0| ctx.lr(f0, ctx.baseline.fit_val()));
-        Evidence {
-            statistic: loss,
-            text: format!(
-                "Removing the stiction (the best valve with S at most {} %) costs a likelihood ratio of {loss:.1} on validation data (validation F_PV {} without stiction against {:.2} with it).",
+        let text = match q.fit_no_stiction {
+            Some(f0) => format!(
+                "Removing the stiction (the best valve with S at most {} %) costs a likelihood ratio of {loss:.1} on validation data (validation F_PV {f0:.2} without stiction against {:.2} with it).",
                 grid_search::NEGLIGIBLE_S,
-                q.fit_no_stiction
-                    .map_or("-".to_string(), |f| format!("{f:.2}")),
                 ctx.baseline.fit_val()
             ),
+            // the S = J = 0 node was skipped (e.g. an unstable model): the extension below
+            // fits the valves of negligible stiction instead
+            None => format!(
+                "The baseline's search evaluated no valve without stiction (that node was skipped); the extension fits the best valve with S at most {} % instead.",
+                grid_search::NEGLIGIBLE_S
+            ),
+        };
+        Evidence {
+            statistic: loss,
+            text,
         }
     }
     fn extend(&self, ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {

@@ -21,6 +21,7 @@ mod causes;
 mod characteristic;
 mod compression;
 mod eval;
+mod headline;
 pub mod registration;
 mod residuals;
 
@@ -37,6 +38,7 @@ pub use monitoring::{Combination, FitSummary, Fitted};
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
 pub use characteristic::ValveCharacteristic;
 pub use compression::Compression;
+pub use headline::{Headline, Standing};
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.
@@ -1367,8 +1369,8 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
     let res = ResidualAnalysis::new(pv, &q.pv_pred, &q.pv_sim, mv, ni);
     let evidence = if significant {
         format!(
-            "Cause: unexplained. Something no registered cause explains remains: the final model's linear part identified on the recent part of the identification window alone (samples {from}-{ni}) predicts the validation data better than identified on the whole window (samples 0-{ni}, the valve from its best initial state; likelihood ratio {lr:.0}, threshold {threshold:.0} for {d} re-estimated coefficients): the process changed during the record (its gain, dynamics or operating point). The final model's validation residuals {}",
-            res.describe()
+            "Cause: unexplained. Something no registered cause explains remains: the final model's linear part identified on the recent part of the identification window alone (samples {from}-{ni}) predicts the validation data better than identified on the whole window (samples 0-{ni}, the valve from its best initial state; likelihood ratio {lr:.0}, threshold {threshold:.0} for {d} re-estimated coefficients): the process changed during the record (its gain, dynamics or operating point). In the final model, {}",
+            res.describe().replacen("On the", "on the", 1)
         )
     } else {
         format!(
@@ -1717,6 +1719,7 @@ impl Diagnosis {
             .map_or(Value::Null, |x| json!(x.record(init)));
         json!({
             "source": source,
+            "headline": serde_json::to_value(self.headline()).unwrap_or_default(),
             "baseline": self.baseline_fit.record(init),
             "cause": self.cause,
             "causes": self.causes,

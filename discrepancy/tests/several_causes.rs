@@ -102,3 +102,50 @@ fn forward_selection_finds_both_causes() {
         "single causes right {single_d:.2} / {single_t:.2} / {single_c:.2}"
     );
 }
+
+/// The headline a planner acts on names every cause of the final model with the step that
+/// added it (1, 2, ... in order), and the S of the final model with its region.
+#[test]
+fn headline_names_the_causes_held_with_their_steps_and_the_final_s() {
+    let mut checked = 0;
+    for seed in 7000..7004 {
+        let c = case(seed, Effect::DisturbanceDelay, 3000);
+        let d = c.diagnose(&[]);
+        if d.causes.len() < 2 {
+            continue;
+        }
+        let h = d.headline();
+        let names: Vec<&str> = h.causes.iter().map(|(c, _)| c.as_str()).collect();
+        assert_eq!(
+            names,
+            d.causes.iter().map(String::as_str).collect::<Vec<_>>()
+        );
+        let steps: Vec<usize> = h.causes.iter().filter_map(|(_, k)| *k).collect();
+        assert_eq!(
+            steps,
+            (1..=steps.len()).collect::<Vec<_>>(),
+            "{:?}",
+            h.causes
+        );
+        assert!(steps.len() >= 2, "{:?}", h.causes);
+        let fin = d.final_fit().expect("a final model");
+        assert_eq!(h.s, fin.result.s);
+        assert!(h.s_range[0] <= h.s && h.s <= h.s_range[1], "{h:?}");
+        assert!(h
+            .action_line()
+            .contains(&format!("S = {:.2} %", fin.result.s)));
+        for (cause, k) in &h.causes {
+            let st = d.standing(cause).expect("standing");
+            assert!(st.held);
+            assert_eq!(st.step, *k);
+            if k.is_some() {
+                assert!(
+                    st.finding.significant,
+                    "{cause} added without a significant test"
+                );
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked >= 2, "only {checked} of 4 loops had two causes");
+}

@@ -101,7 +101,12 @@ fn read_args(d: Option<&Bound<'_, PyDict>>) -> PyResult<ReadArgs> {
 
 impl ReadArgs {
     fn options(&self, require_pv: bool, min_rows: usize) -> PyResult<ReadOptions> {
-        let gaps = self.gaps.as_deref().unwrap_or("refuse").parse().map_err(usage_err)?;
+        let gaps = self
+            .gaps
+            .as_deref()
+            .unwrap_or("refuse")
+            .parse()
+            .map_err(usage_err)?;
         let op_range = match self.op_range {
             None => OpRange::Detect,
             Some((lo, hi)) => OpRange::given(lo, hi)

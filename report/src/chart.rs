@@ -25,6 +25,32 @@ const FONT: &str = "sans-serif";
 
 static FONT_ONCE: Once = Once::new();
 
+/// Text sizes as asked of plotters (which writes `font-size` as the size / 1.24), one per
+/// role so that the inspector (`inspect`) can tell the roles apart. Sized so that a tick label
+/// is at least 13 px on a page 1400 px wide, where a figure is drawn at the page's width.
+pub(crate) const TITLE_PX: u32 = 21;
+/// A panel caption.
+pub(crate) const CAPTION_PX: u32 = 18;
+/// An axis description.
+pub(crate) const AXIS_PX: u32 = 17;
+/// The description of a heat map's colour scale (rotated).
+pub(crate) const SCALE_PX: u32 = 16;
+/// Tick and legend labels.
+pub(crate) const LABEL_PX: u32 = 15;
+/// The colour scale's tick labels.
+pub(crate) const SCALE_LABEL_PX: u32 = 14;
+
+/// A tick on a date axis (`x` in days since 1970-01-01 UTC): the date, with the time of day
+/// when the axis spans less than three days.
+fn date_tick(x: f64, range: f64) -> String {
+    let text = datasets::format_epoch(x * 86_400.0);
+    if range < 3.0 {
+        text
+    } else {
+        text.chars().take(10).collect()
+    }
+}
+
 /// Register the embedded font with plotters (needed to measure text; idempotent).
 pub(crate) fn ensure_font() {
     FONT_ONCE.call_once(|| {
@@ -152,6 +178,8 @@ pub struct Panel {
     pub x_range: Option<(f64, f64)>,
     /// Panel caption (above the axes; the figure title names loop and model).
     pub caption: String,
+    /// x is a date in days since 1970-01-01 (UTC): the ticks are written as dates.
+    pub x_dates: bool,
 }
 
 /// A figure of one or more panels.
@@ -350,7 +378,7 @@ fn draw_panel(
         })
         .unwrap_or((0.0, 1.0));
     // The legend sits in a strip right of the plotting area, never on the data: wide enough
-    // for the longest label (12 px text, about 6.6 px a character, plus the glyph).
+    // for the longest label (15 px text, about 8.2 px a character, plus the glyph).
     let longest = panel
         .rules
         .iter()
@@ -359,27 +387,34 @@ fn draw_panel(
         .max()
         .unwrap_or(0);
     let legend_w = if entries > 0 {
-        (longest as f64 * 6.6 + 44.0).clamp(90.0, 280.0) as u32
+        (longest as f64 * 8.2 + 44.0).clamp(100.0, 340.0) as u32
     } else {
         0
     };
     let (w, _) = area.dim_in_pixel();
-    let legend_w = legend_w.min(w / 3);
+    let legend_w = legend_w.min(w * 2 / 5);
     let (plot_area, legend_area) = area.split_horizontally((w - legend_w) as i32);
     let mut builder = ChartBuilder::on(&plot_area);
     builder
         .margin(8)
         .margin_right(16)
-        .x_label_area_size(44)
-        .y_label_area_size(70);
+        .x_label_area_size(48)
+        .y_label_area_size(80);
     if !panel.caption.is_empty() {
-        builder.caption(&panel.caption, (FONT, 15));
+        builder.caption(&panel.caption, (FONT, CAPTION_PX));
     }
     let mut chart = builder
         .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
         .map_err(|e| err("axes", e))?;
     let (xs, ys) = (x_range.1 - x_range.0, y_range.1 - y_range.0);
-    let x_fmt = move |v: &f64| tick(*v, xs);
+    let dates = panel.x_dates;
+    let x_fmt = move |v: &f64| {
+        if dates {
+            date_tick(*v, xs)
+        } else {
+            tick(*v, xs)
+        }
+    };
     let y_fmt = move |v: &f64| tick(*v, ys);
     chart
         .configure_mesh()
@@ -393,10 +428,11 @@ fn draw_panel(
         .y_labels(6)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
-        .axis_desc_style((FONT, 14))
-        .label_style((FONT, 12))
-        .light_line_style(RGBColor(235, 235, 235))
-        .bold_line_style(RGBColor(215, 215, 215))
+        .axis_desc_style((FONT, AXIS_PX))
+        .label_style((FONT, LABEL_PX))
+        // A light major grid only: minor lines would compete with the data.
+        .light_line_style(plotters::style::colors::TRANSPARENT)
+        .bold_line_style(RGBColor(228, 228, 228))
         .draw()
         .map_err(|e| err("mesh", e))?;
     // Legend entries: drawn after the data, in their own strip (see below).
@@ -494,7 +530,7 @@ fn draw_panel(
             .position(SeriesLabelPosition::UpperLeft)
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
-            .label_font((FONT, 12))
+            .label_font((FONT, LABEL_PX))
             .draw()
             .map_err(|e| err("legend", e))?;
     }
@@ -509,7 +545,7 @@ pub fn render_lines(chart: &LineChart) -> Result<String, ReportError> {
         let root = SVGBackend::with_string(&mut svg, chart.size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err("background", e))?;
         let body = root
-            .titled(&chart.title, (FONT, 18))
+            .titled(&chart.title, (FONT, TITLE_PX))
             .map_err(|e| err("title", e))?;
         let n = chart.panels.len().max(1);
         let areas = if chart.side_by_side {
@@ -544,7 +580,7 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
         let root = SVGBackend::with_string(&mut svg, map.size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err("background", e))?;
         let body = root
-            .titled(&map.title, (FONT, 18))
+            .titled(&map.title, (FONT, TITLE_PX))
             .map_err(|e| err("title", e))?;
         let w = body.dim_in_pixel().0;
         let (main, bar) = body.split_horizontally(w.saturating_sub(110));
@@ -565,8 +601,8 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
             .y_desc(map.y_label.as_str())
             .x_label_formatter(&x_fmt)
             .y_label_formatter(&y_fmt)
-            .axis_desc_style((FONT, 14))
-            .label_style((FONT, 12))
+            .axis_desc_style((FONT, AXIS_PX))
+            .label_style((FONT, LABEL_PX))
             .draw()
             .map_err(|e| err("mesh", e))?;
         let range = map.range;
@@ -632,7 +668,7 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
             .position(SeriesLabelPosition::UpperLeft)
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
-            .label_font((FONT, 12))
+            .label_font((FONT, LABEL_PX))
             .draw()
             .map_err(|e| err("legend", e))?;
         // The colour bar.
@@ -645,7 +681,7 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
             .margin_top(8)
             .margin_bottom(52)
             .margin_right(8)
-            .y_label_area_size(62)
+            .y_label_area_size(70)
             .build_cartesian_2d(0.0..1.0, lo..hi)
             .map_err(|e| err("colour bar", e))?;
         let vs = hi - lo;
@@ -655,8 +691,8 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
             .disable_x_axis()
             .y_desc(map.value_label.as_str())
             .y_label_formatter(&v_fmt)
-            .axis_desc_style((FONT, 13))
-            .label_style((FONT, 11))
+            .axis_desc_style((FONT, SCALE_PX))
+            .label_style((FONT, SCALE_LABEL_PX))
             .draw()
             .map_err(|e| err("colour bar", e))?;
         let steps = 64;
@@ -674,7 +710,15 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
     Ok(svg)
 }
 
+/// Rasterise an SVG document (as written by this module) to PNG bytes: not in this build (the
+/// `png` feature is off), so an error that says how to get it.
+#[cfg(not(feature = "png"))]
+pub fn svg_to_png(_svg: &str) -> Result<Vec<u8>, ReportError> {
+    Err(ReportError::Plot(crate::NO_PNG.into()))
+}
+
 /// Rasterise an SVG document (as written by this module) to PNG bytes with the embedded font.
+#[cfg(feature = "png")]
 pub fn svg_to_png(svg: &str) -> Result<Vec<u8>, ReportError> {
     use resvg::{tiny_skia, usvg};
     static DB: std::sync::OnceLock<std::sync::Arc<usvg::fontdb::Database>> =

@@ -266,7 +266,7 @@ pub fn phase_plots(
     mv_series.push(Series {
         mark: Mark::Line(2),
         ..Series::line(
-            format!("signature, S = {:.2}, J = {:.2}", q.s, q.j),
+            format!("signature S={:.2} J={:.2}", q.s, q.j),
             signature(q.stiction.as_ref(), mid - half, mid + half),
             palette::RED,
         )
@@ -282,7 +282,7 @@ pub fn phase_plots(
         x_label: "OP (% of valve span)".into(),
         panels: vec![pv_panel, mv_panel],
         side_by_side: true,
-        size: (1060, 480),
+        size: (1200, 520),
     })?;
     Ok(Figure {
         name: name.into(),
@@ -714,7 +714,7 @@ pub fn s_trend(
     name: &str,
 ) -> Result<Figure, ReportError> {
     let first = points.iter().map(|p| p.day).fold(f64::INFINITY, f64::min);
-    let x = |d: f64| if dated { d - first } else { d };
+    let x = |d: f64| d;
     let mut series = Vec::new();
     for (status, label, color, mark) in [
         (TrendStatus::Used, "S, used", palette::BLUE, Mark::Dots(4)),
@@ -773,11 +773,12 @@ pub fn s_trend(
         y_range: None,
         x_range: None,
         x_label: String::new(),
+        x_dates: dated,
     };
     let svg = render_lines(&LineChart {
         title: format!("S over registrations: valve {valve}, {model}"),
         x_label: if dated {
-            "days since the first registration (d)".into()
+            "start of the registration (date, UTC)".into()
         } else {
             "registration (-)".into()
         },

@@ -30,6 +30,14 @@ pub enum Block {
     Facts(Vec<(String, String)>),
     /// A figure.
     Figure(Figure),
+    /// Paragraphs collapsed under a one-line summary (`<details>`): explanations a reader
+    /// opens when they want them.
+    Details {
+        /// The line shown while collapsed.
+        summary: String,
+        /// The paragraphs shown when opened.
+        paragraphs: Vec<String>,
+    },
 }
 
 /// A titled section.
@@ -105,23 +113,26 @@ pub fn escape(s: &str) -> String {
 }
 
 const STYLE: &str = "\
+html{font-size:16px}\
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;\
-max-width:1100px;margin:2em auto;padding:0 1em;color:#1a1a1a;line-height:1.45}\
-h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.25em;margin-top:1.8em;\
+max-width:1400px;margin:1.5em auto;padding:0 1em;color:#1a1a1a;line-height:1.45}\
+p,ul,dl.facts,details,.note,.summary{max-width:62rem}\
+h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.3em;margin-top:1.8em;\
 border-bottom:1px solid #ddd;padding-bottom:.2em}.sub{color:#555;margin-top:0}\
 .summary{background:#f4f7fb;border-left:4px solid #1f77b4;padding:.6em 1em}\
 .note{background:#fff6e5;border-left:4px solid #e67814;padding:.5em 1em}\
 .verdict{background:#fff;border:2px solid #1a1a1a;border-radius:6px;padding:.7em 1em;\
-font-size:1.15em;font-weight:600;margin:1em 0}\
-table{border-collapse:collapse;margin:.8em 0;font-size:.92em}\
+font-size:1.2em;font-weight:600;margin:1em 0;max-width:62rem}\
+details{margin:.6em 0}details>summary{cursor:pointer;color:#1f4f8f;font-weight:600}\
+table{border-collapse:collapse;margin:.8em 0;font-size:.95em}\
 th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right;vertical-align:top}\
 th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}\
 td.t,th.t{text-align:left}td.nw{white-space:nowrap}\
 dl.facts{display:grid;grid-template-columns:max-content auto;gap:.15em 1.2em}\
 dl.facts dt{color:#555}dl.facts dd{margin:0}\
-figure{margin:1.2em 0}figure svg{max-width:100%;height:auto;display:block}\
-figcaption{font-size:.9em;color:#444;margin-top:.3em}\
-footer{margin-top:3em;color:#777;font-size:.85em}";
+figure{margin:1.2em 0}figure svg{width:100%;height:auto;max-height:85vh;display:block}\
+figcaption{font-size:.95em;color:#333;margin-top:.3em;max-width:62rem}\
+footer{margin-top:3em;color:#666;font-size:.9em}";
 
 /// Whether a table cell reads as a number or a numeric range (`1.20`, `-0.5`, `0.10-0.30`,
 /// `-`, empty): such columns are right-aligned.
@@ -231,6 +242,16 @@ impl Report {
                             let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", escape(k), escape(v));
                         }
                         h.push_str("</dl>\n");
+                    }
+                    Block::Details {
+                        summary,
+                        paragraphs,
+                    } => {
+                        let _ = writeln!(h, "<details>\n<summary>{}</summary>", escape(summary));
+                        for p in paragraphs {
+                            let _ = writeln!(h, "<p>{}</p>", escape(p));
+                        }
+                        h.push_str("</details>\n");
                     }
                     Block::Figure(f) => {
                         let name = escape(&f.name);

@@ -7,10 +7,11 @@
 //! recognises the parts of a chart by what `chart` draws them with, never by coordinates:
 //!
 //! * **text roles by font size.** plotters writes `font-size` as the size asked for divided by
-//!   1.24; multiplied back, the title is 18 px, a panel caption 15 px, an axis description
-//!   14 px (13 px for the colour bar of a heat map), tick and legend labels 12 px (11 px on the
-//!   colour bar). Legend labels are the 12 px texts anchored at their start; tick labels are
-//!   centred (x) or right-aligned (y). The y axis description is the rotated 14 px text.
+//!   1.24; multiplied back, the sizes are `chart`'s: the title 21 px, a panel caption 18 px, an
+//!   axis description 17 px (16 px for the colour bar of a heat map), tick and legend labels
+//!   15 px (14 px on the colour bar). Legend labels are the 15 px texts anchored at their
+//!   start; tick labels are centred (x) or right-aligned (y). The y axis description is the
+//!   rotated 17 px text.
 //! * **panels by drawing order.** Each panel is drawn whole before the next: caption, mesh,
 //!   axis descriptions, ticks, series, then the legend box. A panel starts at a caption, or at
 //!   a y axis description when the current panel already has one.
@@ -55,17 +56,17 @@ impl Element {
 /// What a text is, judged by its size and alignment (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Role {
-    /// The figure's title (18 px; the first one).
+    /// The figure's title (21 px; the first one).
     Title,
-    /// A panel caption (15 px).
+    /// A panel caption (18 px).
     Caption,
-    /// An axis description (14 px).
+    /// An axis description (17 px).
     Axis,
-    /// The description of a heat map's colour scale (13 px).
+    /// The description of a heat map's colour scale (16 px).
     Scale,
-    /// A legend label (12 px, anchored at its start).
+    /// A legend label (15 px, anchored at its start).
     Legend,
-    /// A tick label (12 px centred or right-aligned, or 11 px).
+    /// A tick label (15 px centred or right-aligned, or 14 px).
     Tick,
     /// Anything else.
     Other,
@@ -325,18 +326,19 @@ fn mark(e: &Element) -> Option<(String, String)> {
 }
 
 fn role(px: f64, anchor: &str, rotated: bool, have_title: bool) -> Role {
-    let near = |v: f64| (px - v).abs() < 0.25;
-    if near(18.0) && !have_title {
+    use crate::chart::{AXIS_PX, CAPTION_PX, LABEL_PX, SCALE_LABEL_PX, SCALE_PX, TITLE_PX};
+    let near = |v: u32| (px - f64::from(v)).abs() < 0.25;
+    if near(TITLE_PX) && !have_title {
         Role::Title
-    } else if near(15.0) {
+    } else if near(CAPTION_PX) {
         Role::Caption
-    } else if near(14.0) {
+    } else if near(AXIS_PX) {
         Role::Axis
-    } else if near(13.0) && rotated {
+    } else if near(SCALE_PX) && rotated {
         Role::Scale
-    } else if near(12.0) && anchor == "start" {
+    } else if near(LABEL_PX) && anchor == "start" {
         Role::Legend
-    } else if near(12.0) || near(11.0) {
+    } else if near(LABEL_PX) || near(SCALE_LABEL_PX) {
         Role::Tick
     } else {
         Role::Other
@@ -606,7 +608,7 @@ pub fn check_plot(svg: &str, loop_name: &str) -> Result<Structure, String> {
         problems.push("no size".to_string());
     }
     if st.title.is_empty() {
-        problems.push("no title (no 18 px text)".to_string());
+        problems.push("no title (no 21 px text)".to_string());
     } else {
         if !st.title.contains(loop_name) {
             problems.push(format!("the title does not name the loop {loop_name:?}"));
@@ -662,25 +664,25 @@ mod tests {
 
     const SVG: &str = r##"<svg width="300" height="200" viewBox="0 0 300 200" xmlns="http://www.w3.org/2000/svg">
 <rect x="0" y="0" width="300" height="200" opacity="1" fill="#FFFFFF" stroke="none"/>
-<text x="150" y="5" dy="0.76em" text-anchor="middle" font-family="sans-serif" font-size="14.516129032258064" opacity="1" fill="#000000">
+<text x="150" y="5" dy="0.76em" text-anchor="middle" font-family="sans-serif" font-size="16.935483870967744" opacity="1" fill="#000000">
 Time trends: loop a&amp;b, kano × arx
 </text>
 <line opacity="1" stroke="#EBEBEB" stroke-width="1" x1="91" y1="169" x2="91" y2="54"/>
-<text x="8" y="100" dy="0.76em" text-anchor="middle" font-family="sans-serif" font-size="11.290322580645162" opacity="1" fill="#000000" transform="rotate(270, 8, 100)">
+<text x="8" y="100" dy="0.76em" text-anchor="middle" font-family="sans-serif" font-size="13.709677419354838" opacity="1" fill="#000000" transform="rotate(270, 8, 100)">
 PV (engineering units)
 </text>
-<text x="150" y="190" dy="-0.5ex" text-anchor="middle" font-family="sans-serif" font-size="11.290322580645162" opacity="1" fill="#000000">
+<text x="150" y="190" dy="-0.5ex" text-anchor="middle" font-family="sans-serif" font-size="13.709677419354838" opacity="1" fill="#000000">
 time (s)
 </text>
 <polyline fill="none" opacity="1" stroke="#000000" stroke-width="1" points="70,10 70,170 "/>
-<text x="68" y="99" dy="0.5ex" text-anchor="end" font-family="sans-serif" font-size="9.67741935483871" opacity="1" fill="#000000">
+<text x="68" y="99" dy="0.5ex" text-anchor="end" font-family="sans-serif" font-size="12.096774193548388" opacity="1" fill="#000000">
 12.5
 </text>
 <polyline fill="none" opacity="1" stroke="#141414" stroke-width="1" points="70,10 80,20 90,15 "/>
 <circle cx="75" cy="40" r="2" opacity="1" fill="#1F77B4" stroke="none" stroke-width="1"/>
 <rect x="200" y="20" width="90" height="40" opacity="0.85" fill="#FFFFFF" stroke="none"/>
 <rect x="200" y="20" width="90" height="40" opacity="1" fill="none" stroke="#A0A0A0"/>
-<text x="230" y="30" dy="0.5ex" text-anchor="start" font-family="sans-serif" font-size="9.67741935483871" opacity="1" fill="#000000">
+<text x="230" y="30" dy="0.5ex" text-anchor="start" font-family="sans-serif" font-size="12.096774193548388" opacity="1" fill="#000000">
 PV measured
 </text>
 <polyline fill="none" opacity="1" stroke="#141414" stroke-width="2" points="205,30 223,30 "/>

@@ -34,6 +34,12 @@ pub mod text;
 pub use figures::{Figure, LoopSignals, TrendPoint, TrendStatus};
 pub use html::{Block, Report, Section, WriteOptions, Written};
 
+/// Whether this build writes PNG copies of the figures (the `png` feature).
+pub const PNG: bool = cfg!(feature = "png");
+
+/// Why `--png` cannot be honoured in a build without the `png` feature.
+pub const NO_PNG: &str = "PNG output is not in this build: build the CLI with `cargo install --path cli --features png` (the SVG figures and the page need nothing more)";
+
 /// What can go wrong while drawing or writing a report.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -401,6 +401,23 @@ pub fn compare_page(
     })
 }
 
+/// The head of a reason (the words before its first colon), for a table cell; the whole
+/// reason when it has no colon or a long head.
+fn short_reason(reason: &str) -> String {
+    match reason.split_once(':') {
+        Some((head, _)) if head.chars().count() <= 40 => head.trim().to_string(),
+        _ => reason.to_string(),
+    }
+}
+
+/// `s` with its first letter upper-case.
+fn capitalise(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
+}
+
 /// What a repair would buy, as a paragraph of the `quantify` and `diagnose` pages.
 fn repair_paragraph(repair: &Result<repair::Repair, repair::NoRepair>) -> Block {
     Block::Paragraph(match repair {
@@ -435,21 +452,20 @@ pub fn diagnose_page(
     let name = loop_name(d);
     let base = &dg.baseline_fit;
     let base_label = combo(base);
-    let chosen = dg
-        .chosen
-        .and_then(|i| dg.findings.get(i))
-        .and_then(|f| f.fitted.as_ref().map(|x| (f, x)));
+    let head = dg.headline();
+    let final_fit = dg.final_fit();
     let mut findings = Section::new("Causes tested");
     findings.push(Block::Paragraph(format!(
-        "Each cause is tested by fitting the model extended for it and comparing the \
-         validation fit with the baseline {base_label} by a likelihood ratio (LR) that must \
-         pass the threshold. Chosen cause: {}.",
-        dg.cause
+        "Each cause is tested by fitting the model extended for it and comparing its \
+         validation fit by a likelihood ratio (LR) that must pass the threshold: in step 1 \
+         against the baseline {base_label}, in step k on top of the causes added before it. A \
+         cause is held when a step added it to the final model; its row shows that step's test."
     )));
-    let rows = dg
-        .findings
+    let cause_rows = crate::text::cause_rows(dg);
+    let rows = cause_rows
         .iter()
-        .map(|f| {
+        .map(|row| {
+            let f = row.finding;
             let (ext, s_, j_) = match &f.extended {
                 Some(e) => (
                     format!("{} × {} d={}", e.stiction_model, e.linear_model, e.delay),
@@ -464,60 +480,125 @@ pub fn diagnose_page(
             };
             vec![
                 f.cause.to_string(),
+                crate::text::held_cell(row),
                 crate::text::finite_or_dash(f.statistic, 2, false),
                 crate::text::finite_or_dash(f.lr, 1, false),
                 crate::text::finite_or_dash(f.threshold.abs(), 1, false),
-                if f.significant { "yes" } else { "no" }.into(),
                 ext,
                 s_,
                 j_,
                 crate::text::finite_or_dash(f.gain_fit_pv_val, 2, true),
-                f.evidence.clone(),
             ]
         })
         .collect();
     findings.push(Block::Table {
         header: [
             "cause",
+            "held",
             "statistic",
             "LR",
             "needed",
-            "significant",
             "extension",
             "S",
             "J",
             "ΔF_PV val",
-            "evidence",
         ]
         .map(String::from)
         .to_vec(),
         rows,
     });
+    findings.push(Block::Details {
+        summary: "The evidence for each cause".into(),
+        paragraphs: cause_rows
+            .iter()
+            .map(|r| format!("{}: {}", r.finding.cause, r.finding.evidence))
+            .collect(),
+    });
     let mut first = Section::new("Verdict");
     first.push(Block::Verdict(format!(
-        "Cause: {}.",
-        discrepancy::action_line(dg)
+        "{}.",
+        capitalise(&head.action_line())
     )));
-    first.push(Block::Paragraph(dg.summary.clone()));
-    first.push(repair_paragraph(repair));
+    first.push(Block::Paragraph(format!(
+        "Causes held in the final model: {}.",
+        head.causes_line()
+    )));
+    first.push(Block::Details {
+        summary: "How the diagnosis reached this, step by step".into(),
+        paragraphs: vec![dg.summary.clone()],
+    });
     let mut sections = vec![first];
     let mut later = vec![findings];
     let sig = signals(d, &name);
-    let mut baseline = Section::new(format!("Baseline: {base_label}"));
-    baseline.push(Block::Paragraph(verdict(
-        &base.result,
-        &format!("Before the diagnosis, the baseline {base_label}"),
-    )));
-    baseline.push(facts(base));
+    // The model to use, figures first: the final model (or the baseline when no cause holds).
+    let use_fit = final_fit.unwrap_or(base);
+    let use_label = combo(use_fit);
+    let mut model = Section::new(format!(
+        "The model to use: {use_label}, dead time {}",
+        use_fit.delay
+    ));
     if let Some(sig) = &sig {
-        for f in run_figures(sig, base, "baseline-", "baseline")? {
-            baseline.push(Block::Figure(f));
+        if final_fit.is_some() {
+            if let Some(fig) =
+                figures::disturbance(sig, &use_fit.result, &use_label, "disturbance")?
+            {
+                model.push(Block::Figure(fig));
+            }
+        }
+        let (prefix, role) = if final_fit.is_some() {
+            ("final-", "final model")
+        } else {
+            ("baseline-", "baseline")
+        };
+        for fig in run_figures(sig, use_fit, prefix, role)? {
+            model.push(Block::Figure(fig));
         }
     }
-    later.push(baseline);
+    model.push(Block::Paragraph(match final_fit {
+        Some(_) => format!(
+            "{} Against the baseline {base_label} (S = {:.2} %, J = {:.2} %), the final model \
+             changes the validation F_PV by {:+.2} points.",
+            verdict(&use_fit.result, &use_label),
+            dg.baseline.s,
+            dg.baseline.j,
+            dg.gain_fit_pv_val
+        ),
+        None => verdict(&use_fit.result, &use_label),
+    }));
+    model.push(facts(use_fit));
+    model.push(repair_paragraph(repair));
+    sections.push(model);
+    if final_fit.is_some() {
+        let mut baseline = Section::new(format!("Baseline: {base_label}"));
+        baseline.push(Block::Paragraph(verdict(
+            &base.result,
+            &format!("Before the diagnosis, the baseline {base_label}"),
+        )));
+        baseline.push(facts(base));
+        if let Some(sig) = &sig {
+            for f in run_figures(sig, base, "baseline-", "baseline")? {
+                baseline.push(Block::Figure(f));
+            }
+        }
+        later.push(baseline);
+    }
     if let Some(sig) = &sig {
         let mut res = Section::new("Residuals");
         let r = &dg.residuals;
+        let ext = final_fit.map(|x| (x, format!("{} (final model)", combo(x))));
+        let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
+        res.push(Block::Figure(figures::residual_trends(
+            sig,
+            (&base.result, &base_label),
+            ext_ref,
+            "residuals",
+        )?));
+        res.push(Block::Figure(figures::residual_spectrum(
+            sig,
+            (&base.result, &base_label),
+            ext_ref,
+            "spectrum",
+        )?));
         res.push(Block::Facts(vec![
             (
                 "Ljung-Box Q (limit)".into(),
@@ -539,42 +620,7 @@ pub fn diagnose_page(
                 ),
             ),
         ]));
-        let ext = chosen.map(|(f, x)| (x, format!("{} ({})", combo(x), f.cause)));
-        let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
-        res.push(Block::Figure(figures::residual_trends(
-            sig,
-            (&base.result, &base_label),
-            ext_ref,
-            "residuals",
-        )?));
-        res.push(Block::Figure(figures::residual_spectrum(
-            sig,
-            (&base.result, &base_label),
-            ext_ref,
-            "spectrum",
-        )?));
         later.push(res);
-        if let Some((f, x)) = chosen {
-            let view = x;
-            let label = combo(view);
-            let mut sec = Section::new(format!("Extended model for {}: {label}", f.cause));
-            sec.push(Block::Paragraph(format!(
-                "{} The extension changes the validation F_PV by {:+.2} points, S by {:+.2} and \
-                 J by {:+.2} % of valve span.",
-                verdict(&view.result, &label),
-                f.gain_fit_pv_val,
-                f.delta_s,
-                f.delta_j
-            )));
-            sec.push(facts(view));
-            if let Some(fig) = figures::disturbance(sig, &view.result, &label, "disturbance")? {
-                sec.push(Block::Figure(fig));
-            }
-            for fig in run_figures(sig, view, "extended-", &format!("extended for {}", f.cause))? {
-                sec.push(Block::Figure(fig));
-            }
-            sections.push(sec);
-        }
     }
     later.push(detection_section(d, det)?);
     // The verdict and the model to use first; then how it was reached.
@@ -582,10 +628,10 @@ pub fn diagnose_page(
     Ok(Report {
         title: format!("diagnose: loop {name}, {base_label}"),
         subtitle: format!(
-            "{} · {} samples · stiction diagnose · cause: {}",
+            "{} · {} samples · stiction diagnose · {}",
             d.source,
             d.len(),
-            dg.cause
+            head.action
         ),
         summary: Vec::new(),
         sections,
@@ -735,7 +781,8 @@ pub fn trend_page(vt: &ValveTrend) -> Result<Report, ReportError> {
         let model = format!("{} × {}", ct.stiction, ct.linear);
         let mut sec = Section::new(model.clone());
         let mut points = Vec::new();
-        let mut rows = Vec::new();
+        let mut rows: Vec<Vec<String>> = Vec::new();
+        let mut whys: Vec<String> = Vec::new();
         for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
             let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
             match (r.fit(c), r.error(c)) {
@@ -778,11 +825,23 @@ pub fn trend_page(vt: &ValveTrend) -> Result<Report, ReportError> {
                         } else {
                             f.evidence
                                 .iter()
-                                .map(ToString::to_string)
+                                .map(|e| short_reason(&e.to_string()))
                                 .collect::<Vec<_>>()
                                 .join("; ")
                         },
                     ]);
+                    if *flag != Flag::Used && !f.evidence.is_empty() {
+                        whys.push(format!(
+                            "#{} ({}): {}",
+                            k + 1,
+                            rows.last().map_or("", |r| r[1].as_str()),
+                            f.evidence
+                                .iter()
+                                .map(ToString::to_string)
+                                .collect::<Vec<_>>()
+                                .join("; ")
+                        ));
+                    }
                 }
             }
         }
@@ -826,6 +885,15 @@ pub fn trend_page(vt: &ValveTrend) -> Result<Report, ReportError> {
                 .to_vec(),
             rows,
         });
+        if !whys.is_empty() {
+            sec.push(Block::Details {
+                summary: format!(
+                    "Why {} registration(s) were left out of the trend, in full",
+                    whys.len()
+                ),
+                paragraphs: whys,
+            });
+        }
         sections.push(sec);
     }
     // Registrations the reader refused: the reason and the raw columns (the first few).

@@ -215,6 +215,33 @@ pub fn compare(
     Ok(text)
 }
 
+/// The rows of a diagnosis' table of causes: the causes held in the final model first, in
+/// the order they were added, each with the finding of the step that added it; then the
+/// others, in the order of [`Diagnosis::findings`].
+pub fn cause_rows(dg: &Diagnosis) -> Vec<discrepancy::Standing<'_>> {
+    let mut rows: Vec<discrepancy::Standing<'_>> =
+        dg.causes.iter().filter_map(|c| dg.standing(c)).collect();
+    for f in &dg.findings {
+        if !rows.iter().any(|r| r.finding.cause == f.cause) {
+            rows.push(discrepancy::Standing {
+                finding: f,
+                step: None,
+                held: false,
+            });
+        }
+    }
+    rows
+}
+
+/// The `held` cell of a cause row: `yes (step k)`, `yes`, or `no`.
+pub fn held_cell(row: &discrepancy::Standing<'_>) -> String {
+    match (row.held, row.step) {
+        (true, Some(k)) => format!("yes, step {k}"),
+        (true, None) => "yes".into(),
+        (false, _) => "no".into(),
+    }
+}
+
 /// The text of `diagnose`: the cause to act on, the summary and the table of causes.
 pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
     let mut text = String::new();
@@ -229,28 +256,19 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
         d.len(),
         dg.elapsed_ms / 1e3
     )?;
-    writeln!(out, "cause: {}", discrepancy::action_line(dg))?;
-    writeln!(out)?;
-    writeln!(out, "{}", dg.summary)?;
+    let head = dg.headline();
+    writeln!(out, "action: {}", head.action_line())?;
+    writeln!(out, "causes: {}", head.causes_line())?;
     writeln!(out)?;
     writeln!(
         out,
-        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>8}",
-        "cause",
-        "statistic",
-        "LR",
-        "needed",
-        "signif.",
-        "model fitted",
-        "S",
-        "J",
-        "F_PV val",
-        "ΔF_PV"
+        "{:<20} {:>9} {:>11} {:>8} {:>11}  {:<24} {:>7} {:>7} {:>9} {:>8}",
+        "cause", "statistic", "LR", "needed", "held", "model fitted", "S", "J", "F_PV val", "ΔF_PV"
     )?;
     let b = &dg.baseline;
     writeln!(
         out,
-        "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7.2} {:>7.2} {:>9.2} {:>8}",
+        "{:<20} {:>9} {:>11} {:>8} {:>11}  {:<24} {:>7.2} {:>7.2} {:>9.2} {:>8}",
         "(baseline)",
         "-",
         "-",
@@ -262,7 +280,8 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
         b.fit_pv_val,
         "-"
     )?;
-    for f in &dg.findings {
+    for row in cause_rows(dg) {
+        let f = row.finding;
         let (ext, s_, j_, fv) = match &f.extended {
             Some(e) => (
                 format!("{} + {} d={}", e.stiction_model, e.linear_model, e.delay),
@@ -279,12 +298,12 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
         };
         writeln!(
             out,
-            "{:<20} {:>9} {:>11} {:>8} {:>8}  {:<22} {:>7} {:>7} {:>9} {:>8}",
+            "{:<20} {:>9} {:>11} {:>8} {:>11}  {:<24} {:>7} {:>7} {:>9} {:>8}",
             f.cause,
             finite_or_dash(f.statistic, 2, false),
             finite_or_dash(f.lr, 1, false),
             finite_or_dash(f.threshold.abs(), 1, false),
-            if f.significant { "yes" } else { "no" },
+            held_cell(&row),
             ext,
             s_,
             j_,
@@ -294,10 +313,11 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
     }
     writeln!(
         out,
-        "S, J: the fitted model's (no-stiction: the best valve with S at most {} %); F_PV val: its validation fit; ΔF_PV: against the baseline.",
+        "held: in the final model, with the forward selection's step that added the cause; LR, needed and ΔF_PV are that step's (step 1 against the baseline, step k on top of the causes before it). S, J: the fitted model's (no-stiction: the best valve with S at most {} %).",
         grid_search::NEGLIGIBLE_S
-    )
-    ?;
+    )?;
+    writeln!(out)?;
+    writeln!(out, "{}", dg.summary)?;
     Ok(text)
 }
 

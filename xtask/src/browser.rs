@@ -99,7 +99,13 @@ const PAGE_TIMEOUT: Duration = Duration::from_secs(30);
 const LAUNCH_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// Viewport (CSS pixels) the pages are laid out in.
-const VIEWPORT: (u32, u32) = (1280, 900);
+const VIEWPORT: (u32, u32) = (1400, 900);
+
+/// The smallest text a figure may draw, in CSS pixels in [`VIEWPORT`].
+const MIN_TEXT_PX: f64 = 13.0;
+
+/// The share of the page's width a figure must take.
+const MIN_FIGURE_SHARE: f64 = 0.95;
 
 /// Screenshots are cut at this height (CSS pixels).
 const MAX_SCREENSHOT_HEIGHT: f64 = 32_000.0;
@@ -133,7 +139,22 @@ const MEASURE_JS: &str = r#"(() => {
       const title = s.querySelector(':scope > title');
       const label = s.id ? '#' + s.id
         : s.getAttribute('aria-label') || (title && title.textContent.trim()) || 'svg no. ' + (i + 1);
-      return { label: short(label), width: r.width, height: r.height };
+      // A figure's smallest text as drawn (its font size times the scale the page draws the
+      // figure at) and the share of the page width the figure takes.
+      const fig = s.closest('figure');
+      let minText = null, share = null;
+      if (fig) {
+        for (const t of s.querySelectorAll('text')) {
+          if (!t.textContent.trim()) continue;
+          const m = t.getScreenCTM();
+          const k = m ? Math.hypot(m.a, m.b) : 1;
+          const px = parseFloat(getComputedStyle(t).fontSize) * k;
+          if (minText === null || px < minText) minText = px;
+        }
+        const page = fig.parentElement.getBoundingClientRect().width;
+        share = page > 0 ? r.width / page : null;
+      }
+      return { label: short(label), width: r.width, height: r.height, minText, share };
     });
   const figure = /\.(svg|png|jpe?g|gif|webp|pdf)$/i;
   const refs = [];
@@ -1163,6 +1184,8 @@ struct Measured {
     imgs: Vec<(String, bool, f64)>,
     /// (label, width, height) of top-level svgs
     svgs: Vec<(String, f64, f64)>,
+    /// (label, smallest text in CSS px, share of the page width) of the svgs in a `<figure>`
+    figures: Vec<(String, Option<f64>, Option<f64>)>,
     /// (attribute as written, URL protocol, decoded path) of referenced figure files
     refs: Vec<(String, String, String)>,
 }
@@ -1193,6 +1216,11 @@ impl Measured {
                         i["height"].as_f64().unwrap_or(0.0),
                     )
                 })
+                .collect(),
+            figures: list("svgs")
+                .iter()
+                .filter(|i| i["share"].is_number())
+                .map(|i| (s(i, "label"), i["minText"].as_f64(), i["share"].as_f64()))
                 .collect(),
             refs: list("refs")
                 .iter()
@@ -1507,6 +1535,23 @@ fn judge_figures(m: &Measured, report: &mut PageReport) {
             report
                 .problems
                 .push(format!("<svg> {label} renders at zero size ({w} x {h})"));
+        }
+    }
+    // Readable on a projector and on paper: every figure at the page's width, no text under
+    // MIN_TEXT_PX as drawn in the viewport.
+    for (label, min_text, share) in &m.figures {
+        if let Some(px) = min_text.filter(|&px| px < MIN_TEXT_PX) {
+            report.problems.push(format!(
+                "figure {label}: text drawn at {px:.1} px (under {MIN_TEXT_PX} px at {} px wide)",
+                VIEWPORT.0
+            ));
+        }
+        if let Some(share) = share.filter(|&x| x < MIN_FIGURE_SHARE) {
+            report.problems.push(format!(
+                "figure {label}: {:.0} % of the page width (under {:.0} %)",
+                100.0 * share,
+                100.0 * MIN_FIGURE_SHARE
+            ));
         }
     }
     if m.svgs.is_empty() && m.imgs.is_empty() {

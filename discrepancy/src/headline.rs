@@ -1,0 +1,202 @@
+//! The decision a diagnosis leads to, in the words a maintenance planner acts on: what to do,
+//! the S to put on the work order with its range, and the causes that hold in the final model
+//! with the step of the forward selection that added each.
+
+use grid_search::{Severity, MAINTENANCE_S, NEGLIGIBLE_S};
+use serde::Serialize;
+
+use crate::{Diagnosis, Finding, UNEXPLAINED};
+
+/// How one cause stands in the final model.
+#[derive(Debug, Clone, Copy)]
+pub struct Standing<'a> {
+    /// The test that decided it: the forward selection's step that added the cause (its
+    /// finding in that step), or the first step's finding for a cause never added.
+    pub finding: &'a Finding,
+    /// The step that added it (1 = tested against the baseline; `k` = on top of the causes of
+    /// steps `1..k`), `None` when it was not added by a step (a cause that reframes the
+    /// diagnosis, `unexplained`, or a cause not held).
+    pub step: Option<usize>,
+    /// Whether the cause holds in the final model (it is one of [`Diagnosis::causes`]).
+    pub held: bool,
+}
+
+/// The headline of a diagnosis ([`Diagnosis::headline`]).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Headline {
+    /// What to do, e.g. `schedule valve maintenance`.
+    pub action: String,
+    /// Why, in one clause (the level S reaches, or what the diagnosis found instead).
+    pub reason: String,
+    /// The S to use (% of valve span): the final model's.
+    #[serde(rename = "S")]
+    pub s: f64,
+    /// Its 95 % likelihood-ratio region in the final model.
+    #[serde(rename = "S_range")]
+    pub s_range: [f64; 2],
+    /// The final model's J.
+    #[serde(rename = "J")]
+    pub j: f64,
+    /// The model those numbers come from, e.g. `kano-asym + earx, dead time 2`.
+    pub model: String,
+    /// The causes that hold in the final model, each with the step that added it
+    /// (`None`: found outside the forward selection).
+    pub causes: Vec<(String, Option<usize>)>,
+    /// What limits the statement, when something does (a change of the process, a weak fit).
+    pub caution: Option<String>,
+}
+
+impl Diagnosis {
+    /// How `cause` stands: the finding of the step that added it to the final model, or its
+    /// first-step finding.
+    pub fn standing(&self, cause: &str) -> Option<Standing<'_>> {
+        let held = self.causes.iter().any(|c| c == cause);
+        if let Some(f) = self
+            .chosen
+            .and_then(|i| self.findings.get(i))
+            .filter(|f| f.cause == cause)
+        {
+            return Some(Standing {
+                finding: f,
+                step: Some(1),
+                held,
+            });
+        }
+        for (k, (step, &pick)) in self.steps.iter().zip(&self.picks).enumerate() {
+            if let Some(f) = step.get(pick).filter(|f| f.cause == cause) {
+                return Some(Standing {
+                    finding: f,
+                    step: Some(k + 2),
+                    held,
+                });
+            }
+        }
+        self.findings
+            .iter()
+            .find(|f| f.cause == cause)
+            .map(|finding| Standing {
+                finding,
+                step: None,
+                held,
+            })
+    }
+
+    /// The decision: what to do, the S to use with its range, the causes in the final model.
+    pub fn headline(&self) -> Headline {
+        let final_fit = self.final_fit();
+        let no_stiction = self.cause == "no-stiction";
+        let (fit, model_note) = match final_fit {
+            Some(f) => (f, ""),
+            None => (&self.baseline_fit, " (the baseline)"),
+        };
+        let q = &fit.result;
+        let model = format!(
+            "{} + {}, dead time {}{model_note}",
+            fit.stiction.name, fit.linear, fit.delay
+        );
+        let causes: Vec<(String, Option<usize>)> = self
+            .causes
+            .iter()
+            .map(|c| (c.clone(), self.standing(c).and_then(|s| s.step)))
+            .collect();
+        let (action, reason) = if no_stiction {
+            (
+                "look elsewhere".to_string(),
+                format!(
+                    "the oscillation is not the valve's: a valve with S at most {NEGLIGIBLE_S} % explains PV as well"
+                ),
+            )
+        } else {
+            match Severity::of(q.s) {
+                Severity::Harmful if q.s >= MAINTENANCE_S => (
+                    "schedule valve maintenance".to_string(),
+                    format!("S is at or above the {MAINTENANCE_S} % maintenance threshold"),
+                ),
+                Severity::Harmful => (
+                    "plan valve maintenance".to_string(),
+                    format!(
+                        "S of 1 % or more degrades control; below the {MAINTENANCE_S} % maintenance threshold, re-register to follow it"
+                    ),
+                ),
+                Severity::Slight => (
+                    "no valve work now".to_string(),
+                    "slight stiction; re-register to follow S".to_string(),
+                ),
+                Severity::Negligible => (
+                    "no valve work".to_string(),
+                    "stiction is negligible; if the loop oscillates, look elsewhere".to_string(),
+                ),
+            }
+        };
+        let mut cautions = Vec::new();
+        if let Some(f) = self
+            .causes
+            .iter()
+            .any(|c| c == UNEXPLAINED)
+            .then(|| self.standing(UNEXPLAINED))
+            .flatten()
+        {
+            cautions.push(match f.finding.window_from {
+                Some(from) => format!(
+                    "the process changed during the record (seen from sample {from}): re-register on a steady stretch"
+                ),
+                None => "something no registered cause explains remains: re-register on a steady stretch".to_string(),
+            });
+        }
+        let weakening: Vec<String> = q
+            .doubts
+            .iter()
+            .filter(|d| d.weakens_s())
+            .map(grid_search::Doubt::short)
+            .collect();
+        if !no_stiction && !weakening.is_empty() {
+            cautions.push(format!(
+                "S is not to be trusted alone: {}",
+                weakening.join("; ")
+            ));
+        }
+        Headline {
+            action,
+            reason,
+            s: q.s,
+            s_range: q.interval.s,
+            j: q.j,
+            model,
+            causes,
+            caution: (!cautions.is_empty()).then(|| cautions.join("; ")),
+        }
+    }
+}
+
+impl Headline {
+    /// The first line: the action and the S to use, e.g. `schedule valve maintenance: S =
+    /// 1.74 % [1.70, 1.80], J = 1.56 % (kano-asym + earx, dead time 2); S is at or above ...`.
+    pub fn action_line(&self) -> String {
+        format!(
+            "{}: S = {:.2} % [{:.2}, {:.2}], J = {:.2} % ({}); {}",
+            self.action, self.s, self.s_range[0], self.s_range[1], self.j, self.model, self.reason
+        )
+    }
+
+    /// The causes that hold in the final model, each with its step, then the caution:
+    /// `disturbance (step 1), time-delay (step 2), unexplained; caution: ...`.
+    pub fn causes_line(&self) -> String {
+        let mut s = if self.causes.is_empty() {
+            "none: the baseline explains PV as well as any extension".to_string()
+        } else {
+            self.causes
+                .iter()
+                .map(|(c, step)| match step {
+                    Some(k) => format!("{c} (step {k})"),
+                    None => c.clone(),
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if let Some(c) = &self.caution {
+            s.push_str("; caution: ");
+            s.push_str(c);
+        }
+        s
+    }
+}
