@@ -3,6 +3,7 @@
 //! | task | what it runs |
 //! |------|--------------|
 //! | `test` | formatting check, clippy `-D warnings` and the tidy rules ([`tidy`]), the fast test suite of every crate, a one-minute fuzz run (what CI runs) |
+//! | `tidy` | the tidy rules alone ([`tidy`]: the sources' rules, the crates' layer order from ARCHITECTURE.md, its size) |
 //! | `proptest [--cases N]` | the property tests at scale (`PROPTEST_CASES=N`, default 10000) |
 //! | `bench [ARGS...]` | the divan benchmarks of every crate (`cargo bench --workspace`) |
 //! | `reproduce [--runs N] [--out DIR] [--only ...]` | the paper's §3 simulation study, the criterion study and the recovery rates ([`reproduce`]) |
@@ -31,6 +32,9 @@ usage: cargo xtask <task>
 
 tasks:
   test                 formatting check + the fast test suite (what CI runs)
+  tidy                 the tidy rules alone: only the CLI prints, no faer/nalgebra in public
+                       signatures, error enums #[non_exhaustive], each Cargo.toml against
+                       ARCHITECTURE.md's layer order, ARCHITECTURE.md at most 15 360 bytes
   proptest [--cases N] property tests at scale (default N = 10000)
   bench [ARGS...]      benchmarks (divan); ARGS go to the bench binaries, e.g. `cargo xtask bench kano`
   suite [--size N]     the hidden-effect suite of `diagnose` at full size (N loops per effect,
@@ -80,6 +84,7 @@ fn run() -> Result<()> {
     let rest = &args[1..];
     match task.as_str() {
         "test" => test(rest),
+        "tidy" => tidy_rules(),
         "proptest" => proptest(rest),
         "bench" => bench(rest),
         "reproduce" => reproduce_release(rest),
@@ -162,17 +167,7 @@ fn test(rest: &[String]) -> Result<()> {
     } else {
         eprintln!("xtask: clippy is not installed; skipping the lint check");
     }
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let broken = tidy::check_workspace(&root).context("reading the sources for the tidy rules")?;
-    if !broken.is_empty() {
-        for v in &broken {
-            eprintln!("{v}");
-        }
-        bail!(
-            "{} of ARCHITECTURE.md's rules broken (xtask/src/tidy.rs)",
-            broken.len()
-        );
-    }
+    tidy_rules()?;
     phase(
         3,
         5,
@@ -217,6 +212,25 @@ fn test(rest: &[String]) -> Result<()> {
         "xtask test: all phases passed in {:.0} s (from xtask's start; building xtask itself, before it, is not counted)",
         started.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+/// The tidy rules of `src/tidy.rs` on the workspace: each broken one on a line of its own.
+fn tidy_rules() -> Result<()> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let root = root.canonicalize().unwrap_or(root);
+    let broken = tidy::check_workspace(&root)
+        .context("reading the sources and manifests for the tidy rules")?;
+    if !broken.is_empty() {
+        for v in &broken {
+            eprintln!("{v}");
+        }
+        bail!(
+            "{} of ARCHITECTURE.md's rules broken (xtask/src/tidy.rs)",
+            broken.len()
+        );
+    }
+    eprintln!("xtask tidy: the sources, the layer order and ARCHITECTURE.md's size keep the rules");
     Ok(())
 }
 

@@ -5,8 +5,14 @@
 //!   `print!`, `eprint!` or `dbg!` in a library crate's `src/` outside its `#[cfg(test)]` part;
 //! * no faer or nalgebra type in a public signature of a library crate (they are
 //!   implementation details: `pub` items never name them);
-//! * every public error enum of a library crate (`pub enum ...Error`) is `#[non_exhaustive]`.
+//! * every public error enum of a library crate (`pub enum ...Error`) is `#[non_exhaustive]`;
+//! * the layer order: each workspace member's `Cargo.toml` (and `python/Cargo.toml`, a workspace
+//!   of its own) names in `[dependencies]` (target-specific ones too; not dev-dependencies)
+//!   only crates of a lower layer of ARCHITECTURE.md's `layers` block, and every crate is in
+//!   that block;
+//! * ARCHITECTURE.md stays a map: at most [`ARCHITECTURE_MAX_BYTES`] bytes.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The library crates the rules apply to.
@@ -115,8 +121,17 @@ pub fn check_text(file: &Path, text: &str) -> Vec<Violation> {
     out
 }
 
-/// The rules on every `src/**/*.rs` of the library crates under `root`.
+/// Every rule on the workspace under `root`: the sources' rules, the layer order of the
+/// manifests and the size of ARCHITECTURE.md, sorted by file and line.
 pub fn check_workspace(root: &Path) -> std::io::Result<Vec<Violation>> {
+    let mut out = check_sources(root)?;
+    out.extend(check_architecture(root)?.violations);
+    out.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
+    Ok(out)
+}
+
+/// The rules on every `src/**/*.rs` of the library crates under `root`.
+pub fn check_sources(root: &Path) -> std::io::Result<Vec<Violation>> {
     let mut out = Vec::new();
     for krate in LIBRARIES {
         let mut stack = vec![root.join(krate).join("src")];
@@ -133,6 +148,247 @@ pub fn check_workspace(root: &Path) -> std::io::Result<Vec<Violation>> {
         }
     }
     out.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
+    Ok(out)
+}
+
+/// ARCHITECTURE.md's size limit: a map, not a logbook (15 KiB).
+pub const ARCHITECTURE_MAX_BYTES: usize = 15 * 1024;
+
+/// The fence that opens the layer order in ARCHITECTURE.md.
+const LAYERS_FENCE: &str = "```layers";
+
+/// The layer order: each crate (by package name) and its layer, 0 the lowest.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Layers {
+    of: BTreeMap<String, usize>,
+    /// The line of ARCHITECTURE.md where each crate is placed (1-based).
+    line: BTreeMap<String, usize>,
+}
+
+impl Layers {
+    /// Reads the ```` ```layers ```` block of ARCHITECTURE.md: one line per layer from the
+    /// lowest, `N: crate crate ...`, the layers numbered 0, 1, 2, ... in order.
+    pub fn parse(architecture: &str) -> Result<Layers, String> {
+        let lines: Vec<&str> = architecture.lines().collect();
+        let start = lines
+            .iter()
+            .position(|l| l.trim() == LAYERS_FENCE)
+            .ok_or_else(|| format!("no {LAYERS_FENCE} block"))?;
+        let mut of = BTreeMap::new();
+        let mut line = BTreeMap::new();
+        for (due, (i, l)) in lines.iter().enumerate().skip(start + 1).enumerate() {
+            let l = l.trim();
+            if l == "```" {
+                if of.is_empty() {
+                    return Err("the layers block is empty".into());
+                }
+                return Ok(Layers { of, line });
+            }
+            let (n, crates) = l
+                .split_once(':')
+                .ok_or_else(|| format!("line {}: expected `N: crate ...`", i + 1))?;
+            let n: usize = n
+                .trim()
+                .parse()
+                .map_err(|_| format!("line {}: {n:?} is not a layer number", i + 1))?;
+            if n != due {
+                return Err(format!("line {}: layer {n} where {due} was due", i + 1));
+            }
+            for c in crates.split_whitespace() {
+                if of.insert(c.to_string(), n).is_some() {
+                    return Err(format!("line {}: `{c}` is placed twice", i + 1));
+                }
+                line.insert(c.to_string(), i + 1);
+            }
+        }
+        Err("the layers block is not closed".into())
+    }
+
+    /// The layer of a crate, if it is placed.
+    pub fn of(&self, krate: &str) -> Option<usize> {
+        self.of.get(krate).copied()
+    }
+}
+
+/// What the layer check found.
+#[derive(Debug, Default)]
+pub struct LayerCheck {
+    /// The broken rules.
+    pub violations: Vec<Violation>,
+    /// How many dependencies between our crates were checked.
+    pub edges: usize,
+}
+
+/// One manifest's dependencies on crates of the layer order, against it. `workspace_deps`
+/// resolves `name.workspace = true` to the workspace's entry (its `package` when renamed).
+pub fn check_manifest(
+    file: &Path,
+    text: &str,
+    layers: &Layers,
+    workspace_deps: &BTreeMap<String, String>,
+) -> LayerCheck {
+    let mut out = LayerCheck::default();
+    let mut push = |line: usize, what: String| {
+        out.violations.push(Violation {
+            file: file.to_path_buf(),
+            line,
+            what,
+        })
+    };
+    let doc = match toml_edit::Document::parse(text) {
+        Ok(d) => d,
+        Err(e) => {
+            push(1, format!("not a TOML manifest: {e}"));
+            return out;
+        }
+    };
+    let Some(name) = doc
+        .get("package")
+        .and_then(|p| p.get("name"))
+        .and_then(|n| n.as_str())
+    else {
+        push(1, "no [package] name".into());
+        return out;
+    };
+    let Some(own) = layers.of(name) else {
+        push(
+            1,
+            format!("crate `{name}` is not in ARCHITECTURE.md's layers block"),
+        );
+        return out;
+    };
+    let mut tables = vec![doc.get("dependencies")];
+    if let Some(targets) = doc.get("target").and_then(|t| t.as_table_like()) {
+        for (_, t) in targets.iter() {
+            tables.push(t.get("dependencies"));
+        }
+    }
+    for deps in tables.into_iter().flatten() {
+        let Some(deps) = deps.as_table_like() else {
+            continue;
+        };
+        for (key, spec) in deps.iter() {
+            let renamed = spec.get("package").and_then(|p| p.as_str());
+            let from_workspace = spec
+                .get("workspace")
+                .and_then(|w| w.as_bool())
+                .unwrap_or(false);
+            let dep = match renamed {
+                Some(p) => p,
+                None if from_workspace => workspace_deps.get(key).map_or(key, String::as_str),
+                None => key,
+            };
+            let Some(theirs) = layers.of(dep) else {
+                continue;
+            };
+            out.edges += 1;
+            if theirs >= own {
+                let line = line_of(text, key);
+                push(
+                    line,
+                    format!(
+                        "`{name}` (layer {own}) depends on `{dep}` (layer {theirs}): only lower layers \
+                         (ARCHITECTURE.md's layers block)"
+                    ),
+                );
+            }
+        }
+    }
+    out
+}
+
+/// The first line (1-based) that starts with the dependency `key`, else 1.
+fn line_of(text: &str, key: &str) -> usize {
+    text.lines()
+        .position(|l| {
+            l.trim_start()
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.starts_with([' ', '.', '=']))
+        })
+        .map_or(1, |i| i + 1)
+}
+
+/// ARCHITECTURE.md's size as a rule.
+pub fn check_size(file: &Path, text: &str) -> Option<Violation> {
+    (text.len() > ARCHITECTURE_MAX_BYTES).then(|| Violation {
+        file: file.to_path_buf(),
+        line: 1,
+        what: format!(
+            "{} bytes, more than {ARCHITECTURE_MAX_BYTES}: ARCHITECTURE.md is a map (move \
+             measurements and history to docs/decisions/)",
+            text.len()
+        ),
+    })
+}
+
+/// The layer order and the size rule on the workspace under `root`: every member and every
+/// excluded crate of the root manifest (python) against ARCHITECTURE.md's layers block.
+pub fn check_architecture(root: &Path) -> std::io::Result<LayerCheck> {
+    let arch_path = root.join("ARCHITECTURE.md");
+    let arch = std::fs::read_to_string(&arch_path)?;
+    let mut out = LayerCheck::default();
+    out.violations.extend(check_size(&arch_path, &arch));
+    let layers = match Layers::parse(&arch) {
+        Ok(l) => l,
+        Err(e) => {
+            out.violations.push(Violation {
+                file: arch_path,
+                line: 1,
+                what: e,
+            });
+            return Ok(out);
+        }
+    };
+    let root_manifest = root.join("Cargo.toml");
+    let text = std::fs::read_to_string(&root_manifest)?;
+    let doc = toml_edit::Document::parse(text.as_str())
+        .map_err(|e| std::io::Error::other(format!("{}: {e}", root_manifest.display())))?;
+    let ws = doc.get("workspace");
+    let list = |key: &str| -> Vec<String> {
+        ws.and_then(|w| w.get(key))
+            .and_then(|m| m.as_array())
+            .map(|a| {
+                a.iter()
+                    .filter_map(|v| v.as_str().map(String::from))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let mut workspace_deps = BTreeMap::new();
+    if let Some(deps) = ws
+        .and_then(|w| w.get("dependencies"))
+        .and_then(|d| d.as_table_like())
+    {
+        for (key, spec) in deps.iter() {
+            let name = spec.get("package").and_then(|p| p.as_str()).unwrap_or(key);
+            workspace_deps.insert(key.to_string(), name.to_string());
+        }
+    }
+    let mut placed = Vec::new();
+    for dir in list("members").into_iter().chain(list("exclude")) {
+        let manifest = root.join(&dir).join("Cargo.toml");
+        let text = std::fs::read_to_string(&manifest)?;
+        let check = check_manifest(&manifest, &text, &layers, &workspace_deps);
+        out.violations.extend(check.violations);
+        out.edges += check.edges;
+        if let Some(name) = toml_edit::Document::parse(text.as_str())
+            .ok()
+            .and_then(|d| Some(d.get("package")?.get("name")?.as_str()?.to_string()))
+        {
+            placed.push(name);
+        }
+    }
+    for (krate, line) in &layers.line {
+        if !placed.contains(krate) {
+            out.violations.push(Violation {
+                file: arch_path.clone(),
+                line: *line,
+                what: format!(
+                    "the layers block places `{krate}`, which is no crate of the workspace"
+                ),
+            });
+        }
+    }
     Ok(out)
 }
 
@@ -171,5 +427,85 @@ mod tests {
         assert_eq!(check_text(f, open_error).len(), 1);
         let closed = "/// E.\n#[derive(Debug)]\n#[non_exhaustive]\npub enum MyError {\n    A,\n}\n";
         assert!(check_text(f, closed).is_empty());
+    }
+
+    #[test]
+    fn the_layer_order_is_read_and_enforced_on_the_workspace() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let arch = std::fs::read_to_string(root.join("ARCHITECTURE.md")).expect("the map");
+        let layers = Layers::parse(&arch).expect("ARCHITECTURE.md's layers block");
+        assert_eq!(layers.of("stiction-models"), Some(0));
+        assert!(layers.of("stiction-cli") > layers.of("monitoring"));
+        let check = check_architecture(&root).expect("read the manifests");
+        // Every dependency between our crates was looked at (not a vacuous pass).
+        assert!(check.edges >= 40, "only {} edges checked", check.edges);
+        let list: Vec<String> = check.violations.iter().map(ToString::to_string).collect();
+        assert!(list.is_empty(), "layer order broken:\n{}", list.join("\n"));
+    }
+
+    const MAP: &str = "# A\n\n```layers\n0: low other\n1: mid\n2: top\n```\n";
+
+    fn manifest(deps: &str) -> String {
+        format!("[package]\nname = \"mid\"\n\n[dependencies]\n{deps}\n")
+    }
+
+    fn broken(text: &str) -> Vec<Violation> {
+        let layers = Layers::parse(MAP).expect("the test map");
+        let ws = BTreeMap::from([("alias".to_string(), "top".to_string())]);
+        check_manifest(Path::new("mid/Cargo.toml"), text, &layers, &ws).violations
+    }
+
+    #[test]
+    fn an_upward_or_sideways_dependency_is_caught() {
+        assert!(broken(&manifest("low.workspace = true\nserde = \"1\"")).is_empty());
+        let up = broken(&manifest("serde = \"1\"\ntop.workspace = true"));
+        assert_eq!(up.len(), 1, "{up:?}");
+        assert_eq!(up[0].line, 6, "the line of the dependency");
+        assert!(up[0].what.contains("depends on `top`"), "{}", up[0].what);
+        let inline = broken(&manifest("top = { path = \"../top\" }"));
+        assert_eq!(inline.len(), 1, "a path dependency");
+        let renamed = broken(&manifest("t = { package = \"top\", path = \"../top\" }"));
+        assert_eq!(renamed.len(), 1, "a renamed dependency");
+        let via_workspace = broken(&manifest("alias.workspace = true"));
+        assert_eq!(via_workspace.len(), 1, "a renamed workspace dependency");
+        let same = broken(&manifest("mid2 = \"1\""));
+        assert!(same.is_empty(), "not one of ours");
+        let target =
+            "[package]\nname = \"mid\"\n\n[target.'cfg(unix)'.dependencies]\ntop = \"1\"\n";
+        assert_eq!(broken(target).len(), 1, "a target-specific dependency");
+        let dev = "[package]\nname = \"mid\"\n\n[dev-dependencies]\ntop = \"1\"\n";
+        assert!(broken(dev).is_empty(), "dev-dependencies are free");
+        let layers = Layers::parse(MAP).expect("the test map");
+        let low = "[package]\nname = \"low\"\n\n[dependencies]\nother = \"1\"\n";
+        let sideways = check_manifest(Path::new("x"), low, &layers, &BTreeMap::new());
+        assert_eq!(
+            sideways.violations.len(),
+            1,
+            "the same layer is not allowed"
+        );
+        let unplaced = "[package]\nname = \"new\"\n";
+        let v = check_manifest(Path::new("x"), unplaced, &layers, &BTreeMap::new());
+        assert_eq!(v.violations.len(), 1, "a crate outside the layers block");
+    }
+
+    #[test]
+    fn a_bad_layers_block_is_refused() {
+        assert!(Layers::parse("no block").is_err());
+        assert!(Layers::parse("```layers\n0: a\n0: b\n```").is_err());
+        assert!(Layers::parse("```layers\n0: a\n1: a\n```").is_err());
+        assert!(Layers::parse("```layers\n0: a\n").is_err());
+        assert!(Layers::parse("```layers\nx: a\n```").is_err());
+        let l = Layers::parse("```layers\n0: a b\n1: c\n```").expect("a good block");
+        assert_eq!(
+            (l.of("a"), l.of("b"), l.of("c"), l.of("d")),
+            (Some(0), Some(0), Some(1), None)
+        );
+    }
+
+    #[test]
+    fn the_map_stays_small() {
+        let f = Path::new("ARCHITECTURE.md");
+        assert!(check_size(f, &"x".repeat(ARCHITECTURE_MAX_BYTES)).is_none());
+        assert!(check_size(f, &"x".repeat(ARCHITECTURE_MAX_BYTES + 1)).is_some());
     }
 }
