@@ -66,7 +66,7 @@ impl Cause for Disturbance {
         let name = extended_linear(ctx.baseline.linear).unwrap_or("earx");
         let bias = disturbance_extension(ctx, name, &[], 1, None)?;
         // HARX by local searches from the current valve and from the bias form's (a grid of
-        // its own took 40 % of a two-cause diagnosis, docs/DIAGNOSE.md item 8)
+        // its own took 40 % of a two-cause diagnosis, docs/decisions/2026-11-26-diagnose-logbook.md item 8)
         let fine = ctx.options.search.grid.step();
         let bias_valve: Vec<f64> = bias
             .fitted

@@ -234,7 +234,7 @@ impl Context<'_> {
 /// likelihood-ratio rule of an extension adding two parameters
 /// ([`DiagnoseOptions::threshold`]). The causes are not judged at the raised orders: an AR(3)
 /// absorbs part of a sinusoidal or drifting disturbance, which then gains nothing as a cause;
-/// and one step only: ARX(4, 4) cost the causes more (measured in `docs/DIAGNOSE.md`, item 12).
+/// and one step only: ARX(4, 4) cost the causes more (measured in `docs/decisions/2026-11-26-diagnose-logbook.md`, item 12).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OrderSelection {
     /// The orders given (`n=2, m=2`).
@@ -1310,7 +1310,7 @@ fn coefficients(fit: &linear_id::LinearFit) -> usize {
 /// states (at rest or moving, last motion up or down: In.3's four starts) and keeps the one
 /// that predicts the validation data best, so that an unlucky initial state does not pass for
 /// a changed process. Measured (`cargo run --release -p discrepancy --example probe -- 24`,
-/// docs/DIAGNOSE.md item 6 has the table).
+/// docs/decisions/2026-11-26-diagnose-logbook.md item 6 has the table).
 ///
 /// Residual whiteness, the correlation with past MV and the low-frequency power are reported
 /// with the finding but do not decide: the paper's ARX(2,2) leaves coloured residuals on clean
@@ -1427,7 +1427,7 @@ fn recent_fit(pv: &[f64], m: &Fitted, from: usize) -> Option<(usize, linear_id::
 /// the `k`-th pick; the window's first sample; the LR there). A cause whose recent refit
 /// fails cannot be checked and stands.
 ///
-/// Measured on the suite's process-change loops (docs/DIAGNOSE.md, item 6): a slow plant
+/// Measured on the suite's process-change loops (docs/decisions/2026-11-26-diagnose-logbook.md, item 6): a slow plant
 /// that becomes the faster paper plant gains significantly with `disturbance` or
 /// `valve-characteristic` on the whole window, and not on the recent third.
 fn backward_under_change(

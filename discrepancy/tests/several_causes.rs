@@ -5,7 +5,7 @@
 //! asymmetric valve, a dead time and an asymmetric valve) and 6 loops of each single effect
 //! (disturbance, time-delay, valve-characteristic); `STICTION_SUITE_SIZE=N` runs N of each.
 //! Acceptance: the set of causes right in at least two thirds of each pair's loops and of
-//! each single effect's loops (measured at size 6 in docs/DIAGNOSE.md, item 5). Without the
+//! each single effect's loops (measured at size 6 in docs/decisions/2026-11-26-diagnose-logbook.md, item 5). Without the
 //! forward selection no two-cause loop can be right (one cause at most); without re-testing
 //! the causes that gained nothing in the first round, the asymmetric pairs were right in 1/6
 //! and 3/6.
