@@ -214,8 +214,13 @@ fn quantify_and_diagnose_carry_the_detectors_answer() {
     let det = json(&["detect", "-", "--json"], csv);
     let score = det["score"].as_f64().unwrap();
     assert_eq!(det["verdict"], "stiction", "{det:#}");
+    let tests = det["tests"].as_array().unwrap();
+    let says = |v: &str| tests.iter().filter(|t| t["verdict"] == v).count();
     let line = format!(
-        "detection: stiction (score {score:.2}): {}",
+        "detection: stiction (score {score:.2}; tests: {} stiction, {} no-stiction, {} inconclusive): {}",
+        says("stiction"),
+        says("no-stiction"),
+        says("inconclusive"),
         det["reason"].as_str().unwrap()
     );
     for cmd in ["quantify", "diagnose"] {

@@ -120,9 +120,11 @@ impl DetectionTest for OscillationTest {
             TestOutcome::new(
                 "oscillation",
                 Some(o.regularity),
-                Verdict::NoStiction,
+                // No limit cycle is no evidence against stiction: a sticky valve in a loop
+                // with slow integral action, or stuck through the record, need not oscillate.
+                Verdict::Inconclusive,
                 format!(
-                    "no regular oscillation of the control error (regularity r = {:.2}, {} ACF zero crossings): no limit cycle",
+                    "no regular oscillation of the control error (regularity r = {:.2}, {} ACF zero crossings): no limit cycle, which says nothing for or against stiction",
                     o.regularity, o.crossings
                 ),
             )

@@ -1,4 +1,5 @@
-//! One verdict: the tests' statistics combined into a probability of stiction.
+//! One verdict: the tests' statistics combined into a score of the evidence for stiction in
+//! [0, 1] (a logistic model fitted on simulated loops: a ranking, not a probability for a valve).
 //!
 //! The rule is a logistic model, `score = σ(b + Σ wᵢ xᵢ)`, on the few [`FEATURES`] below: each
 //! is one test's statistic, centred so that 0 means "no information" (a test that could not
@@ -133,7 +134,7 @@ impl Model {
         }
     }
 
-    /// The probability of stiction for feature values `x`.
+    /// The score of the evidence for stiction for feature values `x` (logistic, in [0, 1]).
     pub fn score(&self, x: &[f64]) -> f64 {
         let z: f64 = self.intercept + self.weights.iter().zip(x).map(|(w, v)| w * v).sum::<f64>();
         sigmoid(z)

@@ -1511,6 +1511,12 @@ fn doubts(
             span,
         });
     }
+    if interval.s[1] > 0.0 && interval.s[1] >= trust::AT_SPAN * span {
+        w.push(Doubt::SAtSpan {
+            hi: interval.s[1],
+            span,
+        });
+    }
     let j_width = interval.j[1] - interval.j[0];
     if j_width > 0.5 * interval.s[1].max(1e-12) && j_width > 0.5 {
         w.push(Doubt::JPoorlyDetermined {
@@ -1608,6 +1614,39 @@ fn interval(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// S whose region reaches 0.8 of the OP span seen is called a lower bound, and only then.
+    #[test]
+    fn s_at_the_op_span_is_a_doubt_that_names_a_lower_bound() {
+        let fits = Fits {
+            pred_id: 90.0,
+            pred_val: 90.0,
+            sim_id: 90.0,
+            sim_val: 90.0,
+            mv: None,
+            valid_from: 0,
+            init_fell_back: false,
+        };
+        let interval = |lo: f64, hi: f64| Interval {
+            s: [lo, hi],
+            j: [0.0, 0.1],
+            nodes: 2,
+            fit_threshold: 89.0,
+            confidence: 0.95,
+        };
+        let at = |iv: &Interval, span: f64| {
+            doubts(&[], iv, &fits, span, Criterion::Prediction, 0)
+                .into_iter()
+                .find(|d| matches!(d, Doubt::SAtSpan { .. }))
+        };
+        // 2.41-2.46 of an OP span of 2.71: the record cannot show more
+        let d = at(&interval(2.41, 2.46), 2.71).expect("a lower bound");
+        assert!(!d.weakens_s());
+        assert!(d.to_string().contains("more OP movement"), "{d}");
+        // 2.41-2.46 of 9.4: the OP moved far more than the band
+        assert!(at(&interval(2.41, 2.46), 9.4).is_none());
+        assert!(at(&interval(0.0, 0.0), 0.0).is_none());
+    }
 
     #[test]
     fn chi2_table_and_fallback_agree() {

@@ -38,6 +38,10 @@ pub const WEAK_FIT: f64 = 50.0;
 pub const FIT_DISAGREEMENT: f64 = 20.0;
 /// Share of skipped grid nodes above which the surface is thin.
 pub const MOSTLY_SKIPPED: f64 = 0.5;
+/// Share of the OP span seen at which the region of S is said to reach it
+/// ([`Doubt::SAtSpan`]): by Kano's model the valve then moves only where OP reverses by more
+/// than S, which a record whose OP travels less than S / 0.8 shows a few times at most.
+pub const AT_SPAN: f64 = 0.8;
 
 /// One reason to distrust an estimate of S and J.
 #[derive(Debug, Clone, PartialEq)]
@@ -82,6 +86,14 @@ pub enum Doubt {
         /// F_PV on validation data.
         val: f64,
     },
+    /// The region of S reaches the OP span seen: OP never moved much more than the band, so the
+    /// record cannot show a wider one (S is a lower bound; does not weaken "the valve sticks").
+    SAtSpan {
+        /// Upper end of the region of S.
+        hi: f64,
+        /// OP span seen.
+        span: f64,
+    },
     /// PV looks read back from a historian's compressed storage (straight segments between
     /// kept points, `datasets::compression`): one-step fits on interpolated values are biased.
     CompressedPv {
@@ -95,7 +107,10 @@ pub enum Doubt {
 impl Doubt {
     /// Whether this doubt undermines the statement "the valve sticks" (J's width does not).
     pub fn weakens_s(&self) -> bool {
-        !matches!(self, Doubt::JPoorlyDetermined { .. })
+        !matches!(
+            self,
+            Doubt::JPoorlyDetermined { .. } | Doubt::SAtSpan { .. }
+        )
     }
 
     /// A short phrase for a verdict sentence.
@@ -116,6 +131,9 @@ impl Doubt {
                 format!("{skipped} of {total} grid nodes were skipped")
             }
             Doubt::WeakFit { val } => format!("the fit is weak (validation F_PV {val:.1} %)"),
+            Doubt::SAtSpan { hi, span } => {
+                format!("S reaches the OP span ({hi:.2} of {span:.2}): a lower bound")
+            }
             Doubt::CompressedPv { share, .. } => format!(
                 "PV looks interpolated from compressed storage ({:.0} % on straight segments)",
                 100.0 * share
@@ -151,6 +169,10 @@ impl fmt::Display for Doubt {
             Doubt::WeakFit { val } => write!(
                 f,
                 "the fit is weak: validation F_PV {val:.1} % (below {WEAK_FIT} %) leaves most of PV unexplained"
+            ),
+            Doubt::SAtSpan { hi, span } => write!(
+                f,
+                "S reaches {hi:.2} while OP moved over {span:.2} only: the record cannot show a wider band than OP travelled, so S is a lower bound; a registration with more OP movement (a set-point step, or a manual OP step, of a few times S) would bound it"
             ),
             Doubt::CompressedPv { share, segments } => write!(
                 f,

@@ -743,8 +743,9 @@ pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError>
     let name = loop_name(d);
     let mut first = Section::new("Verdict");
     first.push(Block::Verdict(format!(
-        "Detection: {} (score {:.2}).",
-        det.verdict, det.score
+        "Detection: {} ({}).",
+        det.verdict,
+        crate::text::score_and_tests(det)
     )));
     first.push(Block::Paragraph(format!(
         "Why: {}. The score, in [0, 1], is what a logistic model fitted on simulated loops \

@@ -407,9 +407,24 @@ pub fn detection_line(d: &Detected) -> String {
     format!(
         "detection: {} ({}): {}",
         d.verdict(),
-        d.score()
-            .map_or("no score".into(), |s| format!("score {s:.2}")),
+        match d.detection() {
+            Some(det) => score_and_tests(det),
+            None => "no score".into(),
+        },
         d.reason()
+    )
+}
+
+/// `score 0.95; tests: 1 stiction, 2 no-stiction, 5 inconclusive`: the score with what the
+/// tests say one by one, so that a verdict is never read as the tests' majority.
+pub fn score_and_tests(det: &Detection) -> String {
+    let count = |v: detection::Verdict| det.tests.iter().filter(|t| t.verdict == v).count();
+    format!(
+        "score {:.2}; tests: {} stiction, {} no-stiction, {} inconclusive",
+        det.score,
+        count(detection::Verdict::Stiction),
+        count(detection::Verdict::NoStiction),
+        count(detection::Verdict::Inconclusive)
     )
 }
 
@@ -422,8 +437,10 @@ pub fn detect(d: &LoopData, det: &Detection) -> Result<String, fmt::Error> {
     let (source, ts) = (&d.source, monitoring::sample_time(d));
     writeln!(
         out,
-        "{source}: {} (score {:.2}): {}",
-        det.verdict, det.score, det.reason
+        "{source}: {} ({}): {}",
+        det.verdict,
+        score_and_tests(det),
+        det.reason
     )?;
     let oscillation = match det.period_s {
         Some(p) => format!("oscillating, period {p:.0} s"),

@@ -65,7 +65,11 @@ fn detect_page_has_the_verdict_the_test_table_and_two_checked_figures() {
         .unwrap();
     assert_eq!(
         verdict,
-        format!("Detection: {} (score {:.2}).", det.verdict, det.score)
+        format!(
+            "Detection: {} ({}).",
+            det.verdict,
+            report::text::score_and_tests(&det)
+        )
     );
     let t = tables(&page);
     assert_eq!(t.len(), 1);
