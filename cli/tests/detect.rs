@@ -273,7 +273,7 @@ fn report_writes_the_test_table_and_the_two_figures() {
     assert_eq!(html.matches("<figure").count(), 2);
     assert_eq!(html.matches("<svg").count(), 2);
     for (name, legend) in [
-        ("detection-pv-op", "fitted ellipse"),
+        ("detection-pv-op", "ellipse, period"),
         ("detection-xcorr", "odd share"),
     ] {
         assert!(html.contains(&format!("<figure id=\"{name}\">")), "{name}");

@@ -885,7 +885,11 @@ pub fn pv_op_plot(
             series.push(Series {
                 mark: Mark::Line(2),
                 ..Series::line(
-                    format!("fitted ellipse, period {}", period(e.period)),
+                    format!(
+                        "ellipse, period {}, fits {:.0} %",
+                        period(e.period),
+                        100.0 * e.fit.explained.max(0.0)
+                    ),
                     e.curve.clone(),
                     palette::BLUE,
                 )
@@ -919,7 +923,7 @@ pub fn pv_op_plot(
     let panel = Panel {
         y_label: "PV (engineering units)".into(),
         caption: if ellipse.is_some() {
-            "PV(OP) with the fitted ellipse".into()
+            "PV(OP) with the ellipse of its fundamental harmonics".into()
         } else {
             "PV(OP), no regular oscillation: no ellipse".into()
         },

@@ -309,7 +309,11 @@ fn detection_pv_op_plot_with_the_ellipse() {
     assert_eq!(
         st.legend[1..],
         [
-            format!("fitted ellipse, period {:.0} s", e.period),
+            format!(
+                "ellipse, period {:.0} s, fits {:.0} %",
+                e.period,
+                100.0 * e.fit.explained.max(0.0)
+            ),
             format!("apparent stiction {:.2} %", e.apparent_stiction)
         ]
     );
