@@ -388,8 +388,24 @@ fn plant_data_trend_and_batch() {
     assert!(doc["level"].as_f64().unwrap() < 1.0, "{}", doc["level"]);
     assert_ne!(doc["verdict"], "schedule maintenance");
 
-    let out = run(&["batch", d, "--valve", "FIC10112"], b"");
+    let labels = format!("{d}/labels.csv");
+    let out = run(
+        &["batch", d, "--valve", "FIC10112", "--labels", &labels],
+        b"",
+    );
     assert_eq!(out.code, 0, "{}", out.stderr);
+    // without -o the table carries each registration's label
+    assert!(
+        out.stdout.lines().next().unwrap().contains(" label "),
+        "{}",
+        out.stdout
+    );
+    assert_eq!(
+        out.stdout.matches(" stiction ").count(),
+        2,
+        "both FIC10112 registrations are labelled sticky: {}",
+        out.stdout
+    );
     assert!(
         out.stdout.contains("0 row(s) ok, 2 error row(s)"),
         "{}",

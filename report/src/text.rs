@@ -657,8 +657,18 @@ pub fn identify(source: &str, id: &Identification) -> Result<String, fmt::Error>
 /// The rows of `batch` as a table (without `-o`).
 pub fn batch_table(rows: &[Row]) -> String {
     let mut out = format!(
-        "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8} {:>6}  {:<12}  error\n",
-        "file", "valve", "time", "status", "S", "S range", "J", "F_PV val", "repair", "detect"
+        "{:<34} {:<14} {:<16} {:<11} {:<6} {:>6} {:>13} {:>5} {:>8} {:>6}  {:<12}  error\n",
+        "file",
+        "valve",
+        "time",
+        "label",
+        "status",
+        "S",
+        "S range",
+        "J",
+        "F_PV val",
+        "repair",
+        "detect"
     );
     for r in rows {
         let num = |f: &dyn Fn(&OkRow) -> f64| {
@@ -669,13 +679,22 @@ pub fn batch_table(rows: &[Row]) -> String {
         };
         let _ = writeln!(
             out,
-            "{:<34} {:<14} {:<16} {:<6} {:>6} {:>13} {:>5} {:>8} {:>6}  {:<12}  {}",
+            "{:<34} {:<14} {:<16} {:<11} {:<6} {:>6} {:>13} {:>5} {:>8} {:>6}  {:<12}  {}",
             r.file,
             r.valve,
             r.time.as_deref().unwrap_or("?"),
+            match r.label {
+                Some(batch::Label::Stiction) => "stiction",
+                Some(batch::Label::NoStiction) => "no-stiction",
+                None => "-",
+            },
             if r.is_ok() { "ok" } else { "error" },
             num(&|o| o.s),
-            format!("{}-{}", num(&|o| o.s_lo), num(&|o| o.s_hi)),
+            if r.is_ok() {
+                format!("{}-{}", num(&|o| o.s_lo), num(&|o| o.s_hi))
+            } else {
+                "-".into()
+            },
             num(&|o| o.j),
             num(&|o| o.fit_pv_val),
             // the fraction of the control error a repair would remove, in %
