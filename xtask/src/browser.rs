@@ -834,6 +834,13 @@ const SELF_TEST_PAGES: &[(&str, &str, &[&str])] = &[
 </body></html>"#,
         &["zero size"],
     ),
+    (
+        "unreadable-figure",
+        r#"<!doctype html><html><head><meta charset="utf-8"><title>unreadable figure</title></head><body>
+<figure><svg width="300" height="100" viewBox="0 0 300 100"><text x="10" y="50" font-size="8">tiny</text></svg></figure>
+</body></html>"#,
+        &["text drawn at 8.0 px", "of the page width"],
+    ),
 ];
 
 /// Checks hand-written pages and fails unless the good one passes and every broken one fails
