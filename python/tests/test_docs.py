@@ -163,7 +163,9 @@ class Clone:
         py = bin_dir / "python"
         py.write_text(f'#!/bin/sh\nexec "{sys.executable}" "$@"\n')
         py.chmod(0o755)
-        self.env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}")
+        path = f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}"
+        # Python's output unbuffered, as at a terminal: merged with stderr in the order written.
+        self.env = dict(os.environ, PATH=path, PYTHONUNBUFFERED="1")
 
     def run(self, cmd: str) -> subprocess.CompletedProcess:
         cwd = ROOT if cmd.startswith("cargo ") else self.dir
