@@ -43,3 +43,9 @@ def cli():
 def cli_json():
     """`cli_json(*args)`: the CLI's `--json` document."""
     return lambda *args: json.loads(run_cli(*args, "--json"))
+
+
+@pytest.fixture(scope="session")
+def stiction_bin():
+    """The path of the `stiction` binary the tests run."""
+    return binary()
