@@ -22,6 +22,7 @@ mod detect_calibrate;
 mod fuzz;
 mod reproduce;
 mod tidy;
+mod unify;
 
 /// Counts live memory for the fuzzer's per-case budget (a relaxed atomic add per allocation).
 #[global_allocator]
@@ -230,7 +231,8 @@ fn tidy_rules() -> Result<()> {
             broken.len()
         );
     }
-    eprintln!("xtask tidy: the sources, the layer order and ARCHITECTURE.md's size keep the rules");
+    unify::check(&root).context("one build for the CLI and the Python extension")?;
+    eprintln!("xtask tidy: the sources, the layer order and ARCHITECTURE.md's size keep the rules; the CLI and the Python extension share every compiled crate");
     Ok(())
 }
 
