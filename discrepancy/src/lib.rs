@@ -30,6 +30,7 @@ use std::time::Instant;
 
 use grid_search::{GridPlan, Problem, SearchOptions};
 use linear_id::IdentifierEntry;
+use rayon::prelude::*;
 use serde::Serialize;
 use stiction_models::ModelEntry;
 
@@ -742,19 +743,28 @@ pub fn diagnose_with_progress(
     } else {
         &known[..]
     };
-    for &entry in testable {
-        if options.disabled.iter().any(|d| d == entry.name) {
-            continue;
-        }
-        tell(done, entry.name);
-        done += 1;
-        let cause = (entry.build)();
-        if !cause.applies(&ctx) {
-            continue;
-        }
-        let (finding, overrides) = test_cause(&ctx, cause.as_ref(), entry.name, base_fit, (bs, bj));
+    // the causes are independent of each other here: tested at once (their local searches
+    // evaluate a few nodes at a time and would leave a core idle)
+    let enabled: Vec<(usize, &'static CauseEntry)> = testable
+        .iter()
+        .filter(|e| !options.disabled.iter().any(|d| d == e.name))
+        .enumerate()
+        .map(|(k, &e)| (done + k, e))
+        .collect();
+    done += enabled.len();
+    let tested: Vec<(Finding, bool)> = enabled
+        .into_par_iter()
+        .filter_map(|(at, entry)| {
+            tell(at, entry.name);
+            let cause = (entry.build)();
+            cause
+                .applies(&ctx)
+                .then(|| test_cause(&ctx, cause.as_ref(), entry.name, base_fit, (bs, bj)))
+        })
+        .collect();
+    for (finding, overrides) in tested {
         if overrides {
-            overriding.push(entry.name);
+            overriding.push(finding.cause);
         }
         findings.push(finding);
     }
@@ -1150,30 +1160,41 @@ impl ForwardCtx<'_> {
                 options,
             };
             let prev = *causes.last().unwrap_or(&"baseline");
-            let mut step = Vec::new();
-            for entry in registry() {
-                if options.disabled.iter().any(|d| d == entry.name)
+            let candidates: Vec<&'static CauseEntry> = registry()
+                .into_iter()
+                .filter(|entry| {
+                    !(options.disabled.iter().any(|d| d == entry.name)
                     || causes.contains(&entry.name)
                     // every other cause is tested again, also one that gained nothing on
                     // the baseline: an asymmetric valve under a disturbance or a dead time
                     // shows only once they are modelled (docs/DIAGNOSE.md, item 5);
                     // `no-stiction` is a finding about the first round, not an extension
-                    || entry.name == "no-stiction"
-                {
-                    continue;
-                }
-                let cause = (entry.build)();
-                if !cause.applies(&ctx) {
-                    continue;
-                }
-                tell(done, entry.name);
-                let (mut f, _) = test_cause(
-                    &ctx,
-                    cause.as_ref(),
-                    entry.name,
-                    current.fit_val(),
-                    (q.s, q.j),
-                );
+                    || entry.name == "no-stiction")
+                })
+                .collect();
+            // independent of each other: tested at once, in the registry's order
+            let tested: Vec<Finding> = candidates
+                .into_par_iter()
+                .filter_map(|entry| {
+                    let cause = (entry.build)();
+                    if !cause.applies(&ctx) {
+                        return None;
+                    }
+                    tell(done, entry.name);
+                    Some(
+                        test_cause(
+                            &ctx,
+                            cause.as_ref(),
+                            entry.name,
+                            current.fit_val(),
+                            (q.s, q.j),
+                        )
+                        .0,
+                    )
+                })
+                .collect();
+            let mut step = Vec::new();
+            for mut f in tested {
                 if f.reference == "baseline" {
                     f.reference = format!("the {prev} extension");
                 }
