@@ -681,7 +681,7 @@ pub fn diagnose_with_progress(
     };
     tell(0, "baseline");
     for d in &options.disabled {
-        if !known.iter().any(|e| e.name == d) && d != UNEXPLAINED {
+        if !known.iter().any(|e| e.name == d) && d != UNEXPLAINED && d != PAIRS {
             return Err(DiagnoseError::UnknownCause {
                 name: d.clone(),
                 known: known.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
@@ -849,8 +849,8 @@ pub fn diagnose_with_progress(
         // the two starts are independent: run at once (their local searches evaluate a few
         // nodes at a time and leave a core idle; the grids share the pool)
         let (first, second) = rayon::join(
-            || fc.forward(&findings[i], &tell, done),
-            || runner_up.map(|k| fc.forward(&findings[k], &tell, done)),
+            || fc.forward(&findings[i], &tell, done, None),
+            || runner_up.map(|k| fc.forward(&findings[k], &tell, done, None)),
         );
         path = first?;
         if let (Some(k), Some(other)) = (runner_up, second) {
@@ -866,6 +866,83 @@ pub fn diagnose_with_progress(
             let sse = |f: f64| (1.0 - f / 100.0).max(1e-12);
             let lr = n_val * (sse(fit(&path, i)) / sse(fit(&other, k))).ln();
             if lr > options.lr_base {
+                path = other;
+                chosen = Some(k);
+            }
+        }
+        // Two causes that mask each other: a cause that gained on the baseline but not enough
+        // (a dead time part of which a disturbance absorbs, and the other way round; a dead
+        // time under an asymmetric valve) is a start too. On its extension the selected
+        // path's first cause is tested alone; the pair replaces the selected path when its
+        // model gains significantly over that first cause's extension alone (one extra
+        // parameter) and its path's final model fits no worse. Judging the whole path
+        // instead named a third cause's gain as a pair (docs/DIAGNOSE.md, item 5).
+        let first = path.causes.first().copied();
+        if let Some(first) = first.filter(|_| {
+            !options.disabled.iter().any(|d| d == PAIRS) && !overriding.contains(&"no-stiction")
+        }) {
+            let held = path.causes.clone();
+            let masked: Vec<usize> = findings
+                .iter()
+                .enumerate()
+                .filter(|(k, f)| {
+                    Some(*k) != chosen
+                        && !f.significant
+                        && f.cause != "no-stiction"
+                        && f.fitted.is_some()
+                        && f.lr > 0.0
+                        && !held.contains(&f.cause)
+                })
+                .map(|(k, _)| k)
+                .collect();
+            let others: Vec<(usize, Result<Path, DiagnoseError>)> = masked
+                .into_par_iter()
+                .map(|k| (k, fc.forward(&findings[k], &tell, done, Some(first))))
+                .collect();
+            let n_val = (problem.op.len() - base.result.split_index) as f64;
+            let start = chosen.unwrap_or(i);
+            let fit_of = |p: &Path, k: usize| {
+                p.final_fit()
+                    .or(findings[k].fitted.as_ref())
+                    .map_or(f64::NEG_INFINITY, Fitted::fit_val)
+            };
+            let current = fit_of(&path, start);
+            let alone = findings[start]
+                .fitted
+                .as_ref()
+                .map_or(f64::NEG_INFINITY, Fitted::fit_val);
+            let mut best: Option<(usize, f64, Path)> = None;
+            for (k, other) in others {
+                let other = other?;
+                // the pair's model: the selected first cause added on the start's
+                let Some(pair) = other
+                    .picks
+                    .first()
+                    .and_then(|&p| other.steps[0][p].fitted.as_ref())
+                else {
+                    continue;
+                };
+                // significant over the first cause alone (over the start alone: the step
+                // that added the first cause was significant), and its path's final model
+                // no worse than the selected path's
+                let lr = lr_of(n_val, alone, pair.fit_val());
+                if lr > options.threshold(1)
+                    && fit_of(&other, k) >= current
+                    && best.as_ref().is_none_or(|b| lr > b.1)
+                {
+                    best = Some((k, lr, other));
+                }
+            }
+            if let Some((k, lr, other)) = best {
+                let f = &mut findings[k];
+                f.significant = true;
+                f.evidence = format!(
+                    "{} Named as a pair: alone it gains likelihood ratio {:.0} (threshold {:.0}); with {first} on top, the pair's model gains likelihood ratio {lr:.0} over {first}'s alone (threshold {:.0}).",
+                    f.evidence,
+                    f.lr,
+                    f.threshold,
+                    options.threshold(1)
+                );
                 path = other;
                 chosen = Some(k);
             }
@@ -1122,11 +1199,13 @@ impl Path {
 
 impl ForwardCtx<'_> {
     /// The forward selection from the first round's `start` (a significant finding).
+    /// `first_only`: the first step tests that cause alone (the pair search's step).
     fn forward(
         &self,
         start: &Finding,
         tell: &(dyn Fn(usize, &str) + Sync),
         done: usize,
+        first_only: Option<&'static str>,
     ) -> Result<Path, DiagnoseError> {
         let (problem, span, baseline, options) =
             (self.problem, self.span, self.baseline, self.options);
@@ -1169,7 +1248,8 @@ impl ForwardCtx<'_> {
                     // the baseline: an asymmetric valve under a disturbance or a dead time
                     // shows only once they are modelled (docs/DIAGNOSE.md, item 5);
                     // `no-stiction` is a finding about the first round, not an extension
-                    || entry.name == "no-stiction")
+                    || entry.name == "no-stiction"
+                    || (steps.is_empty() && first_only.is_some_and(|c| c != entry.name)))
                 })
                 .collect();
             // independent of each other: tested at once, in the registry's order
@@ -1298,6 +1378,11 @@ fn test_cause(
 /// The name of the open-set finding (`open_set`): structure the final model leaves that no
 /// registered cause explains. Not a plugin: it names no extension.
 pub const UNEXPLAINED: &str = "unexplained";
+
+/// The name that disables the search for two causes that mask each other (the forward
+/// selection started from a cause that gained on the baseline below its threshold, see
+/// `diagnose`); like [`UNEXPLAINED`], not a plugin.
+pub const PAIRS: &str = "pairs";
 
 /// The number of coefficients of a fitted linear model (A, B, C; state space: A, B, C, K).
 fn coefficients(fit: &linear_id::LinearFit) -> usize {
