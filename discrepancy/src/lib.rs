@@ -20,6 +20,7 @@
 mod causes;
 mod characteristic;
 mod compression;
+mod consensus;
 mod eval;
 mod headline;
 pub mod registration;
@@ -39,6 +40,7 @@ pub use monitoring::{Combination, FitSummary, Fitted};
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
 pub use characteristic::ValveCharacteristic;
 pub use compression::Compression;
+pub use consensus::{consensus, Consensus, Disagreement};
 pub use headline::{Headline, Standing};
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
 
