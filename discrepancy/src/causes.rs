@@ -160,17 +160,147 @@ fn disturbance_extension(
     let mut ext = if entry.params.len() > 2 || local_from.is_some() {
         local_disturbance(ctx, combination, local_from)?
     } else {
-        let fitted = combination.run(ctx.problem, None)?;
-        let lr = ctx.lr(ctx.baseline.fit_val(), fitted.fit_val());
-        Extension {
-            fitted,
-            lr,
-            extra_params: 1,
-            reference: "baseline".into(),
-        }
+        warm_grid(ctx, combination)?
     };
     ext.extra_params = extra_params;
     Ok(ext)
+}
+
+/// Half-width, in coarse grid steps, of the box of the coarse lattice [`warm_grid`] evaluates
+/// around its centre.
+const WARM_GRID_BOX: f64 = 4.0;
+
+/// The grid search of a two-parameter valve with `combination`'s identifier, in stages: the
+/// admissible region at twice the grid's coarse step and the current valve, then the grid's
+/// coarse lattice in a box of [`WARM_GRID_BOX`] coarse steps around the best of those, the box
+/// moved to the best node while that node lies
+/// within a step of its edge (at most 8 moves), then pattern searches down to the grid's fine
+/// step from the best coarse node and from the current valve, instead of the coarse lattice
+/// over the whole admissible region and every fine node within two coarse steps of its best.
+/// Every node of an identifier without a sums path (EARX, EARMAX: a recursion over the record)
+/// costs 5-10 times an ARX node; the full grid took 100-350 ms of a diagnosis
+/// (docs/decisions/2026-11-27-diagnose-speed.md).
+fn warm_grid(
+    ctx: &Context<'_>,
+    combination: monitoring::Combination,
+) -> Result<Extension, DiagnoseError> {
+    let started = Instant::now();
+    let entry = ctx.baseline_spec.stiction;
+    let linear = combination.linear;
+    let identifier = combination.identifier(ctx.baseline.delay)?;
+    let crit = ctx.options.search.criterion;
+    let fine = ctx.options.search.grid.step();
+    let coarse = match ctx.options.search.grid {
+        grid_search::GridPlan::CoarseToFine { coarse, .. } => coarse,
+        grid_search::GridPlan::Exhaustive { step } => step,
+    }
+    .max(fine);
+    let start = current_valve(ctx);
+    let key = |p: &[f64]| -> Vec<i64> { p.iter().map(|v| (v / fine).round() as i64).collect() };
+    let mut seen = std::collections::HashSet::new();
+    let mut nodes: Vec<grid_search::NodeFit> = Vec::new();
+    let best_node = |nodes: &[grid_search::NodeFit]| {
+        nodes
+            .iter()
+            .filter(|n| n.score(crit).is_finite())
+            .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))
+            .map(|n| n.params.clone())
+    };
+    // the whole admissible region at twice the coarse step (a disturbance can move the
+    // optimum far from the current valve), and the current valve
+    let mut first = grid_search::grid::nodes(entry, ctx.span, 2.0 * coarse);
+    first.push(start.clone());
+    let first: Vec<Vec<f64>> = first.into_iter().filter(|p| seen.insert(key(p))).collect();
+    nodes.extend(grid_search::evaluate_nodes(
+        entry,
+        identifier.as_ref(),
+        ctx.problem,
+        &ctx.options.search,
+        first,
+    )?);
+    let mut centre: Vec<f64> = best_node(&nodes)
+        .unwrap_or_else(|| start.clone())
+        .iter()
+        .map(|v| (v / coarse).round() * coarse)
+        .collect();
+    for _ in 0..8 {
+        let half = WARM_GRID_BOX * coarse + 1e-9 * coarse;
+        let bounds: Vec<(f64, f64)> = centre.iter().map(|c| (c - half, c + half)).collect();
+        let fresh: Vec<Vec<f64>> =
+            grid_search::grid::nodes_in_box(entry, ctx.span, coarse, Some(&bounds))
+                .into_iter()
+                .filter(|p| seen.insert(key(p)))
+                .collect();
+        if fresh.is_empty() {
+            break;
+        }
+        nodes.extend(grid_search::evaluate_nodes(
+            entry,
+            identifier.as_ref(),
+            ctx.problem,
+            &ctx.options.search,
+            fresh,
+        )?);
+        let Some(best) = best_node(&nodes) else {
+            break;
+        };
+        // inside the box by more than a step: the lattice's best near the current valve
+        let inside = best
+            .iter()
+            .zip(&centre)
+            .all(|(b, c)| (b - c).abs() <= (WARM_GRID_BOX - 1.0) * coarse + 1e-9 * coarse);
+        if inside {
+            break;
+        }
+        centre = best;
+    }
+    // every fine node within a coarse step of the best coarse node
+    let best = best_node(&nodes).unwrap_or_else(|| start.clone());
+    let half = coarse * (1.0 + 1e-9);
+    let bounds: Vec<(f64, f64)> = best.iter().map(|c| (c - half, c + half)).collect();
+    let fresh: Vec<Vec<f64>> =
+        grid_search::grid::nodes_in_box(entry, ctx.span, fine, Some(&bounds))
+            .into_iter()
+            .filter(|p| seen.insert(key(p)))
+            .collect();
+    nodes.extend(grid_search::evaluate_nodes(
+        entry,
+        identifier.as_ref(),
+        ctx.problem,
+        &ctx.options.search,
+        fresh,
+    )?);
+    let best = best_node(&nodes).unwrap_or_else(|| start.clone());
+    let directions = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![1.0, 1.0]];
+    let refine = |from: &[f64]| {
+        PatternSearch {
+            entry,
+            identifier: identifier.as_ref(),
+            problem: ctx.problem,
+            options: &ctx.options.search,
+            span: ctx.span,
+            coarse: coarse / 2.0,
+            fine,
+            directions: directions.clone(),
+            budget: 200,
+            scales: Vec::new(),
+            admit: None,
+        }
+        .run(from)
+    };
+    let best_fine: Vec<f64> = best.iter().map(|v| (v / fine).round() * fine).collect();
+    nodes.extend(refine(&best_fine)?);
+    if best_fine != start {
+        nodes.extend(refine(&start)?);
+    }
+    let fit = LocalFit {
+        entry,
+        linear,
+        identifier,
+        delay: ctx.baseline.delay,
+        started,
+    };
+    from_current_valve(ctx, fit, nodes)
 }
 
 /// The disturbance extension of a model whose valve has three parameters (`kano-asym`, found
@@ -468,6 +598,9 @@ impl Cause for TimeDelay {
         if spec.stiction.params.len() > 2 {
             return local_delay(ctx);
         }
+        if ctx.baseline.identifier.as_arx().is_none() {
+            return warm_delay(ctx);
+        }
         let build = |d: usize| -> Result<Box<dyn LinearIdentifier>, IdError> { spec.identifier(d) };
         let scan = estimate_delay(
             spec.stiction,
@@ -563,6 +696,155 @@ fn pick_delay(scores: &[(usize, f64)], current: usize) -> usize {
         .filter(|(d, f)| *d != current && f.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map_or(current + 1, |(d, _)| *d)
+}
+
+/// Half-width, in coarse (span/20) steps, of the box around the current valve that the
+/// warm-started dead-time scan ([`warm_delay`]) evaluates at every dead time.
+const WARM_BOX: i32 = 3;
+
+/// The dead-time extension of a model whose identifier has no sums path (EARX, EARMAX, HARX:
+/// every node is a recursion over the record, 5-10 times an ARX node), warm-started from the
+/// current valve instead of grids over the whole admissible region:
+///
+/// * the scan: at every dead time in `0..=max_delay`, the nodes of the scan's coarse lattice
+///   (span/20) within [`WARM_BOX`] coarse steps of the current valve, and the current valve;
+/// * the dead times around the scan's best other than the current one (the range grows by one
+///   while the best is at its end, as with grids): each by pattern searches down to the
+///   grid's fine step, from the scan's best node at that dead time and from the current valve.
+///
+/// The full grids (a coarse grid per dead time, then a coarse-to-fine grid at each dead time
+/// around the best) took 0.44-1.4 s of a diagnosis on these identifiers; these models are
+/// only reached in the forward selection, where the current valve already carries the
+/// disturbance's correction of the valve (measured figures:
+/// docs/decisions/2026-11-27-diagnose-speed.md).
+fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
+    use rayon::prelude::*;
+    let started = Instant::now();
+    let spec = ctx.baseline_spec;
+    let entry = spec.stiction;
+    let crit = ctx.options.search.criterion;
+    let fine = ctx.options.search.grid.step();
+    let coarse = (ctx.span / 20.0).max(fine);
+    let start = current_valve(ctx);
+    let snap = |v: f64, step: f64| (v / step).round() * step;
+    let mut boxed: Vec<Vec<f64>> = vec![start.clone()];
+    for i in -WARM_BOX..=WARM_BOX {
+        for j in -WARM_BOX..=WARM_BOX {
+            let p = vec![
+                snap(start[0], coarse) + f64::from(i) * coarse,
+                snap(start[1], coarse) + f64::from(j) * coarse,
+            ];
+            if entry.admissible(&p, ctx.span) {
+                boxed.push(p);
+            }
+        }
+    }
+    // (dead time, best score, its node) at every dead time that could be evaluated
+    let scan: Vec<(usize, f64, Vec<f64>)> = (0..=ctx.options.max_delay)
+        .into_par_iter()
+        .filter_map(|d| {
+            let id = spec.identifier(d).ok()?;
+            let nodes = grid_search::evaluate_nodes(
+                entry,
+                id.as_ref(),
+                ctx.problem,
+                &ctx.options.search,
+                boxed.clone(),
+            )
+            .ok()?;
+            let best = nodes
+                .into_iter()
+                .filter(|n| n.score(crit).is_finite())
+                .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))?;
+            Some((d, best.score(crit), best.params))
+        })
+        .collect();
+    let scores: Vec<(usize, f64)> = scan.iter().map(|(d, f, _)| (*d, *f)).collect();
+    let current = spec.fixed_delay();
+    let coarse_pick = pick_delay(&scores, current);
+    let max = ctx.options.max_delay.max(coarse_pick);
+    // the pattern searches at dead time `d`: from the scan's best node there and from the
+    // current valve
+    let search = |d: usize| -> Result<(usize, Vec<grid_search::NodeFit>), DiagnoseError> {
+        let identifier = spec.identifier(d)?;
+        let mut nodes = axis_search(ctx, identifier.as_ref(), &start)?;
+        if let Some((_, _, p)) = scan.iter().find(|(k, _, _)| *k == d) {
+            let p: Vec<f64> = p.iter().map(|v| snap(*v, fine)).collect();
+            if p != start {
+                nodes.extend(axis_search(ctx, identifier.as_ref(), &p)?);
+            }
+        }
+        Ok((d, nodes))
+    };
+    let best_of = |nodes: &[grid_search::NodeFit]| {
+        nodes
+            .iter()
+            .map(|n| n.score(crit))
+            .filter(|f| f.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let mut tried: Vec<usize> = Vec::new();
+    let mut fits: Vec<(usize, f64, Vec<grid_search::NodeFit>)> = Vec::new();
+    let mut want: Vec<usize> =
+        (coarse_pick.saturating_sub(1)..=(coarse_pick + 1).min(max)).collect();
+    let mut last_error = None;
+    loop {
+        let batch: Vec<usize> = want
+            .drain(..)
+            .filter(|&d| d != current && !tried.contains(&d))
+            .collect();
+        tried.extend(&batch);
+        for r in batch.into_par_iter().map(search).collect::<Vec<_>>() {
+            match r {
+                Ok((d, nodes)) => {
+                    let f = best_of(&nodes);
+                    if f.is_finite() {
+                        fits.push((d, f, nodes));
+                    }
+                }
+                Err(e) => last_error = Some(e),
+            }
+        }
+        let Some(pick) = fits
+            .iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(d, _, _)| *d)
+        else {
+            break;
+        };
+        let (lo, hi) = (tried.iter().min(), tried.iter().max());
+        let next = pick + 1 + usize::from(pick + 1 == current);
+        if Some(&pick) == hi && next <= max && !tried.contains(&next) {
+            want.push(next);
+        } else if Some(&pick) == lo && pick > 0 {
+            let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
+            if prev != current && !tried.contains(&prev) {
+                want.push(prev);
+            }
+        }
+        if want.is_empty() {
+            break;
+        }
+    }
+    let Some(i) = (0..fits.len()).max_by(|&a, &b| fits[a].1.total_cmp(&fits[b].1)) else {
+        return Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
+            model: entry.name.to_string(),
+        }));
+    };
+    let (best, _, nodes) = fits.swap_remove(i);
+    let fit = LocalFit {
+        entry,
+        linear: spec.linear,
+        identifier: spec.identifier(best)?,
+        delay: best,
+        started,
+    };
+    let mut ext = from_current_valve(ctx, fit, nodes)?;
+    ext.fitted.delay_scan = Some(grid_search::DelayScan {
+        delay: best,
+        scores,
+    });
+    Ok(ext)
 }
 
 /// The dead-time extension of a model whose valve has three parameters (`kano-asym`): every

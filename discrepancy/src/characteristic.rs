@@ -14,6 +14,13 @@ use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension};
 /// Largest |a| the extension searches: `e^6 ≈ 400` is the gain ratio over the whole span, more
 /// than any installed valve (equal-percentage rangeability 50 is `a = 3.9`).
 const SEARCH_SHAPE: f64 = 6.0;
+/// The coarse (S, J) lattice the free search starts from, in the search's coarse steps
+/// (span/20): every other node of the search's lattice. At the search's own coarse step the
+/// lattice was 60-70 % of the extension's time, and the extension is tested again at every
+/// step of the forward selection (docs/decisions/2026-11-27-diagnose-speed.md); the free
+/// searches from its best nodes start at the coarse step.
+const LATTICE_STEPS: f64 = 2.0;
+
 /// |a| of the coarse lattice the free search starts from (rangeability e³ = 20).
 const SHAPE_START: f64 = 3.0;
 /// Lags (after the dead time) of the residual's correlation with the squared opening.
@@ -172,7 +179,7 @@ impl Cause for ValveCharacteristic {
         // linear optimum and from the best coarse node of each sign.
         let mut coarse_nodes = Vec::new();
         for a0 in [SHAPE_START, -SHAPE_START] {
-            for (s0, j0) in grid_search::grid::nodes(kano, span, coarse)
+            for (s0, j0) in grid_search::grid::nodes(kano, span, LATTICE_STEPS * coarse)
                 .into_iter()
                 .map(|p| (p[0], p[1]))
             {

@@ -20,6 +20,7 @@
 mod causes;
 mod characteristic;
 mod compression;
+mod consensus;
 mod eval;
 mod headline;
 pub mod registration;
@@ -30,6 +31,7 @@ use std::time::Instant;
 
 use grid_search::{GridPlan, Problem, SearchOptions};
 use linear_id::IdentifierEntry;
+use rayon::prelude::*;
 use serde::Serialize;
 use stiction_models::ModelEntry;
 
@@ -38,6 +40,7 @@ pub use monitoring::{Combination, FitSummary, Fitted};
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
 pub use characteristic::ValveCharacteristic;
 pub use compression::Compression;
+pub use consensus::{consensus, Consensus, Disagreement};
 pub use headline::{Headline, Standing};
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
 
@@ -680,7 +683,7 @@ pub fn diagnose_with_progress(
     };
     tell(0, "baseline");
     for d in &options.disabled {
-        if !known.iter().any(|e| e.name == d) && d != UNEXPLAINED {
+        if !known.iter().any(|e| e.name == d) && d != UNEXPLAINED && d != PAIRS {
             return Err(DiagnoseError::UnknownCause {
                 name: d.clone(),
                 known: known.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
@@ -742,19 +745,28 @@ pub fn diagnose_with_progress(
     } else {
         &known[..]
     };
-    for &entry in testable {
-        if options.disabled.iter().any(|d| d == entry.name) {
-            continue;
-        }
-        tell(done, entry.name);
-        done += 1;
-        let cause = (entry.build)();
-        if !cause.applies(&ctx) {
-            continue;
-        }
-        let (finding, overrides) = test_cause(&ctx, cause.as_ref(), entry.name, base_fit, (bs, bj));
+    // the causes are independent of each other here: tested at once (their local searches
+    // evaluate a few nodes at a time and would leave a core idle)
+    let enabled: Vec<(usize, &'static CauseEntry)> = testable
+        .iter()
+        .filter(|e| !options.disabled.iter().any(|d| d == e.name))
+        .enumerate()
+        .map(|(k, &e)| (done + k, e))
+        .collect();
+    done += enabled.len();
+    let tested: Vec<(Finding, bool)> = enabled
+        .into_par_iter()
+        .filter_map(|(at, entry)| {
+            tell(at, entry.name);
+            let cause = (entry.build)();
+            cause
+                .applies(&ctx)
+                .then(|| test_cause(&ctx, cause.as_ref(), entry.name, base_fit, (bs, bj)))
+        })
+        .collect();
+    for (finding, overrides) in tested {
         if overrides {
-            overriding.push(entry.name);
+            overriding.push(finding.cause);
         }
         findings.push(finding);
     }
@@ -839,8 +851,8 @@ pub fn diagnose_with_progress(
         // the two starts are independent: run at once (their local searches evaluate a few
         // nodes at a time and leave a core idle; the grids share the pool)
         let (first, second) = rayon::join(
-            || fc.forward(&findings[i], &tell, done),
-            || runner_up.map(|k| fc.forward(&findings[k], &tell, done)),
+            || fc.forward(&findings[i], &tell, done, None),
+            || runner_up.map(|k| fc.forward(&findings[k], &tell, done, None)),
         );
         path = first?;
         if let (Some(k), Some(other)) = (runner_up, second) {
@@ -856,6 +868,83 @@ pub fn diagnose_with_progress(
             let sse = |f: f64| (1.0 - f / 100.0).max(1e-12);
             let lr = n_val * (sse(fit(&path, i)) / sse(fit(&other, k))).ln();
             if lr > options.lr_base {
+                path = other;
+                chosen = Some(k);
+            }
+        }
+        // Two causes that mask each other: a cause that gained on the baseline but not enough
+        // (a dead time part of which a disturbance absorbs, and the other way round; a dead
+        // time under an asymmetric valve) is a start too. On its extension the selected
+        // path's first cause is tested alone; the pair replaces the selected path when its
+        // model gains significantly over that first cause's extension alone (one extra
+        // parameter) and its path's final model fits no worse. Judging the whole path
+        // instead named a third cause's gain as a pair (docs/DIAGNOSE.md, item 5).
+        let first = path.causes.first().copied();
+        if let Some(first) = first.filter(|_| {
+            !options.disabled.iter().any(|d| d == PAIRS) && !overriding.contains(&"no-stiction")
+        }) {
+            let held = path.causes.clone();
+            let masked: Vec<usize> = findings
+                .iter()
+                .enumerate()
+                .filter(|(k, f)| {
+                    Some(*k) != chosen
+                        && !f.significant
+                        && f.cause != "no-stiction"
+                        && f.fitted.is_some()
+                        && f.lr > 0.0
+                        && !held.contains(&f.cause)
+                })
+                .map(|(k, _)| k)
+                .collect();
+            let others: Vec<(usize, Result<Path, DiagnoseError>)> = masked
+                .into_par_iter()
+                .map(|k| (k, fc.forward(&findings[k], &tell, done, Some(first))))
+                .collect();
+            let n_val = (problem.op.len() - base.result.split_index) as f64;
+            let start = chosen.unwrap_or(i);
+            let fit_of = |p: &Path, k: usize| {
+                p.final_fit()
+                    .or(findings[k].fitted.as_ref())
+                    .map_or(f64::NEG_INFINITY, Fitted::fit_val)
+            };
+            let current = fit_of(&path, start);
+            let alone = findings[start]
+                .fitted
+                .as_ref()
+                .map_or(f64::NEG_INFINITY, Fitted::fit_val);
+            let mut best: Option<(usize, f64, Path)> = None;
+            for (k, other) in others {
+                let other = other?;
+                // the pair's model: the selected first cause added on the start's
+                let Some(pair) = other
+                    .picks
+                    .first()
+                    .and_then(|&p| other.steps[0][p].fitted.as_ref())
+                else {
+                    continue;
+                };
+                // significant over the first cause alone (over the start alone: the step
+                // that added the first cause was significant), and its path's final model
+                // no worse than the selected path's
+                let lr = lr_of(n_val, alone, pair.fit_val());
+                if lr > options.threshold(1)
+                    && fit_of(&other, k) >= current
+                    && best.as_ref().is_none_or(|b| lr > b.1)
+                {
+                    best = Some((k, lr, other));
+                }
+            }
+            if let Some((k, lr, other)) = best {
+                let f = &mut findings[k];
+                f.significant = true;
+                f.evidence = format!(
+                    "{} Named as a pair: alone it gains likelihood ratio {:.0} (threshold {:.0}); with {first} on top, the pair's model gains likelihood ratio {lr:.0} over {first}'s alone (threshold {:.0}).",
+                    f.evidence,
+                    f.lr,
+                    f.threshold,
+                    options.threshold(1)
+                );
                 path = other;
                 chosen = Some(k);
             }
@@ -1112,11 +1201,13 @@ impl Path {
 
 impl ForwardCtx<'_> {
     /// The forward selection from the first round's `start` (a significant finding).
+    /// `first_only`: the first step tests that cause alone (the pair search's step).
     fn forward(
         &self,
         start: &Finding,
         tell: &(dyn Fn(usize, &str) + Sync),
         done: usize,
+        first_only: Option<&'static str>,
     ) -> Result<Path, DiagnoseError> {
         let (problem, span, baseline, options) =
             (self.problem, self.span, self.baseline, self.options);
@@ -1150,30 +1241,42 @@ impl ForwardCtx<'_> {
                 options,
             };
             let prev = *causes.last().unwrap_or(&"baseline");
-            let mut step = Vec::new();
-            for entry in registry() {
-                if options.disabled.iter().any(|d| d == entry.name)
+            let candidates: Vec<&'static CauseEntry> = registry()
+                .into_iter()
+                .filter(|entry| {
+                    !(options.disabled.iter().any(|d| d == entry.name)
                     || causes.contains(&entry.name)
                     // every other cause is tested again, also one that gained nothing on
                     // the baseline: an asymmetric valve under a disturbance or a dead time
                     // shows only once they are modelled (docs/DIAGNOSE.md, item 5);
                     // `no-stiction` is a finding about the first round, not an extension
                     || entry.name == "no-stiction"
-                {
-                    continue;
-                }
-                let cause = (entry.build)();
-                if !cause.applies(&ctx) {
-                    continue;
-                }
-                tell(done, entry.name);
-                let (mut f, _) = test_cause(
-                    &ctx,
-                    cause.as_ref(),
-                    entry.name,
-                    current.fit_val(),
-                    (q.s, q.j),
-                );
+                    || (steps.is_empty() && first_only.is_some_and(|c| c != entry.name)))
+                })
+                .collect();
+            // independent of each other: tested at once, in the registry's order
+            let tested: Vec<Finding> = candidates
+                .into_par_iter()
+                .filter_map(|entry| {
+                    let cause = (entry.build)();
+                    if !cause.applies(&ctx) {
+                        return None;
+                    }
+                    tell(done, entry.name);
+                    Some(
+                        test_cause(
+                            &ctx,
+                            cause.as_ref(),
+                            entry.name,
+                            current.fit_val(),
+                            (q.s, q.j),
+                        )
+                        .0,
+                    )
+                })
+                .collect();
+            let mut step = Vec::new();
+            for mut f in tested {
                 if f.reference == "baseline" {
                     f.reference = format!("the {prev} extension");
                 }
@@ -1277,6 +1380,11 @@ fn test_cause(
 /// The name of the open-set finding (`open_set`): structure the final model leaves that no
 /// registered cause explains. Not a plugin: it names no extension.
 pub const UNEXPLAINED: &str = "unexplained";
+
+/// The name that disables the search for two causes that mask each other (the forward
+/// selection started from a cause that gained on the baseline below its threshold, see
+/// `diagnose`); like [`UNEXPLAINED`], not a plugin.
+pub const PAIRS: &str = "pairs";
 
 /// The number of coefficients of a fitted linear model (A, B, C; state space: A, B, C, K).
 fn coefficients(fit: &linear_id::LinearFit) -> usize {

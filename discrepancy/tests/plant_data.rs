@@ -29,6 +29,8 @@ fn plant_registrations_are_diagnosed_or_refused_clearly() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(usize::MAX);
     let (mut ok, mut refused) = (0, 0);
+    // (valve, registration, diagnosis): the valve is the file name before its last '_'
+    let mut diagnosed: Vec<(String, String, discrepancy::Diagnosis)> = Vec::new();
     for path in files.iter().take(limit) {
         let name = path.file_name().unwrap().to_string_lossy().to_string();
         let data = match read_csv_path(path.clone(), &ReadOptions::default()) {
@@ -74,6 +76,11 @@ fn plant_registrations_are_diagnosed_or_refused_clearly() {
                     d.gain_fit_pv_val,
                     d.elapsed_ms / 1e3
                 );
+                let stem = name.trim_end_matches(".csv").to_string();
+                let valve = stem
+                    .rsplit_once('_')
+                    .map_or(stem.clone(), |(v, _)| v.to_string());
+                diagnosed.push((valve, stem, d));
             }
             Err(e) => {
                 let msg = e.to_string();
@@ -84,5 +91,25 @@ fn plant_registrations_are_diagnosed_or_refused_clearly() {
         }
     }
     println!("{ok} diagnosed, {refused} refused");
+    // per valve, the causes that hold on most of its registrations
+    let mut valves: Vec<&str> = diagnosed.iter().map(|(v, _, _)| v.as_str()).collect();
+    valves.dedup();
+    for valve in valves {
+        let regs: Vec<(&str, &discrepancy::Diagnosis)> = diagnosed
+            .iter()
+            .filter(|(v, _, _)| v == valve)
+            .map(|(_, r, d)| (r.as_str(), d))
+            .collect();
+        let c = discrepancy::consensus(&regs);
+        println!(
+            "valve {valve} ({} registrations): causes on most {:?}; {} disagree",
+            c.registrations,
+            c.causes,
+            c.disagreeing.len()
+        );
+        for d in &c.disagreeing {
+            println!("   {} {:?}: {}", d.label, d.causes, d.why.join("; "));
+        }
+    }
     assert!(ok > 0);
 }
