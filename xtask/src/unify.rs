@@ -9,8 +9,8 @@ use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 
-/// Each crate of `package`'s normal and build dependency graph with its enabled features, as
-/// `cargo tree -e features,normal,build` lists them.
+/// Each crate (name and version) of `package`'s normal and build dependency graph with its
+/// enabled features, as `cargo tree --format "{p}|{f}"` lists them.
 fn features(root: &Path, package: &str) -> Result<BTreeMap<String, BTreeSet<String>>> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(cargo)
@@ -21,10 +21,12 @@ fn features(root: &Path, package: &str) -> Result<BTreeMap<String, BTreeSet<Stri
             "-p",
             package,
             "-e",
-            "features,normal,build",
+            "normal,build",
             "--prefix",
             "none",
             "--no-dedupe",
+            "--format",
+            "{p}|{f}",
         ])
         .output()
         .context("running cargo tree")?;
@@ -37,20 +39,26 @@ fn features(root: &Path, package: &str) -> Result<BTreeMap<String, BTreeSet<Stri
     Ok(parse(&String::from_utf8_lossy(&out.stdout)))
 }
 
-/// `name v1.2.3 ...` lines name a crate, `name feature "f"` lines one of its features.
+/// `name v1.2.3 (path)|f1,f2` lines: the crate `name v1.2.3` with features f1 and f2 (the
+/// union when a crate is listed more than once; two versions of a crate are two crates).
 fn parse(tree: &str) -> BTreeMap<String, BTreeSet<String>> {
     let mut map: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     for line in tree.lines() {
-        let mut words = line.split_whitespace();
-        let (Some(name), Some(second)) = (words.next(), words.next()) else {
+        let Some((package, feats)) = line.split_once('|') else {
             continue;
         };
-        let entry = map.entry(name.to_string()).or_default();
-        if second == "feature" {
-            if let Some(f) = words.next() {
-                entry.insert(f.trim_matches('"').to_string());
-            }
-        }
+        let mut words = package.split_whitespace();
+        let (Some(name), Some(version)) = (words.next(), words.next()) else {
+            continue;
+        };
+        let entry = map.entry(format!("{name} {version}")).or_default();
+        entry.extend(
+            feats
+                .split(',')
+                .map(str::trim)
+                .filter(|f| !f.is_empty())
+                .map(str::to_string),
+        );
     }
     map
 }
@@ -97,13 +105,17 @@ mod tests {
 
     #[test]
     fn a_feature_on_one_side_only_is_a_difference() {
-        let a = parse("num-complex v0.4.6\nnum-complex feature \"std\"\nfaer v0.24.4\n");
+        let a = parse("num-complex v0.4.6|std\nsyn v2.0.1|full\nsyn v3.0.9|full\nfaer v0.24.4|\n");
         let b = parse(
-            "num-complex v0.4.6\nnum-complex feature \"std\"\nnum-complex feature \"default\"\npyo3 v0.30.0\n",
+            "num-complex v0.4.6|default,std\nsyn v2.0.1|full\nsyn v3.0.9|full,visit-mut\npyo3 v0.30.0 (/x)|\n",
         );
         let d = differences(&a, &b);
-        assert_eq!(d.len(), 1, "{d:?}");
-        assert!(d[0].starts_with("num-complex:") && d[0].contains("\"default\""));
+        assert_eq!(d.len(), 2, "{d:?}");
+        assert!(d[0].starts_with("num-complex v0.4.6:") && d[0].contains("\"default\""));
+        assert!(
+            d[1].starts_with("syn v3.0.9:") && d[1].contains("\"visit-mut\""),
+            "{d:?}"
+        );
         assert!(differences(&a, &a).is_empty());
     }
 }
