@@ -25,6 +25,20 @@ pub(crate) fn std_dev(x: &[f64]) -> f64 {
     variance(x).sqrt()
 }
 
+/// `(x − mean) / standard deviation`, computed without forming squares of `x`'s magnitude
+/// (the deviations are scaled by the largest first), so values up to `f64::MAX / n` do not
+/// overflow. A flat `x` gives zeros.
+pub(crate) fn standardise(x: &[f64]) -> Vec<f64> {
+    let m = x.iter().map(|v| v / x.len() as f64).sum::<f64>();
+    let dev: Vec<f64> = x.iter().map(|v| v - m).collect();
+    let top = dev.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    if !(top > 0.0 && top.is_finite()) {
+        return vec![0.0; x.len()];
+    }
+    let sd = top * (dev.iter().map(|v| (v / top) * (v / top)).sum::<f64>() / x.len() as f64).sqrt();
+    dev.iter().map(|v| v / sd).collect()
+}
+
 /// `x` minus its least-squares straight line.
 pub(crate) fn detrend(x: &[f64]) -> Vec<f64> {
     let n = x.len();
