@@ -55,6 +55,22 @@ pub enum DataError {
         /// File name.
         file: String,
     },
+    /// The input is UTF-16 (a byte-order mark, or NUL bytes between ASCII characters).
+    #[error("{file}: the file is UTF-16, which is not supported: save it as UTF-8")]
+    Utf16 {
+        /// File name.
+        file: String,
+    },
+    /// The input holds NUL bytes (a binary file?).
+    #[error("{file}: row {row}: a NUL byte at byte {byte}: not a text file")]
+    NulByte {
+        /// File name.
+        file: String,
+        /// Line number of the first NUL byte (header = 1).
+        row: u64,
+        /// Byte offset of the first NUL byte.
+        byte: usize,
+    },
     /// The input is not valid UTF-8.
     #[error("{file}: row {row}: invalid UTF-8 at byte {byte}")]
     InvalidUtf8 {

@@ -185,6 +185,22 @@ pub fn read_csv_path(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<LoopD
     read_csv(std::io::BufReader::new(file), &name, opts)
 }
 
+/// Whether `bytes` look like UTF-16: a byte-order mark (`FF FE` or `FE FF`), or a NUL byte next
+/// to every other byte of the first line's ASCII (`\0t\0,\0S\0P`). Printed as is, such a
+/// header put NUL bytes on the terminal.
+fn is_utf16(bytes: &[u8]) -> bool {
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        return true;
+    }
+    let head = &bytes[..bytes.len().min(64)];
+    head.len() >= 4 && {
+        let even = head.iter().step_by(2).filter(|&&b| b == 0).count();
+        let odd = head.iter().skip(1).step_by(2).filter(|&&b| b == 0).count();
+        let half = head.len() / 2;
+        even * 10 >= half * 9 || odd * 10 >= half * 9
+    }
+}
+
 /// Read one loop registration from CSV text; `source` names it in messages.
 ///
 /// Never panics: any input yields either data or a [`DataError`].
@@ -195,6 +211,13 @@ pub fn read_csv(
 ) -> Result<LoopData, DataError> {
     let file = source.to_string();
     let bytes = read_limited(&mut reader, &file, &opts.limits, true)?;
+    if is_utf16(&bytes) {
+        return Err(DataError::Utf16 { file });
+    }
+    if let Some(byte) = bytes.iter().position(|&b| b == 0) {
+        let row = 1 + bytes[..byte].iter().filter(|&&b| b == b'\n').count() as u64;
+        return Err(DataError::NulByte { file, row, byte });
+    }
     let text = match std::str::from_utf8(&bytes) {
         Ok(t) => t,
         Err(e) => {
@@ -242,6 +265,7 @@ pub fn read_csv(
     let mut lines: Vec<u64> = Vec::new();
     let mut time_kind: Option<TimeKind> = None;
     let mut decimal_commas = 0usize;
+    let mut unread_pv: Option<DataError> = None;
     for record in records {
         let record = record.map_err(|e| csv_err(&file, e))?;
         let row = record.position().map_or(0, |p| p.line());
@@ -285,13 +309,39 @@ pub fn read_csv(
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
+                bad if col.role == Role::Pv && !col.required => {
+                    unread_pv.get_or_insert_with(|| {
+                        refuse(bad, file.clone(), row, col.name.clone(), excerpt(text))
+                    });
+                    col.values.push(None);
+                }
                 bad => {
                     return Err(refuse(bad, file, row, col.name.clone(), excerpt(text)));
                 }
             }
         }
     }
+    leave_out_unread_pv(&file, unread_pv, &mut columns, &mut notes);
     finish(file, columns, lines, time_kind, decimal_commas, notes, opts)
+}
+
+/// PV that the caller does not need (`stiction valve`) and cannot be read is left out with a
+/// note, not a reason to refuse the file.
+fn leave_out_unread_pv(
+    file: &str,
+    unread: Option<DataError>,
+    columns: &mut Vec<Column>,
+    notes: &mut Vec<Note>,
+) {
+    if let Some(e) = unread {
+        columns.retain(|c| c.role != Role::Pv);
+        let why = e.to_string();
+        let why = why.strip_prefix(&format!("{file}: ")).unwrap_or(&why);
+        notes.push(Note::new(
+            NoteKind::Columns,
+            format!("PV is not needed here and was not read: {why}"),
+        ));
+    }
 }
 
 /// The error for a cell the parsers refused (`cell` is not a gap or a value).
@@ -400,6 +450,7 @@ pub fn read_columns(
     let lines: Vec<u64> = (0..rows as u64).map(|i| i + 2).collect();
     let mut time_kind: Option<TimeKind> = None;
     let mut decimal_commas = 0usize;
+    let mut unread_pv: Option<DataError> = None;
     let mut number = ryu::Buffer::new();
     for col in &mut located {
         col.values.reserve_exact(rows);
@@ -437,6 +488,13 @@ pub fn read_columns(
                                 } else {
                                     number.format_finite(v).to_string()
                                 };
+                                if col.role == Role::Pv && !col.required {
+                                    unread_pv.get_or_insert_with(|| {
+                                        refuse(cell, file.clone(), row, col.name.clone(), text)
+                                    });
+                                    col.values.push(None);
+                                    continue;
+                                }
                                 return Err(refuse(cell, file, row, col.name.clone(), text));
                             } else {
                                 col.values.push(Some(v));
@@ -467,10 +525,17 @@ pub fn read_columns(
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
+                bad if col.role == Role::Pv && !col.required => {
+                    unread_pv.get_or_insert_with(|| {
+                        refuse(bad, file.clone(), row, col.name.clone(), excerpt(text))
+                    });
+                    col.values.push(None);
+                }
                 bad => return Err(refuse(bad, file, row, col.name.clone(), excerpt(text))),
             }
         }
     }
+    leave_out_unread_pv(&file, unread_pv, &mut located, &mut notes);
     finish(file, located, lines, time_kind, decimal_commas, notes, opts)
 }
 

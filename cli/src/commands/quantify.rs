@@ -170,7 +170,33 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     ))
 }
 
-pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
+/// `names` without repeats (first occurrence kept), with a note on stderr naming the repeats
+/// (`--stiction kano,kano` ran Kano twice).
+fn once(names: Vec<String>, flag: &str, s: &mut Streams<'_>) -> Vec<String> {
+    let mut kept: Vec<String> = Vec::new();
+    let mut repeated: Vec<String> = Vec::new();
+    for n in names {
+        if kept.contains(&n) {
+            if !repeated.contains(&n) {
+                repeated.push(n);
+            }
+        } else {
+            kept.push(n);
+        }
+    }
+    if !repeated.is_empty() {
+        let _ = writeln!(
+            s.stderr,
+            "note: {flag} names {} more than once: each runs once",
+            repeated.join(", ")
+        );
+    }
+    kept
+}
+
+pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
+    args.stiction = once(std::mem::take(&mut args.stiction), "--stiction", s);
+    args.linear = once(std::mem::take(&mut args.linear), "--linear", s);
     // Validate every name first: a typo is bad usage, not a row error.
     for name in &args.stiction {
         find_model(name).map_err(usage)?;
