@@ -350,3 +350,31 @@ fn utf16_is_named_and_valve_ignores_pv() {
     assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stderr.contains("PV is not needed"), "{}", o.stderr);
 }
+
+/// A cell equal to 1e150 is refused like larger ones (the limit leaves room for the squares
+/// the solvers form); one OP sample of 1000 or one `-0` in a simulated Kano loop is a spike,
+/// replaced with a note, and S stays near 4 (the old code: S = 973.8; S = 0.7).
+#[test]
+fn edge_values_and_single_sample_spikes() {
+    let cols = simulated("1", "1500");
+    let mut bad = cols.clone();
+    bad[2][40] = 1e150;
+    let (code, line) = err_line(&["quantify", "-"], csv(&bad, |v| v).as_bytes());
+    assert_eq!(code, 1, "{line}");
+    assert!(
+        line.contains("row 42, column PV") && line.contains("too large"),
+        "{line}"
+    );
+    for (k, v) in [(700, 1000.0), (700, -0.0), (0, 0.0)] {
+        let mut spiky = cols.clone();
+        spiky[3][k] = v;
+        let o = run(&["quantify", "-", "--json"], csv(&spiky, |v| v).as_bytes());
+        assert!(
+            o.stderr.contains("single-sample spike"),
+            "OP[{k}] = {v}: {}",
+            o.stderr
+        );
+        let s = json(&o)["S"].as_f64().unwrap();
+        assert!((s - 4.0).abs() < 0.5, "OP[{k}] = {v}: S = {s}");
+    }
+}

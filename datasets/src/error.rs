@@ -11,9 +11,9 @@ use stiction_models::StictionError;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DataError {
-    /// A cell so large (|x| > 1e150) that sums of squares overflow.
+    /// A cell so large (|x| >= 1e60) that the solvers' sums of squares and their products could overflow.
     #[error(
-        "{file}: row {row}, column {column}: {text:?} is too large to compute with (|value| > 1e150); rescale the column"
+        "{file}: row {row}, column {column}: {text:?} is too large to compute with (|value| >= 1e60); rescale the column"
     )]
     TooLarge {
         /// File name.

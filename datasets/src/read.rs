@@ -325,6 +325,40 @@ pub fn read_csv(
     finish(file, columns, lines, time_kind, decimal_commas, notes, opts)
 }
 
+/// Replace the single-sample spikes of a column ([`crate::spikes`]) and say so.
+fn spike_note(column: &str, values: &mut [f64], lines: &[u64]) -> Option<Note> {
+    let sig = crate::units::sig;
+    match crate::spikes::remove(values) {
+        Ok(found) if found.is_empty() => None,
+        Ok(found) => {
+            let shown: Vec<String> = found
+                .iter()
+                .take(3)
+                .map(|&(i, v)| format!("row {} ({})", lines.get(i).copied().unwrap_or(0), sig(v)))
+                .collect();
+            let more = if found.len() > 3 {
+                format!(" and {} more", found.len() - 3)
+            } else {
+                String::new()
+            };
+            Some(Note::new(
+                NoteKind::Spikes,
+                format!(
+                    "column {column}: {} single-sample spike(s) replaced by the previous sample: {}{more}",
+                    found.len(),
+                    shown.join(", ")
+                ),
+            ))
+        }
+        Err(count) => Some(Note::new(
+            NoteKind::Spikes,
+            format!(
+                "column {column}: {count} samples stand out from both neighbours (over 1 % of the samples): kept as the signal"
+            ),
+        )),
+    }
+}
+
 /// PV that the caller does not need (`stiction valve`) and cannot be read is left out with a
 /// note, not a reason to refuse the file.
 fn leave_out_unread_pv(
@@ -403,7 +437,7 @@ impl ColumnInput<'_> {
 /// same conventions, notes and errors as [`read_csv`] on the CSV text of those columns (header
 /// on line 1, data row `i` on line `i + 2`), without making or parsing that text: numeric
 /// cells of the SP/PV/OP/MV columns are taken as they are (NaN a gap, infinite or beyond
-/// 1e150 refused as the CSV reader refuses them); time, mode and text cells go through the
+/// 1e60 refused as the CSV reader refuses them); time, mode and text cells go through the
 /// CSV reader's own cell parsers. Equal column lengths are the caller's to ensure (an error
 /// otherwise). `tests/columns.rs` checks the two entries agree.
 pub fn read_columns(
@@ -477,7 +511,7 @@ pub fn read_columns(
                         _ => {
                             if v.is_nan() {
                                 col.values.push(None);
-                            } else if v.is_infinite() || v.abs() > TOO_LARGE {
+                            } else if v.is_infinite() || v.abs() >= TOO_LARGE {
                                 let cell = if v.is_infinite() {
                                     Cell::NotFinite
                                 } else {
@@ -827,6 +861,11 @@ fn finish(
             .into_iter()
             .map(|v| v.unwrap_or(f64::NAN))
             .collect();
+        if matches!(col.role, Role::Sp | Role::Pv | Role::Op | Role::Mv) {
+            if let Some(note) = spike_note(&col.name, &mut values, &lines) {
+                data.notes.push(note);
+            }
+        }
         match col.role {
             Role::Time => {
                 let t0 = values[0];
@@ -934,15 +973,18 @@ fn detect_delimiter(text: &str) -> u8 {
     }
 }
 
-/// Values beyond this magnitude overflow in sums of squares (identification, fits).
-const TOO_LARGE: f64 = 1e150;
+/// Values of this magnitude or more are refused: the solvers square the data (sums of squares
+/// over up to 1e6 rows, about 1e126 at this limit) and multiply such sums together (about
+/// 1e252), which must stay finite. 1e150 passed and three such cells made the fit's residual
+/// overflow (F_PV = -1.7e296 %). [`grid_search`] refuses the same.
+pub const TOO_LARGE: f64 = 1e60;
 
 enum Cell {
     Gap,
     Value(f64),
     NotANumber,
     NotFinite,
-    /// Finite but so large that its square overflows (|x| > 1e150).
+    /// Finite but too large to compute with (|x| >= [`TOO_LARGE`]).
     TooLarge,
     BadTime,
     BadMode,
@@ -971,7 +1013,7 @@ fn parse_number(text: &str, decimal_comma: bool, decimal_commas: &mut usize) -> 
         None => Cell::NotANumber,
         Some(v) if v.is_nan() => Cell::Gap,
         Some(v) if v.is_infinite() => Cell::NotFinite,
-        Some(v) if v.abs() > TOO_LARGE => Cell::TooLarge,
+        Some(v) if v.abs() >= TOO_LARGE => Cell::TooLarge,
         Some(v) => Cell::Value(v),
     }
 }

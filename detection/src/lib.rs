@@ -266,10 +266,30 @@ pub fn run_all(reg: &Registration<'_>) -> Vec<TestOutcome> {
     registry()
         .into_iter()
         .map(|e| match e.test.run(reg) {
-            Ok(o) => o,
+            Ok(o) => finite_or_inconclusive(o),
             Err(err) => TestOutcome::from_error(e.name, &err),
         })
         .collect()
+}
+
+/// An outcome whose statistic or values are not finite numbers (the data overflowed a sum, a
+/// variance vanished) is no evidence: inconclusive, with the reason instead of its sentence
+/// (which would read "NGI NaN, NLI NaN" and gave `no-stiction`).
+fn finite_or_inconclusive(o: TestOutcome) -> TestOutcome {
+    let bad = o.statistic.is_some_and(|s| !s.is_finite())
+        || o.values.iter().any(|(_, v)| !v.is_finite())
+        || o.evidence
+            .split(|c: char| !c.is_alphanumeric())
+            .any(|w| w == "NaN" || w == "inf");
+    if !bad {
+        return o;
+    }
+    TestOutcome::new(
+        o.name,
+        None,
+        Verdict::Inconclusive,
+        "its statistic is not a finite number on this record (an overflowing or vanishing intermediate value)",
+    )
 }
 
 /// The registered test called `name`.

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 use datasets::simulate::Scenario;
-use detection::{detect, Detection, Registration};
+use detection::{detect, Detection, Registration, Verdict};
 use stiction_models::Kano;
 
 struct Loop {
@@ -66,4 +66,40 @@ fn pv_and_sp_units_do_not_change_the_verdict_or_the_score() {
             );
         }
     }
+}
+
+/// Values that overflow the tests' sums (three PV samples of 1e150 in a sticky loop) give no
+/// verdict from NaN statistics: the old code said `no-stiction` from "NGI NaN, NLI NaN".
+#[test]
+fn overflowing_values_give_no_verdict_from_nan() {
+    let mut l = kano(4.0, 1.0, 1);
+    for k in [500, 1500, 2500] {
+        l.pv[k] = 1e150;
+    }
+    let d = run(&l, 1.0, 0.0);
+    for t in &d.tests {
+        assert!(
+            !t.evidence.contains("NaN") && t.statistic.is_none_or(f64::is_finite),
+            "{}: {}",
+            t.name,
+            t.evidence
+        );
+    }
+    assert!(!d.reason.contains("NaN"), "{}", d.reason);
+    let json = serde_json::to_string(&d).unwrap();
+    assert!(!json.contains("NaN"), "{json}");
+}
+
+/// When no test could judge the record the verdict is `inconclusive`, not the base rate's
+/// `no-stiction` (score 0.30).
+#[test]
+fn no_test_that_could_judge_is_inconclusive() {
+    let l = kano(4.0, 1.0, 1);
+    let reg = Registration::new(&l.pv, &l.op, 1.0).unwrap();
+    let none: Vec<detection::TestOutcome> = detection::registry()
+        .iter()
+        .map(|e| detection::TestOutcome::new(e.name, None, Verdict::Inconclusive, "cannot judge"))
+        .collect();
+    let d = detection::combine(&reg, none, &detection::Model::calibrated());
+    assert_eq!(d.verdict, Verdict::Inconclusive, "{}", d.reason);
 }
