@@ -97,6 +97,17 @@ fn op_range_is_checked_against_op() {
     let (lo, hi) = cols[3]
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    let o = run(
+        &["quantify", "-", "--step", "1"],
+        csv(&cols, |v| v).as_bytes(),
+    );
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    assert!(
+        o.stderr
+            .contains("warning: --step 1: the 95 % region is a single grid node"),
+        "{}",
+        o.stderr
+    );
     let ma = csv(&cols, |v| 4.5 + (v - lo) * 15.0 / (hi - lo));
     let o = run(&["detect", "-"], ma.as_bytes());
     assert!(o.stderr.contains("--op-range 4,20"), "{}", o.stderr);
