@@ -153,20 +153,29 @@ pub(crate) fn op_units(op: &[f64], range: OpRange) -> Result<OpUnits, String> {
             let margin = 0.1 * (b - a);
             if lo.is_finite() && hi.is_finite() && (lo < a - margin || hi > b + margin) {
                 return Err(format!(
-                    "--op-range {a},{b} does not contain OP, which ranges {}-{}: give the closed and the fully open valve in OP's units",
+                    "--op-range {},{} does not contain OP, which ranges {}-{}: give the closed and the fully open valve in OP's units",
+                    sig(a),
+                    sig(b),
                     sig(lo),
                     sig(hi)
                 ));
             }
             if lo.is_finite() && hi.is_finite() && hi - lo < 1e-6 * (b - a) {
                 return Err(format!(
-                    "--op-range {a},{b}: OP ({}-{}) moves over less than a millionth of it: give the closed and the fully open valve in OP's units",
+                    "--op-range {},{}: OP ({}-{}) moves over less than a millionth of it: give the closed and the fully open valve in OP's units",
+                    sig(a),
+                    sig(b),
                     sig(lo),
                     sig(hi)
                 ));
             }
-            let note = (!(a == 0.0 && b == 100.0))
-                .then(|| format!("OP in {a}-{b} (as given): rescaled to % of valve span"));
+            let note = (!(a == 0.0 && b == 100.0)).then(|| {
+                format!(
+                    "OP in {}-{} (as given): rescaled to % of valve span",
+                    sig(a),
+                    sig(b)
+                )
+            });
             Ok(OpUnits {
                 span: Some((a, b)),
                 note,

@@ -45,11 +45,52 @@ create_exception!(
 );
 
 fn data_err(e: impl std::fmt::Display) -> PyErr {
-    DataError::new_err(e.to_string())
+    DataError::new_err(keywords(&e.to_string()))
 }
 
 fn usage_err(e: impl std::fmt::Display) -> PyErr {
-    UsageError::new_err(e.to_string())
+    UsageError::new_err(keywords(&e.to_string()))
+}
+
+/// The library's messages name the CLI's flags (`--max-rows`, `--op-range LO,HI`); Python
+/// users pass keywords: `--max-rows` becomes `max_rows`, `--op-range LO,HI` `op_range=(lo, hi)`.
+fn keywords(message: &str) -> String {
+    let message = message.replace("--op-range LO,HI", "op_range=(lo, hi)");
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message.as_str();
+    while let Some(at) = rest.find("--") {
+        let (before, flag) = rest.split_at(at);
+        out.push_str(before);
+        let name_len = flag[2..]
+            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
+            .unwrap_or(flag.len() - 2);
+        let name = &flag[2..2 + name_len];
+        if name.is_empty() || !name.starts_with(|c: char| c.is_ascii_lowercase()) {
+            out.push_str("--");
+            rest = &flag[2..];
+            continue;
+        }
+        out.push_str(&name.replace('-', "_"));
+        rest = &flag[2 + name_len..];
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn flags_become_keywords() {
+        assert_eq!(
+            super::keywords("x: more than 10 data rows (the limit; raise it with --max-rows)"),
+            "x: more than 10 data rows (the limit; raise it with max_rows)"
+        );
+        assert_eq!(
+            super::keywords("give --op-range LO,HI to state it; --criterion: expected"),
+            "give op_range=(lo, hi) to state it; criterion: expected"
+        );
+        assert_eq!(super::keywords("a -- b"), "a -- b");
+    }
 }
 
 /// The reader's options from a dict with the CLI's flag names (`pv`, `op`, `sp`, `mv`,
@@ -101,7 +142,12 @@ fn read_args(d: Option<&Bound<'_, PyDict>>) -> PyResult<ReadArgs> {
 
 impl ReadArgs {
     fn options(&self, require_pv: bool, min_rows: usize) -> PyResult<ReadOptions> {
-        let gaps = self.gaps.as_deref().unwrap_or("refuse").parse().map_err(usage_err)?;
+        let gaps = self
+            .gaps
+            .as_deref()
+            .unwrap_or("refuse")
+            .parse()
+            .map_err(usage_err)?;
         let op_range = match self.op_range {
             None => OpRange::Detect,
             Some((lo, hi)) => OpRange::given(lo, hi)
