@@ -212,9 +212,14 @@ fn is_usage_in_disguise(e: &anyhow::Error) -> bool {
     e.chain()
         .any(|c| match c.downcast_ref::<monitoring::MonitoringError>() {
             Some(Search(e)) => e.is_usage(),
-            _ => c
-                .downcast_ref::<grid_search::SearchError>()
-                .is_some_and(|e| e.is_usage()),
+            _ => {
+                c.downcast_ref::<grid_search::SearchError>()
+                    .is_some_and(|e| e.is_usage())
+                    || matches!(
+                        c.downcast_ref::<datasets::DataError>(),
+                        Some(datasets::DataError::OpRange { .. })
+                    )
+            }
         })
 }
 

@@ -11,9 +11,9 @@ use stiction_models::StictionError;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DataError {
-    /// A cell so large (|x| > 1e150) that sums of squares overflow.
+    /// A cell so large (|x| >= 1e60) that the solvers' sums of squares and their products could overflow.
     #[error(
-        "{file}: row {row}, column {column}: {text:?} is too large to compute with (|value| > 1e150); rescale the column"
+        "{file}: row {row}, column {column}: {text:?} is too large to compute with (|value| >= 1e60); rescale the column"
     )]
     TooLarge {
         /// File name.
@@ -54,6 +54,22 @@ pub enum DataError {
     Empty {
         /// File name.
         file: String,
+    },
+    /// The input is UTF-16 (a byte-order mark, or NUL bytes between ASCII characters).
+    #[error("{file}: the file is UTF-16, which is not supported: save it as UTF-8")]
+    Utf16 {
+        /// File name.
+        file: String,
+    },
+    /// The input holds NUL bytes (a binary file?).
+    #[error("{file}: row {row}: a NUL byte at byte {byte}: not a text file")]
+    NulByte {
+        /// File name.
+        file: String,
+        /// Line number of the first NUL byte (header = 1).
+        row: u64,
+        /// Byte offset of the first NUL byte.
+        byte: usize,
     },
     /// The input is not valid UTF-8.
     #[error("{file}: row {row}: invalid UTF-8 at byte {byte}")]

@@ -32,6 +32,7 @@ mod raw;
 mod read;
 mod registration;
 pub mod simulate;
+mod spikes;
 pub mod units;
 
 pub use error::DataError;

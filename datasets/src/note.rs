@@ -35,6 +35,8 @@ pub enum NoteKind {
     Units,
     /// The loop is integrating and was identified from MV to the PV increment.
     Integrating,
+    /// Single-sample spikes found (replaced by the previous sample, or kept when too many).
+    Spikes,
 }
 
 impl NoteKind {
@@ -43,7 +45,10 @@ impl NoteKind {
     pub fn changes_samples(self) -> bool {
         matches!(
             self,
-            NoteKind::GapsFilled | NoteKind::RowsDropped | NoteKind::RowsInserted
+            NoteKind::GapsFilled
+                | NoteKind::RowsDropped
+                | NoteKind::RowsInserted
+                | NoteKind::Spikes
         )
     }
 }

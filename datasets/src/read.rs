@@ -185,6 +185,22 @@ pub fn read_csv_path(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<LoopD
     read_csv(std::io::BufReader::new(file), &name, opts)
 }
 
+/// Whether `bytes` look like UTF-16: a byte-order mark (`FF FE` or `FE FF`), or a NUL byte next
+/// to every other byte of the first line's ASCII (`\0t\0,\0S\0P`). Printed as is, such a
+/// header put NUL bytes on the terminal.
+fn is_utf16(bytes: &[u8]) -> bool {
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        return true;
+    }
+    let head = &bytes[..bytes.len().min(64)];
+    head.len() >= 4 && {
+        let even = head.iter().step_by(2).filter(|&&b| b == 0).count();
+        let odd = head.iter().skip(1).step_by(2).filter(|&&b| b == 0).count();
+        let half = head.len() / 2;
+        even * 10 >= half * 9 || odd * 10 >= half * 9
+    }
+}
+
 /// Read one loop registration from CSV text; `source` names it in messages.
 ///
 /// Never panics: any input yields either data or a [`DataError`].
@@ -195,6 +211,13 @@ pub fn read_csv(
 ) -> Result<LoopData, DataError> {
     let file = source.to_string();
     let bytes = read_limited(&mut reader, &file, &opts.limits, true)?;
+    if is_utf16(&bytes) {
+        return Err(DataError::Utf16 { file });
+    }
+    if let Some(byte) = bytes.iter().position(|&b| b == 0) {
+        let row = 1 + bytes[..byte].iter().filter(|&&b| b == b'\n').count() as u64;
+        return Err(DataError::NulByte { file, row, byte });
+    }
     let text = match std::str::from_utf8(&bytes) {
         Ok(t) => t,
         Err(e) => {
@@ -242,6 +265,7 @@ pub fn read_csv(
     let mut lines: Vec<u64> = Vec::new();
     let mut time_kind: Option<TimeKind> = None;
     let mut decimal_commas = 0usize;
+    let mut unread_pv: Option<DataError> = None;
     for record in records {
         let record = record.map_err(|e| csv_err(&file, e))?;
         let row = record.position().map_or(0, |p| p.line());
@@ -285,13 +309,73 @@ pub fn read_csv(
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
+                bad if col.role == Role::Pv && !col.required => {
+                    unread_pv.get_or_insert_with(|| {
+                        refuse(bad, file.clone(), row, col.name.clone(), excerpt(text))
+                    });
+                    col.values.push(None);
+                }
                 bad => {
                     return Err(refuse(bad, file, row, col.name.clone(), excerpt(text)));
                 }
             }
         }
     }
+    leave_out_unread_pv(&file, unread_pv, &mut columns, &mut notes);
     finish(file, columns, lines, time_kind, decimal_commas, notes, opts)
+}
+
+/// Replace the single-sample spikes of a column ([`crate::spikes`]) and say so.
+fn spike_note(column: &str, values: &mut [f64], lines: &[u64]) -> Option<Note> {
+    let sig = crate::units::sig;
+    match crate::spikes::remove(values) {
+        Ok(found) if found.is_empty() => None,
+        Ok(found) => {
+            let shown: Vec<String> = found
+                .iter()
+                .take(3)
+                .map(|&(i, v)| format!("row {} ({})", lines.get(i).copied().unwrap_or(0), sig(v)))
+                .collect();
+            let more = if found.len() > 3 {
+                format!(" and {} more", found.len() - 3)
+            } else {
+                String::new()
+            };
+            Some(Note::new(
+                NoteKind::Spikes,
+                format!(
+                    "column {column}: {} single-sample spike(s) replaced by the previous sample: {}{more}",
+                    found.len(),
+                    shown.join(", ")
+                ),
+            ))
+        }
+        Err(count) => Some(Note::new(
+            NoteKind::Spikes,
+            format!(
+                "column {column}: {count} samples stand out from both neighbours (over 1 % of the samples): kept as the signal"
+            ),
+        )),
+    }
+}
+
+/// PV that the caller does not need (`stiction valve`) and cannot be read is left out with a
+/// note, not a reason to refuse the file.
+fn leave_out_unread_pv(
+    file: &str,
+    unread: Option<DataError>,
+    columns: &mut Vec<Column>,
+    notes: &mut Vec<Note>,
+) {
+    if let Some(e) = unread {
+        columns.retain(|c| c.role != Role::Pv);
+        let why = e.to_string();
+        let why = why.strip_prefix(&format!("{file}: ")).unwrap_or(&why);
+        notes.push(Note::new(
+            NoteKind::Columns,
+            format!("PV is not needed here and was not read: {why}"),
+        ));
+    }
 }
 
 /// The error for a cell the parsers refused (`cell` is not a gap or a value).
@@ -353,7 +437,7 @@ impl ColumnInput<'_> {
 /// same conventions, notes and errors as [`read_csv`] on the CSV text of those columns (header
 /// on line 1, data row `i` on line `i + 2`), without making or parsing that text: numeric
 /// cells of the SP/PV/OP/MV columns are taken as they are (NaN a gap, infinite or beyond
-/// 1e150 refused as the CSV reader refuses them); time, mode and text cells go through the
+/// 1e60 refused as the CSV reader refuses them); time, mode and text cells go through the
 /// CSV reader's own cell parsers. Equal column lengths are the caller's to ensure (an error
 /// otherwise). `tests/columns.rs` checks the two entries agree.
 pub fn read_columns(
@@ -400,6 +484,7 @@ pub fn read_columns(
     let lines: Vec<u64> = (0..rows as u64).map(|i| i + 2).collect();
     let mut time_kind: Option<TimeKind> = None;
     let mut decimal_commas = 0usize;
+    let mut unread_pv: Option<DataError> = None;
     let mut number = ryu::Buffer::new();
     for col in &mut located {
         col.values.reserve_exact(rows);
@@ -426,7 +511,7 @@ pub fn read_columns(
                         _ => {
                             if v.is_nan() {
                                 col.values.push(None);
-                            } else if v.is_infinite() || v.abs() > TOO_LARGE {
+                            } else if v.is_infinite() || v.abs() >= TOO_LARGE {
                                 let cell = if v.is_infinite() {
                                     Cell::NotFinite
                                 } else {
@@ -437,6 +522,13 @@ pub fn read_columns(
                                 } else {
                                     number.format_finite(v).to_string()
                                 };
+                                if col.role == Role::Pv && !col.required {
+                                    unread_pv.get_or_insert_with(|| {
+                                        refuse(cell, file.clone(), row, col.name.clone(), text)
+                                    });
+                                    col.values.push(None);
+                                    continue;
+                                }
                                 return Err(refuse(cell, file, row, col.name.clone(), text));
                             } else {
                                 col.values.push(Some(v));
@@ -467,10 +559,17 @@ pub fn read_columns(
             match value {
                 Cell::Gap => col.values.push(None),
                 Cell::Value(v) => col.values.push(Some(v)),
+                bad if col.role == Role::Pv && !col.required => {
+                    unread_pv.get_or_insert_with(|| {
+                        refuse(bad, file.clone(), row, col.name.clone(), excerpt(text))
+                    });
+                    col.values.push(None);
+                }
                 bad => return Err(refuse(bad, file, row, col.name.clone(), excerpt(text))),
             }
         }
     }
+    leave_out_unread_pv(&file, unread_pv, &mut located, &mut notes);
     finish(file, located, lines, time_kind, decimal_commas, notes, opts)
 }
 
@@ -762,6 +861,11 @@ fn finish(
             .into_iter()
             .map(|v| v.unwrap_or(f64::NAN))
             .collect();
+        if matches!(col.role, Role::Sp | Role::Pv | Role::Op | Role::Mv) {
+            if let Some(note) = spike_note(&col.name, &mut values, &lines) {
+                data.notes.push(note);
+            }
+        }
         match col.role {
             Role::Time => {
                 let t0 = values[0];
@@ -869,15 +973,18 @@ fn detect_delimiter(text: &str) -> u8 {
     }
 }
 
-/// Values beyond this magnitude overflow in sums of squares (identification, fits).
-const TOO_LARGE: f64 = 1e150;
+/// Values of this magnitude or more are refused: the solvers square the data (sums of squares
+/// over up to 1e6 rows, about 1e126 at this limit) and multiply such sums together (about
+/// 1e252), which must stay finite. 1e150 passed and three such cells made the fit's residual
+/// overflow (F_PV = -1.7e296 %). [`grid_search`] refuses the same.
+pub const TOO_LARGE: f64 = 1e60;
 
 enum Cell {
     Gap,
     Value(f64),
     NotANumber,
     NotFinite,
-    /// Finite but so large that its square overflows (|x| > 1e150).
+    /// Finite but too large to compute with (|x| >= [`TOO_LARGE`]).
     TooLarge,
     BadTime,
     BadMode,
@@ -906,7 +1013,7 @@ fn parse_number(text: &str, decimal_comma: bool, decimal_commas: &mut usize) -> 
         None => Cell::NotANumber,
         Some(v) if v.is_nan() => Cell::Gap,
         Some(v) if v.is_infinite() => Cell::NotFinite,
-        Some(v) if v.abs() > TOO_LARGE => Cell::TooLarge,
+        Some(v) if v.abs() >= TOO_LARGE => Cell::TooLarge,
         Some(v) => Cell::Value(v),
     }
 }

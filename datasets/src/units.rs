@@ -17,9 +17,13 @@
 //! * Counts: every OP an integer in [0, 65535] and above 110 → the smallest of the usual
 //!   full scales ([`FULL_SCALES`]) that holds the largest OP; OP × 100 / full scale.
 //! * Anything else (values beyond 110 that are not integer counts, or negative beyond -10):
-//!   the valve span is unknown; OP is kept as it is, S and J are in OP's own units, and the
-//!   note says so and how to state the range. The grid is relative to the OP span
-//!   (`grid_search::GridPlan::for_span`), so the search stays bounded either way.
+//!   the valve span is unknown; the range seen stands for it (OP rescaled to % of it), so
+//!   that every command and the diagnosis' thresholds work in % of one span whatever OP's
+//!   units, and the note says so and how to state the span.
+//! * A given span must hold OP (up to 10 % of the span beyond it, a controller's over-range)
+//!   and OP must move over at least a millionth of it; otherwise it is refused, naming
+//!   `--op-range`.
+//! * OP within 3.5-20.5 is read as % but gets a note: it may be a 4-20 mA signal.
 //! * A measured MV column is taken to be in OP's units and rescaled with it.
 
 /// The usual full scales of analogue outputs in counts (8, 10, 12, 14 bit, Siemens S7 27648,
@@ -76,7 +80,7 @@ impl OpRange {
 /// The units assumed for OP and the affine map to % of valve span.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct OpUnits {
-    /// Valve span `(lo, hi)` in OP's units; `None` when unknown.
+    /// Valve span `(lo, hi)` in OP's units; `None`: leave OP as it is.
     pub span: Option<(f64, f64)>,
     /// What was assumed, for the notes (`None`: OP already in %, nothing to say).
     pub note: Option<String>,
@@ -90,6 +94,37 @@ impl OpUnits {
             // consistent with a file holding `counts * 100 / full_scale`.
             Some((lo, hi)) if !(lo == 0.0 && hi == 100.0) => (x - lo) * 100.0 / (hi - lo),
             _ => x,
+        }
+    }
+}
+
+/// `x` to 5 significant digits, without trailing zeros (notes quote numbers people read;
+/// `(x * 1e4).round() / 1e4` printed 300 digits for OP near 1e300).
+pub fn sig(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let e = x.abs().log10().floor() as i32;
+    if (-4..6).contains(&e) {
+        let decimals = (4 - e).max(0) as usize;
+        let t = format!("{x:.decimals$}");
+        let t = if t.contains('.') {
+            t.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            t
+        };
+        if t == "-0" {
+            "0".into()
+        } else {
+            t
+        }
+    } else {
+        let t = format!("{x:.4e}");
+        match t.split_once('e') {
+            Some((m, e)) if m.contains('.') => {
+                format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+            }
+            _ => t,
         }
     }
 }
@@ -112,8 +147,35 @@ pub(crate) fn op_units(op: &[f64], range: OpRange) -> Result<OpUnits, String> {
                     "OP range {a},{b}: expected LO,HI with LO < HI (the closed and the fully open valve)"
                 ));
             }
-            let note = (!(a == 0.0 && b == 100.0))
-                .then(|| format!("OP in {a}-{b} (as given): rescaled to % of valve span"));
+            // OP beyond the stated valve span by more than a controller's over-range (10 % of
+            // the span) is a span that does not hold OP: S and J would be scaled by a wrong
+            // factor (`--op-range 0,10` on OP in 50-60 gave S = 40 %).
+            let margin = 0.1 * (b - a);
+            if lo.is_finite() && hi.is_finite() && (lo < a - margin || hi > b + margin) {
+                return Err(format!(
+                    "--op-range {},{} does not contain OP, which ranges {}-{}: give the closed and the fully open valve in OP's units",
+                    sig(a),
+                    sig(b),
+                    sig(lo),
+                    sig(hi)
+                ));
+            }
+            if lo.is_finite() && hi.is_finite() && hi - lo < 1e-6 * (b - a) {
+                return Err(format!(
+                    "--op-range {},{}: OP ({}-{}) moves over less than a millionth of it: give the closed and the fully open valve in OP's units",
+                    sig(a),
+                    sig(b),
+                    sig(lo),
+                    sig(hi)
+                ));
+            }
+            let note = (!(a == 0.0 && b == 100.0)).then(|| {
+                format!(
+                    "OP in {}-{} (as given): rescaled to % of valve span",
+                    sig(a),
+                    sig(b)
+                )
+            });
             Ok(OpUnits {
                 span: Some((a, b)),
                 note,
@@ -126,21 +188,27 @@ pub(crate) fn op_units(op: &[f64], range: OpRange) -> Result<OpUnits, String> {
                     note: None,
                 });
             }
-            let shown = |x: f64| format!("{}", (x * 1e4).round() / 1e4);
             if lo >= -0.05 && hi <= 1.05 {
                 return Ok(OpUnits {
                     span: Some((0.0, 1.0)),
                     note: Some(format!(
                         "OP ranges {}-{}: taken as a fraction of valve span (0-1) and rescaled to %; give --op-range to state otherwise",
-                        shown(lo),
-                        shown(hi)
+                        sig(lo),
+                        sig(hi)
                     )),
                 });
             }
             if lo >= -10.0 && hi <= 110.0 {
+                // A 4-20 mA signal logged as such also lies within 0-100; read as % it makes S
+                // and J 6.25 times too small. It cannot be told from % for sure: a note.
+                let milliamps = lo >= 3.5 && hi <= 20.5 && hi - lo >= 4.0;
                 return Ok(OpUnits {
                     span: Some((0.0, 100.0)),
-                    note: None,
+                    note: milliamps.then(|| format!(
+                        "OP ranges {}-{}, within 4-20: read as % of valve span; if it is a 4-20 mA signal, give --op-range 4,20",
+                        sig(lo),
+                        sig(hi)
+                    )),
                 });
             }
             let integral = op.iter().all(|v| v.fract() == 0.0);
@@ -150,18 +218,24 @@ pub(crate) fn op_units(op: &[f64], range: OpRange) -> Result<OpUnits, String> {
                         span: Some((0.0, fs)),
                         note: Some(format!(
                             "OP ranges {}-{} in integer steps: taken as counts of a 0-{fs} output and rescaled to % of valve span; give --op-range to state otherwise",
-                            shown(lo),
-                            shown(hi)
+                            sig(lo),
+                            sig(hi)
                         )),
                     });
                 }
             }
+            // The valve span is unknown: the range seen stands for it, so that S and J, the
+            // detection's stiction bands and the diagnosis' thresholds are all in % of one span
+            // (kept in OP's units, detect searched bands in % steps of a span of 1e9 and the
+            // diagnosis printed "S = 39949948.12 %").
             Ok(OpUnits {
-                span: None,
+                span: Some((lo, hi)),
                 note: Some(format!(
-                    "OP ranges {}-{}, neither 0-1, 0-100 nor integer counts: the valve span is unknown, so S and J are in OP's units, not %; give --op-range LO,HI to state it",
-                    shown(lo),
-                    shown(hi)
+                    "OP ranges {}-{}, neither 0-1, 0-100 nor integer counts: the valve span is unknown, so S and J are in % of the OP range seen ({}-{}); give --op-range LO,HI to state the valve span",
+                    sig(lo),
+                    sig(hi),
+                    sig(lo),
+                    sig(hi)
                 )),
             })
         }
@@ -201,14 +275,33 @@ mod tests {
         assert_eq!(span_of(&[-3.0, 104.0]), Some((0.0, 100.0)));
         assert_eq!(span_of(&[3277.0, 11468.0]), Some((0.0, 16383.0)));
         assert_eq!(span_of(&[200.0, 900.0]), Some((0.0, 1023.0)));
-        assert_eq!(span_of(&[389.5, 395.5]), None);
-        assert_eq!(span_of(&[2e10, 6e10]), None);
-        assert_eq!(span_of(&[-50.0, 50.0]), None);
+        assert_eq!(span_of(&[389.5, 395.5]), Some((389.5, 395.5)));
+        assert_eq!(span_of(&[2e10, 6e10]), Some((2e10, 6e10)));
+        assert_eq!(span_of(&[-50.0, 50.0]), Some((-50.0, 50.0)));
+    }
+
+    #[test]
+    fn numbers_in_notes_have_five_significant_digits() {
+        assert_eq!(sig(1.7e296), "1.7e296");
+        assert_eq!(sig(-1.23456789e-7), "-1.2346e-7");
+        assert_eq!(sig(389.5), "389.5");
+        assert_eq!(sig(0.123456), "0.12346");
+        assert_eq!(sig(16383.0), "16383");
+        assert_eq!(sig(0.0), "0");
     }
 
     #[test]
     fn given_ranges_are_checked_and_used() {
         let u = op_units(&[5.0, 15.0], OpRange::Given(4.0, 20.0)).unwrap();
+        for (a, b) in [(0.0, 10.0), (0.0, 1e-9), (0.0, 1e-300), (0.0, 1e300)] {
+            let e = op_units(&[50.0, 60.0], OpRange::Given(a, b)).unwrap_err();
+            assert!(e.starts_with("--op-range"), "{e}");
+        }
+        assert!(op_units(&[-2.0, 101.0], OpRange::Given(0.0, 100.0)).is_ok());
+        let ma = op_units(&[4.3, 17.9], OpRange::Detect).unwrap();
+        assert_eq!(op_units(&[5.0, 6.0], OpRange::Detect).unwrap().note, None);
+        assert!(ma.note.unwrap().contains("--op-range 4,20"));
+        assert_eq!(op_units(&[20.0, 70.0], OpRange::Detect).unwrap().note, None);
         assert_eq!(u.to_percent(12.0), 50.0);
         assert!(op_units(&[1.0], OpRange::Given(1.0, 1.0)).is_err());
         assert!(op_units(&[1.0], OpRange::Given(f64::NAN, 1.0)).is_err());

@@ -369,6 +369,10 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
     // The profile over S: the best output-error residual of each S (over J and the starts).
     let mut profile: Vec<(f64, f64)> = Vec::with_capacity(S_GRID.len());
     for &s in S_GRID.iter().filter(|&&s| s <= range) {
+        // A stop requested (Ctrl-C in Python): the caller discards the answer.
+        if stiction_models::cancel::requested() {
+            return None;
+        }
         profile.push((s, f64::INFINITY));
         for j in [0.0, 0.5 * s, s] {
             let Ok(valve) = Kano::params().s(s).j(j).check() else {

@@ -266,10 +266,30 @@ pub fn run_all(reg: &Registration<'_>) -> Vec<TestOutcome> {
     registry()
         .into_iter()
         .map(|e| match e.test.run(reg) {
-            Ok(o) => o,
+            Ok(o) => finite_or_inconclusive(o),
             Err(err) => TestOutcome::from_error(e.name, &err),
         })
         .collect()
+}
+
+/// An outcome whose statistic or values are not finite numbers (the data overflowed a sum, a
+/// variance vanished) is no evidence: inconclusive, with the reason instead of its sentence
+/// (which would read "NGI NaN, NLI NaN" and gave `no-stiction`).
+fn finite_or_inconclusive(o: TestOutcome) -> TestOutcome {
+    let bad = o.statistic.is_some_and(|s| !s.is_finite())
+        || o.values.iter().any(|(_, v)| !v.is_finite())
+        || o.evidence
+            .split(|c: char| !c.is_alphanumeric())
+            .any(|w| w == "NaN" || w == "inf");
+    if !bad {
+        return o;
+    }
+    TestOutcome::new(
+        o.name,
+        None,
+        Verdict::Inconclusive,
+        "its statistic is not a finite number on this record (an overflowing or vanishing intermediate value)",
+    )
 }
 
 /// The registered test called `name`.
@@ -309,6 +329,11 @@ pub(crate) struct Prepared {
     pub(crate) pv: Vec<f64>,
     /// OP detrended.
     pub(crate) op: Vec<f64>,
+    /// PV in units of its own spread: `(PV − mean) / standard deviation`. What the model fits
+    /// read (the valve's proxy), so that their statistics do not depend on PV's engineering
+    /// units: a least-squares fit on PV × 2e6 with an absolute ridge or a raw offset loses the
+    /// valve's evidence to rounding.
+    pub(crate) pv_unit: Vec<f64>,
     /// The oscillation of the control error.
     pub(crate) oscillation: Oscillation,
 }
@@ -402,20 +427,26 @@ impl<'a> Registration<'a> {
 
     /// What stands for the valve position: PV for a self-regulating loop, ΔPV (the level's
     /// rate, proportional to the flow) for an integrating one; OP and PV aligned with it.
+    /// PV is in units of its own spread (see `Prepared::pv_unit`); the caller has checked
+    /// [`Registration::prepared`] (before that, and on data that cannot be judged, PV as given).
     pub(crate) fn valve_proxy(&self) -> ValveProxy<'_> {
+        let pv: &[f64] = match self.prepared() {
+            Ok(p) => &p.pv_unit,
+            Err(_) => self.pv,
+        };
         if self.integrating {
             ValveProxy {
                 name: "ΔPV",
-                y: self.pv.windows(2).map(|w| w[1] - w[0]).collect(),
+                y: pv.windows(2).map(|w| w[1] - w[0]).collect(),
                 op: &self.op[1..],
-                pv: &self.pv[1..],
+                pv: &pv[1..],
             }
         } else {
             ValveProxy {
                 name: "PV",
-                y: self.pv.to_vec(),
+                y: pv.to_vec(),
                 op: self.op,
-                pv: self.pv,
+                pv,
             }
         }
     }
@@ -470,10 +501,12 @@ impl<'a> Registration<'a> {
         };
         let error = signal::detrend(&raw_error);
         let oscillation = oscillation::analyse(&error);
+        let pv_unit = signal::standardise(self.pv);
         Ok(Prepared {
             error,
             pv: signal::detrend(self.pv),
             op: signal::detrend(self.op),
+            pv_unit,
             oscillation,
         })
     }

@@ -207,8 +207,15 @@ pub fn combine(reg: &Registration<'_>, tests: Vec<TestOutcome>, model: &Model) -
         .find(|t| t.name == "hammerstein")
         .and_then(|t| t.value("S_upper"));
     let hammer = says("hammerstein");
+    let judged = tests.iter().any(|t| t.statistic.is_some());
     let (verdict, reason) = match reg.check() {
         Err(e) => (Verdict::Inconclusive, degenerate_reason(&e)),
+        // With no statistic at all the score is the model's base rate: no evidence either way
+        // (it said `no-stiction`, score 0.30).
+        Ok(()) if !judged => (
+            Verdict::Inconclusive,
+            "no test could judge this record (each says why)".to_string(),
+        ),
         Ok(()) if score >= STICTION_AT && (oscillating || stick_slip || hammer) => {
             let mut with = Vec::new();
             if oscillating {

@@ -1,7 +1,7 @@
 //! Records that cannot identify stiction, refused before the search (issue 15): an estimate
 //! with a confident region from such data would be a plausible wrong answer.
 //!
-//! * A sample so large (|x| > 1e150) that sums of squares overflow: every node would be a
+//! * A sample so large (|x| >= 1e60) that sums of squares and their products overflow: every node would be a
 //!   "singular regression"; the sample is named instead.
 //! * PV an exact affine function of OP (PV = a + b·OP at every sample, e.g. a copied column):
 //!   there are no process dynamics to separate the valve from; the ARX regression on OP is
@@ -13,16 +13,17 @@
 
 use crate::SearchError;
 
-/// Values beyond this overflow in sums of squares.
-pub const TOO_LARGE: f64 = 1e150;
+/// Values of this magnitude or more are refused (the reader's limit): sums of squares over a
+/// long record and products of such sums must stay finite.
+pub const TOO_LARGE: f64 = 1e60;
 
 /// Refuse records that cannot identify stiction (see the module documentation).
 pub fn check_identifiable(op: &[f64], pv: &[f64]) -> Result<(), SearchError> {
     for (signal, x) in [("OP", op), ("PV", pv)] {
-        if let Some(i) = x.iter().position(|v| v.abs() > TOO_LARGE) {
+        if let Some(i) = x.iter().position(|v| v.abs() >= TOO_LARGE) {
             return Err(SearchError::NotIdentifiable {
                 reason: format!(
-                    "{signal} sample {i} is {:e}, too large to compute with (|value| > 1e150); rescale it",
+                    "{signal} sample {i} is {:e}, too large to compute with (|value| >= 1e60); rescale it",
                     x[i]
                 ),
             });

@@ -34,6 +34,9 @@ pub use stiction_models;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum SearchError {
+    /// A stop was requested while the search ran ([`stiction_models::cancel`]).
+    #[error("interrupted")]
+    Interrupted,
     /// The stiction model failed (bad OP, bad initialization).
     #[error(transparent)]
     Stiction(#[from] stiction_models::StictionError),

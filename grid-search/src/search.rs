@@ -1080,6 +1080,13 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
     let start = Instant::now();
     let prep = prepare(entry, identifier, problem, options, path)?;
     let crit = options.criterion;
+    let interrupted = || {
+        if stiction_models::cancel::requested() {
+            Err(SearchError::Interrupted)
+        } else {
+            Ok(())
+        }
+    };
     let done = AtomicUsize::new(0);
     let eval_all = |nodes: Vec<Vec<f64>>| -> Vec<NodeFit> {
         let planned = nodes.len();
@@ -1137,6 +1144,7 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
             all
         }
     };
+    interrupted()?;
     finish(&prep, surface, options.grid, start, notes)
 }
 
@@ -1151,7 +1159,11 @@ pub fn evaluate_nodes<I: LinearIdentifier + ?Sized>(
     nodes: Vec<Vec<f64>>,
 ) -> Result<Vec<NodeFit>, SearchError> {
     let prep = prepare(entry, identifier, problem, options, NodePath::Fast)?;
-    Ok(prep.ctx.evaluate_all(nodes, &|| {}))
+    let fits = prep.ctx.evaluate_all(nodes, &|| {});
+    if stiction_models::cancel::requested() {
+        return Err(SearchError::Interrupted);
+    }
+    Ok(fits)
 }
 
 /// The result of a search whose nodes were evaluated with [`evaluate_nodes`]: selects the best
@@ -1201,7 +1213,11 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             let per_batch: Vec<Vec<NodeFit>> = nodes
                 .par_chunks(BATCH)
                 .map_init(BatchScratch::default, |scratch, batch| {
-                    let outcomes = self.evaluate_batch(batch, scratch);
+                    let outcomes = if stiction_models::cancel::requested() {
+                        vec![Err(Skip::Cancelled); batch.len()]
+                    } else {
+                        self.evaluate_batch(batch, scratch)
+                    };
                     batch
                         .iter()
                         .cloned()
@@ -1215,6 +1231,9 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         nodes
             .into_par_iter()
             .map_init(Scratch::default, |scratch, params| {
+                if stiction_models::cancel::requested() {
+                    return node_fit(params, Err(Skip::Cancelled));
+                }
                 let outcome = match self.path {
                     NodePath::Fast => self.evaluate_fast(&params, scratch),
                     NodePath::Sample => self.evaluate(&params, scratch, false).map(|(f, _)| f),

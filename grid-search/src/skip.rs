@@ -27,6 +27,8 @@ pub enum Skip {
     Identification(IdError),
     /// The one-step prediction is not finite.
     NonFinitePrediction,
+    /// Not evaluated: a stop was requested ([`stiction_models::cancel`]).
+    Cancelled,
 }
 
 impl Skip {
@@ -49,6 +51,7 @@ impl fmt::Display for Skip {
             ),
             Skip::Identification(e) => write!(f, "{e}"),
             Skip::NonFinitePrediction => f.write_str("the prediction is not finite"),
+            Skip::Cancelled => f.write_str("not evaluated: interrupted"),
         }
     }
 }

@@ -5,7 +5,7 @@
 //!   and returns its [`Row`]s. It never fails and never panics: a file the reader refuses, a
 //!   failed search or a bug becomes a row with status `error` and its one-line error.
 //! * [`run`] does it for many files in parallel, resumably: with a JSONL file, the rows already
-//!   there for the same file (name, size, modification time) and the same options are kept, a
+//!   there for the same file (full path and SHA-256 of its bytes) and the same options are kept, a
 //!   torn line (an interrupted run) is dropped and its file computed again, and each new file's
 //!   rows are appended as soon as it is done.
 //! * [`Labels`] joins a `file,label` table to the rows; [`label_summary`] measures how well S
@@ -46,7 +46,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::record::null_as_nan;
 use crate::registration::{
-    evaluate, file_name, unread, FitEvidence, Integrating, Plan, Registration, RegistrationError,
+    evaluate, unread, FitEvidence, Integrating, Plan, Registration, RegistrationError,
 };
 use crate::{
     on_grid, roc, Combination, MonitoringError, QuantifyRecord, Roc, Settings, TimeSource,
@@ -138,6 +138,10 @@ pub struct Row {
     pub size: u64,
     /// Modification time, seconds since the Unix epoch.
     pub mtime: Option<u64>,
+    /// SHA-256 of the file's bytes (hex), the resume key with the full path; `None` when the
+    /// row predates it (then computed again) or the file could not be read.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sha256: Option<String>,
     /// The valve (file-name prefix before `_`).
     pub valve: String,
     /// Registration time, `YYYY-MM-DD HH:MM` UTC.
@@ -317,7 +321,32 @@ fn csv_cell(v: &serde_json::Value) -> String {
     }
 }
 
-/// Identity of a file for resuming: size and modification time (s).
+/// SHA-256 of the file's bytes in hex; `None` when it cannot be read.
+pub fn content_hash(p: &Path) -> Option<String> {
+    use sha2::{Digest, Sha256};
+    let mut file = std::fs::File::open(p).ok()?;
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        match std::io::Read::read(&mut file, &mut buf) {
+            Ok(0) => break,
+            Ok(k) => h.update(&buf[..k]),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(_) => return None,
+        }
+    }
+    Some(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// The resume key of a file: its full path and the hash of its content. A file of the same
+/// name, size and modification time in another folder (`rsync -a`, `tar`) is another file;
+/// the same bytes at the same path are the same registration whatever their time stamps.
+fn resume_key(path: &Path, hash: Option<&str>) -> Option<String> {
+    let full = path.canonicalize().ok()?;
+    Some(format!("{}|{}", full.display(), hash?))
+}
+
+/// Size and modification time (s), reported in the rows.
 fn identity(p: &Path) -> (u64, Option<u64>) {
     let meta = std::fs::metadata(p).ok();
     let size = meta.as_ref().map_or(0, |m| m.len());
@@ -331,11 +360,13 @@ fn identity(p: &Path) -> (u64, Option<u64>) {
 /// The rows of one evaluated registration.
 fn rows_of(reg: &Registration, settings: &str) -> Vec<Row> {
     let (size, mtime) = identity(&reg.path);
+    let sha256 = content_hash(&reg.path);
     let row = |status: Status| Row {
         file: reg.file.clone(),
         path: reg.path.display().to_string(),
         size,
         mtime,
+        sha256: sha256.clone(),
         valve: reg.valve.clone(),
         time: reg.start.map(format_epoch),
         time_source: reg.time_source,
@@ -526,10 +557,36 @@ pub fn out_paths(out: &Path) -> (PathBuf, PathBuf) {
     (with(".jsonl"), with(".csv"))
 }
 
+/// Hold the lock of the output `jsonl` (an advisory lock on `jsonl` + `.lock`, created if
+/// needed) for as long as the returned file is open: a second run on the same output is
+/// refused ([`MonitoringError::OutputBusy`]) instead of appending every row a second time. The
+/// operating system releases the lock when the process ends, killed or not.
+pub fn lock_output(jsonl: &Path) -> Result<std::fs::File, MonitoringError> {
+    let mut name = jsonl.as_os_str().to_owned();
+    name.push(".lock");
+    let path = PathBuf::from(name);
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(|source| MonitoringError::Io {
+            path: path.clone(),
+            source,
+        })?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(MonitoringError::OutputBusy {
+            path: jsonl.to_path_buf(),
+        }),
+        Err(std::fs::TryLockError::Error(source)) => Err(MonitoringError::Io { path, source }),
+    }
+}
+
 /// The resume step of a batch ([`resume`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Resume {
-    /// The rows of the JSONL kept: their file (name, size, modification time) is among the
+    /// The rows of the JSONL kept: their file (full path, content hash) is among the
     /// run's files and their options are the run's.
     pub kept: Vec<Row>,
     /// The files still to compute, in the given order.
@@ -552,13 +609,12 @@ pub fn resume(
         Some(p) if p.exists() => read_jsonl(p)?,
         _ => (Vec::new(), Vec::new()),
     };
-    let key = |file: &str, size: u64, mtime: Option<u64>| format!("{file}|{size}|{mtime:?}");
-    let file_key = |f: &PathBuf| {
-        let (size, mtime) = identity(f);
-        key(&file_name(f), size, mtime)
-    };
-    let current: HashSet<String> = files.iter().map(file_key).collect();
-    let row_key = |r: &Row| key(&r.file, r.size, r.mtime);
+    let keys: Vec<Option<String>> = files
+        .iter()
+        .map(|f| resume_key(f, content_hash(f).as_deref()))
+        .collect();
+    let current: HashSet<&String> = keys.iter().flatten().collect();
+    let row_key = |r: &Row| resume_key(Path::new(&r.path), r.sha256.as_deref());
     // A row of a registration that was read always has the detector's verdict; one without
     // it was written before the detector existed and is computed again.
     // Likewise a row without the repair assessment (neither `repair` nor its reason).
@@ -568,15 +624,16 @@ pub fn resume(
     };
     kept.retain(|r| {
         r.settings == settings
-            && current.contains(&row_key(r))
+            && row_key(r).is_some_and(|k| current.contains(&k))
             && !(r.is_ok() && r.detect_verdict.is_empty())
             && !unassessed(r)
     });
-    let done: HashSet<String> = kept.iter().map(row_key).collect();
+    let done: HashSet<String> = kept.iter().filter_map(row_key).collect();
     let todo: Vec<PathBuf> = files
         .iter()
-        .filter(|f| !done.contains(&file_key(f)))
-        .cloned()
+        .zip(&keys)
+        .filter(|(_, k)| !k.as_ref().is_some_and(|k| done.contains(k)))
+        .map(|(f, _)| f.clone())
         .collect();
     if let Some(path) = jsonl {
         let io = |source| MonitoringError::Io {
@@ -593,7 +650,7 @@ pub fn resume(
 }
 
 /// Run `files` in parallel (each file's searches share rayon's pool). With `jsonl`, resume:
-/// keep the rows there whose file (name, size, modification time) is among `files` and whose
+/// keep the rows there whose file (full path, content hash) is among `files` and whose
 /// options are `opts`, rewrite the file with them (dropping torn lines and stale rows), and
 /// append each new file's rows as soon as it is done. `labels` fills each new row's label.
 /// `progress` receives `(files done, files to do)` from the worker threads.
@@ -608,6 +665,7 @@ pub fn run(
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<BatchRun, MonitoringError> {
     let combinations = opts.combinations()?;
+    let _lock = jsonl.map(lock_output).transpose()?;
     let Resume {
         kept: previous,
         todo,

@@ -75,6 +75,12 @@ pub enum MonitoringError {
         /// What failed.
         source: std::io::Error,
     },
+    /// Another run holds the output's lock.
+    #[error("{}: another batch run is writing this output (its lock {}.lock is held): wait for it to end or give another -o", .path.display(), .path.display())]
+    OutputBusy {
+        /// The JSONL output.
+        path: PathBuf,
+    },
     /// A file could not be created.
     #[error("cannot create {}", .path.display())]
     Create {

@@ -66,22 +66,28 @@ pub fn is_level_tag(valve: &str) -> bool {
     (2..=4).contains(&letters.len()) && letters.starts_with(['L', 'l'])
 }
 
-/// A file of a directory that is not a loop registration.
+/// A file left out: of a directory and not a loop registration, or given twice.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct NotALoop {
     /// The file.
     pub path: PathBuf,
     /// The OP column its header lacks.
     pub column: String,
+    /// The path under which the same file is already counted (given twice, or by a folder and
+    /// by name).
+    pub duplicate_of: Option<PathBuf>,
 }
 
 impl fmt::Display for NotALoop {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "no {} column in its header, not a loop registration",
-            self.column
-        )
+        match &self.duplicate_of {
+            Some(first) => write!(f, "the same file as {}, counted once", first.display()),
+            None => write!(
+                f,
+                "no {} column in its header, not a loop registration",
+                self.column
+            ),
+        }
     }
 }
 
@@ -109,16 +115,32 @@ fn kind_of(f: &Path, op: &str) -> Kind {
     let Ok(file) = std::fs::File::open(f) else {
         return Kind::Loop; // the reader says why, in the file's row
     };
-    let mut first = String::new();
-    let _ = std::io::BufRead::read_line(
+    let mut first = Vec::new();
+    let _ = std::io::BufRead::read_until(
         &mut std::io::BufReader::new(std::io::Read::take(file, 64 * 1024)),
+        b'\n',
         &mut first,
     );
+    // Only a readable header that names other columns makes a file "something else": an empty
+    // file, one that is not UTF-8 (UTF-16), a comment line or a first line of numbers (no
+    // header) is a registration the reader cannot read, and gets its error row.
+    let Ok(first) = std::str::from_utf8(&first) else {
+        return Kind::Loop;
+    };
+    let first = first.trim_start_matches('\u{feff}');
+    if first.trim().is_empty() || first.contains('\0') || first.starts_with('#') {
+        return Kind::Loop;
+    }
     let names: Vec<&str> = first
-        .trim_start_matches('\u{feff}')
         .split([',', ';', '\t'])
         .map(|c| c.trim().trim_matches('"'))
         .collect();
+    if names
+        .iter()
+        .all(|c| c.is_empty() || c.parse::<f64>().is_ok())
+    {
+        return Kind::Loop;
+    }
     let has = |name: &str| names.iter().any(|c| c.eq_ignore_ascii_case(name));
     if has(op) {
         Kind::Loop
@@ -130,9 +152,10 @@ fn kind_of(f: &Path, op: &str) -> Kind {
 }
 
 /// Expand files and directories into registration files: a directory gives its files with a
-/// known extension whose header names the OP column `op`, sorted by name, minus `exclude`; the
-/// files of a directory left out as not being loops are returned beside them, except labels
-/// tables (a header with `file` and `label`), which are left out quietly.
+/// known extension whose header names the OP column `op` or cannot be read (the reader then
+/// explains it in the file's error row), sorted by name, minus `exclude`; the files of a
+/// directory left out as not being loops, and files given twice, are returned beside them,
+/// except labels tables (a header with `file` and `label`), which are left out quietly.
 pub fn expand(
     paths: &[PathBuf],
     exclude: &[PathBuf],
@@ -168,6 +191,7 @@ pub fn expand(
                     Kind::Other => skipped.push(NotALoop {
                         path: f,
                         column: op.to_string(),
+                        duplicate_of: None,
                     }),
                 }
             }
@@ -177,7 +201,24 @@ pub fn expand(
             return Err(MonitoringError::NoSuchPath(p.clone()));
         }
     }
-    Ok((out, skipped))
+    // The same file twice (given twice, or by name and by its folder) counts once.
+    let mut seen: Vec<(PathBuf, PathBuf)> = Vec::new();
+    let mut once = Vec::with_capacity(out.len());
+    for f in out {
+        let full = f.canonicalize().unwrap_or_else(|_| f.clone());
+        match seen.iter().find(|(c, _)| *c == full) {
+            Some((_, first)) => skipped.push(NotALoop {
+                path: f,
+                column: op.to_string(),
+                duplicate_of: Some(first.clone()),
+            }),
+            None => {
+                seen.push((full, f.clone()));
+                once.push(f);
+            }
+        }
+    }
+    Ok((once, skipped))
 }
 
 /// The base name of a path, for rows and messages.

@@ -48,6 +48,88 @@ __all__ = [
 SEARCH_OPTIONS = ("orders", "delay", "step", "init", "criterion", "split", "max_nodes")
 
 
+def _number(key: str, value: Any, *, above: Optional[float] = None, at_least: Optional[float] = None,
+            below: Optional[float] = None, at_most: Optional[float] = None, whole: bool = False) -> None:
+    """Check one numeric keyword: a real number (an int when `whole`), finite, in range; the
+    UsageError names the keyword and what it takes."""
+    kind = "a whole number" if whole else "a finite number"
+    bounds = []
+    if above is not None:
+        bounds.append(f"> {above:g}")
+    if at_least is not None:
+        bounds.append(f">= {at_least:g}")
+    if below is not None:
+        bounds.append(f"< {below:g}")
+    if at_most is not None:
+        bounds.append(f"<= {at_most:g}")
+    wanted = kind + (" " + " and ".join(bounds) if bounds else "")
+    if isinstance(value, bool) or isinstance(value, complex) or np.iscomplexobj(value):
+        raise UsageError(f"{key}={value!r}: expected {wanted}")
+    if whole and not isinstance(value, (int, np.integer)):
+        raise UsageError(f"{key}={value!r}: expected {wanted}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise UsageError(f"{key}={value!r}: expected {wanted}") from None
+    if not np.isfinite(v) or (above is not None and not v > above) or (
+        at_least is not None and not v >= at_least) or (below is not None and not v < below) or (
+        at_most is not None and not v <= at_most):
+        raise UsageError(f"{key}={value!r}: expected {wanted}")
+
+
+def _choice(key: str, value: Any, allowed: Tuple[str, ...]) -> None:
+    if not isinstance(value, str) or value not in allowed:
+        raise UsageError(f"{key}={value!r}: expected one of {', '.join(repr(a) for a in allowed)}")
+
+
+def _check_options(options: Dict[str, Any]) -> Dict[str, Any]:
+    """Check the search and run keywords before they cross to the library, so that an error
+    names the keyword and the values it takes (not a JSON parser's position or a CLI flag)."""
+    out = dict(options)
+    for key, value in options.items():
+        if key == "orders":
+            if isinstance(value, (list, tuple)):
+                for v in value:
+                    _number("orders", v, at_least=0, whole=True)
+                out[key] = ",".join(str(int(v)) for v in value)
+            elif not isinstance(value, str):
+                raise UsageError(f"orders={value!r}: expected text such as \"2,2\" or \"n=2,m=2\", or a list of whole numbers")
+        elif key == "delay":
+            if not (isinstance(value, str) and value == "auto"):
+                if isinstance(value, str):
+                    raise UsageError(f"delay={value!r}: expected a whole number of samples >= 0 or \"auto\"")
+                _number("delay", value, at_least=0, whole=True)
+        elif key == "step":
+            _number("step", value, above=0)
+        elif key == "init":
+            _choice("init", value, ("In.1", "In.2", "In.3"))
+        elif key == "criterion":
+            _choice("criterion", value, ("prediction", "simulation"))
+        elif key == "split":
+            _number("split", value, above=0, below=1)
+        elif key == "max_nodes":
+            _number("max_nodes", value, at_least=1, whole=True)
+        elif key in ("threshold",):
+            _number(key, value, at_least=0)
+        elif key == "horizon":
+            _number(key, value, above=0)
+        elif key == "min_fit":
+            _number(key, value, at_most=100)
+        elif key == "integrating":
+            if value not in ("auto", "yes", "no"):
+                raise UsageError(f"integrating={value!r}: expected one of 'auto', 'yes', 'no'")
+        elif key in ("stiction", "linear", "without"):
+            names = value if isinstance(value, (list, tuple)) else [value]
+            for n in names:
+                if not isinstance(n, str):
+                    raise UsageError(f"{key}={value!r}: expected a model name or a list of names (see stiction.models())")
+    return out
+
+
+def _json(settings: Dict[str, Any]) -> str:
+    return json.dumps(_check_options(settings), allow_nan=False)
+
+
 def _split(kwargs: Dict[str, Any], allowed: Tuple[str, ...]) -> Tuple[dict, dict]:
     """Separate the reader's options from the command's; anything else is a UsageError."""
     reader = {k: v for k, v in kwargs.items() if k in _data.READ_OPTIONS}
@@ -64,11 +146,11 @@ def _split(kwargs: Dict[str, Any], allowed: Tuple[str, ...]) -> Tuple[dict, dict
 def _run(command: str, data: Any, source: Optional[str], allowed: Tuple[str, ...], kwargs) -> Dict[str, Any]:
     reader, settings = _split(kwargs, allowed)
     if _data.is_path(data):
-        doc = _native.run_path(command, str(data), reader, json.dumps(settings))
+        doc = _native.run_path(command, str(data), reader, _json(settings))
     else:
         names, columns = _data.columns(data)
         doc = _native.run_columns(
-            command, names, columns, _data.source_name(data, source), reader, json.dumps(settings)
+            command, names, columns, _data.source_name(data, source), reader, _json(settings)
         )
     return json.loads(doc)
 
@@ -204,7 +286,7 @@ def trend(
         settings["threshold"] = threshold
     if horizon is not None:
         settings["horizon"] = horizon
-    return json.loads(_native.trend([str(p) for p in paths], json.dumps(settings), reader, valve))
+    return json.loads(_native.trend([str(p) for p in paths], _json(settings), reader, valve))
 
 
 def _names(v: Any) -> list:
@@ -254,6 +336,8 @@ def valve(
 
     >>> mv, k0 = stiction.valve(np.array([50, 52, 55, 53, 50.0]), "kano", {"S": 4, "J": 1})
     """
+    if np.iscomplexobj(op):
+        raise TypeError("op: complex numbers are not supported; pass the real part (op.real) if that is what was meant")
     arr = np.ascontiguousarray(np.asarray(op, dtype=np.float64))
     if arr.ndim != 1:
         raise UsageError(f"op: expected a 1-D series, got shape {arr.shape}")

@@ -66,6 +66,11 @@ def columns(data: Any):
     for name, col in df.items():
         names.append(str(name))
         kind = getattr(col.dtype, "kind", None)
+        if kind == "c" or (kind == "O" and any(isinstance(v, complex) for v in col.tolist())):
+            raise TypeError(
+                f"column {name!r}: complex numbers are not supported (dtype {col.dtype}); "
+                f"pass the real part (e.g. df[{str(name)!r}].real) if that is what was meant"
+            )
         if isinstance(col.dtype, np.dtype) and kind in "fiu":
             # plain numpy numbers: NaN is already NaN (the fast path, no masking)
             cols.append(np.ascontiguousarray(col.to_numpy(dtype=np.float64)))
@@ -89,7 +94,25 @@ def options(kwargs: Mapping[str, Any]) -> dict:
         raise UsageError(
             f"unknown option(s) {unknown}; the reader's are {', '.join(READ_OPTIONS)}"
         )
-    return {k: v for k, v in kwargs.items() if v is not None}
+    out = {k: v for k, v in kwargs.items() if v is not None}
+    for key, value in out.items():
+        if key in ("pv", "op", "sp", "mv", "time", "mode") and not isinstance(value, str):
+            raise UsageError(f"{key}={value!r}: expected a column name (text)")
+        if key == "gaps" and value not in ("refuse", "hold", "drop"):
+            raise UsageError(f"gaps={value!r}: expected one of 'refuse', 'hold', 'drop'")
+        if key == "max_rows" and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+            raise UsageError(f"max_rows={value!r}: expected a whole number >= 1")
+        if key == "op_range":
+            ok = isinstance(value, (tuple, list)) and len(value) == 2
+            if ok:
+                try:
+                    lo, hi = float(value[0]), float(value[1])
+                    ok = bool(np.isfinite(lo) and np.isfinite(hi) and lo < hi)
+                except (TypeError, ValueError):
+                    ok = False
+            if not ok:
+                raise UsageError(f"op_range={value!r}: expected (lo, hi), finite numbers with lo < hi (closed and fully open valve in OP's units)")
+    return out
 
 
 def is_path(data: Any) -> bool:

@@ -63,7 +63,9 @@ def options(
         )
     as_list = lambda v: [v] if isinstance(v, str) else list(v)  # noqa: E731
     rest.update(stiction=as_list(stiction), linear=as_list(linear))
-    return _native.batch_options(json.dumps(rest), _data.options(reader))
+    from . import _json
+
+    return _native.batch_options(_json(rest), _data.options(reader))
 
 
 def rows_of_file(path: PathLike, options_json: str, label: Optional[str] = None) -> List[Dict[str, Any]]:

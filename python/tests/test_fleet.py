@@ -76,7 +76,7 @@ def test_a_fleet_run_resumes_a_cli_run_and_recomputes_a_torn_line(loops, cluster
 def test_fleet_options_are_checked_before_any_task(loops):
     with pytest.raises(stiction.UsageError, match="unknown option"):
         fleet.run([loops], stepp=1.0)
-    with pytest.raises(stiction.UsageError, match="--orders"):
+    with pytest.raises(stiction.UsageError, match="^orders "):
         fleet.options(orders="1,2,3,4,5")
     with pytest.raises(stiction.UsageError):
         fleet.options(stiction="nope")

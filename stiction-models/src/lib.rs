@@ -19,6 +19,7 @@
 //! strict (`>`); OP is not clipped by the models (clip before calling, [`clip`]); non-finite
 //! OP is rejected with the index of the first bad sample.
 
+pub mod cancel;
 mod events;
 mod he;
 mod init;

@@ -109,12 +109,18 @@ struct Case {
     gaps: u8,
 }
 
+/// Cases the differential oracle compared (units and the reordered, renamed columns).
+static ORACLE_RUNS: AtomicUsize = AtomicUsize::new(0);
+
 /// The outcome of a case that went wrong.
 #[derive(Debug)]
 enum Finding {
     Panic(String),
     TimeOut(f64),
     Memory(usize),
+    /// The differential oracle or the NaN check: an answer that changed under a
+    /// meaning-preserving edit, or "NaN" in a sentence or a JSON string.
+    Mismatch(String),
 }
 
 impl std::fmt::Display for Finding {
@@ -123,6 +129,7 @@ impl std::fmt::Display for Finding {
             Finding::Panic(m) => write!(f, "panic: {m}"),
             Finding::TimeOut(s) => write!(f, "time-out: over {s} s"),
             Finding::Memory(b) => write!(f, "memory: peak {} MiB over the budget", b >> 20),
+            Finding::Mismatch(m) => write!(f, "mismatch: {m}"),
         }
     }
 }
@@ -286,10 +293,12 @@ pub fn fuzz(rest: &[String]) -> Result<()> {
     println!(
         "fuzz: {runs} cases in {:.1} min (seed {}): {read_ok} read, {searched} searched to the end; \
          {replayed} regressions replayed; slowest case {slowest:.1} s, peak live memory {} MiB; \
-         {found} panics/aborts/time-outs/memory overruns",
+         {} cases through the differential oracle; \
+         {found} panics/aborts/time-outs/memory overruns/mismatches",
         start.elapsed().as_secs_f64() / 60.0,
         o.seed,
-        peak_max >> 20
+        peak_max >> 20,
+        ORACLE_RUNS.load(Ordering::Relaxed)
     );
     if found > 0 {
         bail!(
@@ -345,7 +354,8 @@ fn run_case_counted(o: &Options, case: &Case) -> Result<Result<(bool, bool, usiz
         let _ = tx.send(r);
     });
     let outcome = match rx.recv_timeout(Duration::from_secs_f64(o.case_seconds)) {
-        Ok(Ok((read, searched))) => {
+        Ok(Ok((_, _, Some(m)))) => Err(Finding::Mismatch(m)),
+        Ok(Ok((read, searched, None))) => {
             let peak = PEAK.load(Ordering::Relaxed).saturating_sub(base);
             if peak > o.memory_mb << 20 {
                 Err(Finding::Memory(peak))
@@ -367,8 +377,10 @@ fn run_case_counted(o: &Options, case: &Case) -> Result<Result<(bool, bool, usiz
     Ok(outcome)
 }
 
-/// The reader, then (when it accepts the data) the search as the CLI runs it.
-fn exercise(case: &Case) -> (bool, bool) {
+/// The reader, then (when it accepts the data) the search as the CLI runs it, the detector, and
+/// for one accepted case in eight the differential oracle ([`oracle`]): `(read, searched,
+/// mismatch)`.
+fn exercise(case: &Case) -> (bool, bool, Option<String>) {
     let opts = ReadOptions {
         min_rows: 30,
         gaps: match case.gaps {
@@ -383,11 +395,19 @@ fn exercise(case: &Case) -> (bool, bool) {
         Kind::Mat => datasets::read_mat(case.bytes.as_slice(), "fuzz.mat", &opts),
     };
     let Ok(d) = data else {
-        return (false, false);
+        return (false, false, None);
     };
     let Some(pv) = d.pv.as_deref() else {
-        return (true, false);
+        return (true, false, None);
     };
+    let nan_in_notes = d.notes.iter().find(|n| has_nan_word(&n.text));
+    if let Some(n) = nan_in_notes {
+        return (
+            true,
+            false,
+            Some(format!("NaN in a reader note: {}", n.text)),
+        );
+    }
     let (lo, hi) =
         d.op.iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
@@ -414,7 +434,181 @@ fn exercise(case: &Case) -> (bool, bool) {
         },
         None,
     );
-    (true, r.is_ok())
+    let det = detect_json(&d.op, pv, d.sp.as_deref());
+    if let Some(m) = det.as_ref().and_then(|(j, _, _)| nan_in_json(j)) {
+        return (
+            true,
+            r.is_ok(),
+            Some(format!("NaN in the detector's JSON: {m}")),
+        );
+    }
+    if let Err(e) = &r {
+        if has_nan_word(&e.to_string()) {
+            return (true, false, Some(format!("NaN in a search error: {e}")));
+        }
+    }
+    // The oracle on one accepted case in eight (it runs the search and the detector again).
+    let h = case
+        .bytes
+        .iter()
+        .fold(0u64, |h, &b| h.wrapping_mul(31).wrapping_add(b as u64));
+    let mismatch = match (&r, &det) {
+        (Ok(q), Some(det)) if h % 8 == 0 => oracle(&d, pv, (q.s, q.j), det, case.step),
+        _ => None,
+    };
+    (true, r.is_ok(), mismatch)
+}
+
+/// Whether `text` has the word `NaN` or `inf` (Rust's formatting of non-finite numbers) as a
+/// number: "empty or NaN cells" names the cells' text, not a computed value.
+fn has_nan_word(text: &str) -> bool {
+    let words: Vec<&str> = text
+        .split(|c: char| !c.is_alphanumeric())
+        .filter(|w| !w.is_empty())
+        .collect();
+    words.iter().enumerate().any(|(i, w)| {
+        (*w == "NaN" || *w == "inf") && !matches!(words.get(i + 1), Some(&"cells") | Some(&"cell"))
+    })
+}
+
+/// A JSON string of `doc` that contains "NaN" (numbers that are not finite are `null`).
+fn nan_in_json(doc: &serde_json::Value) -> Option<String> {
+    match doc {
+        serde_json::Value::String(s) if has_nan_word(s) => Some(s.clone()),
+        serde_json::Value::Array(v) => v.iter().find_map(nan_in_json),
+        serde_json::Value::Object(m) => m.values().find_map(nan_in_json),
+        _ => None,
+    }
+}
+
+/// The detector on the record: its JSON, verdict and score.
+fn detect_json(
+    op: &[f64],
+    pv: &[f64],
+    sp: Option<&[f64]>,
+) -> Option<(serde_json::Value, detection::Verdict, f64)> {
+    let mut reg = detection::Registration::new(pv, op, 1.0).ok()?;
+    if let Some(sp) = sp {
+        reg = reg.with_sp(sp).ok()?;
+    }
+    let d = detection::detect(&reg);
+    Some((serde_json::to_value(&d).ok()?, d.verdict, d.score))
+}
+
+/// The differential oracle: edits that keep the record's meaning must keep the answer.
+/// * PV and SP in other units (`a·x + b`, a from 1e-6 to 1e12, b up to 10 × a × PV's range):
+///   the detector's verdict and score (within 1e-3);
+/// * the columns in another order and renamed in other case, written back as CSV and read
+///   again: the same S, J, verdict and score;
+fn oracle(
+    d: &datasets::LoopData,
+    pv: &[f64],
+    (s, j): (f64, f64),
+    (_, verdict, score): &(serde_json::Value, detection::Verdict, f64),
+    grid_step: Option<f64>,
+) -> Option<String> {
+    let op = &d.op;
+    let sp = d.sp.as_deref();
+    let n = op.len();
+    ORACLE_RUNS.fetch_add(1, Ordering::Relaxed);
+    // PV and SP units.
+    let h = pv.len() as f64 + pv.first().copied().unwrap_or(0.0).abs();
+    let a = 10f64.powi((h as i64 % 19) as i32 - 6);
+    // An offset that keeps PV's variation representable (1e7 added to PV of spread 1e-76
+    // rounds it away: information lost, not a change of units).
+    let (lo, hi) = pv
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let b = if h as i64 % 2 == 0 {
+        0.0
+    } else {
+        10.0 * a * (hi - lo)
+    };
+    let pv2: Vec<f64> = pv.iter().map(|v| a * v + b).collect();
+    let sp2: Option<Vec<f64>> = sp.map(|x| x.iter().map(|v| a * v + b).collect());
+    if pv2
+        .iter()
+        .chain(sp2.iter().flatten())
+        .all(|v| v.abs() < 1e50)
+    {
+        if let Some((_, v2, s2)) = detect_json(op, &pv2, sp2.as_deref()) {
+            // the score within 1e-3: rounding in the tests' sums moves it by up to 1e-5 on
+            // plant records with PV near 1e-76 (measured, seed 33)
+            if v2 != *verdict || (s2 - score).abs() > 1e-3 {
+                return Some(format!(
+                    "PV and SP x {a:e} + {b:e}: detect {v2} ({s2:.6}) against {verdict} ({score:.6})"
+                ));
+            }
+        }
+    }
+    // Columns reordered and renamed, through the reader again.
+    let col = |x: &[f64]| x.iter().map(|v| format!("{v:?}")).collect::<Vec<_>>();
+    let (opc, pvc) = (col(op), col(pv));
+    let spc = sp.map(col);
+    let mut text = String::from(if spc.is_some() { "op,Sp,pV" } else { "op,pV" });
+    text.push('\n');
+    for i in 0..n {
+        match &spc {
+            Some(spc) => text.push_str(&format!("{},{},{}\n", opc[i], spc[i], pvc[i])),
+            None => text.push_str(&format!("{},{}\n", opc[i], pvc[i])),
+        }
+    }
+    let opts = ReadOptions {
+        min_rows: 30,
+        op_range: datasets::OpRange::Keep,
+        ..ReadOptions::default()
+    };
+    let again = |text: &str| -> Option<(f64, f64, detection::Verdict, f64)> {
+        let d2 = datasets::read_csv(text.as_bytes(), "oracle.csv", &opts).ok()?;
+        let pv2 = d2.pv.as_deref()?;
+        let (lo, hi) = d2
+            .op
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        let grid = match grid_step {
+            Some(step) => GridPlan::Exhaustive { step },
+            None => GridPlan::for_span(hi - lo),
+        };
+        let kano = find_model("kano").ok()?;
+        let arx = Arx::params().check().ok()?;
+        let q = quantify(
+            kano,
+            &arx,
+            Problem {
+                op: &d2.op,
+                pv: pv2,
+                mv: None,
+            },
+            &SearchOptions {
+                grid,
+                ..SearchOptions::default()
+            },
+            None,
+        )
+        .ok()?;
+        let (_, v, sc) = detect_json(&d2.op, pv2, d2.sp.as_deref())?;
+        Some((q.s, q.j, v, sc))
+    };
+    // Only records the reader keeps as they are (no notes that change samples) compare.
+    if d.mv.is_some() || d.notes.iter().any(|n| n.kind.changes_samples()) {
+        return None;
+    }
+    if let Some((s2, j2, v2, sc2)) = again(&text) {
+        if (s2 - s).abs() > 1e-9
+            || (j2 - j).abs() > 1e-9
+            || v2 != *verdict
+            || (sc2 - score).abs() > 1e-9
+        {
+            return Some(format!(
+                "columns reordered and renamed: S {s2}, J {j2}, {v2} ({sc2:.6}) against S {s}, J {j}, {verdict} ({score:.6})"
+            ));
+        }
+    }
+    None
 }
 
 /// The seed inputs.

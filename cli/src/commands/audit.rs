@@ -35,7 +35,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     labels: Option<PathBuf>,
     /// Minimum validation F_PV (%) below which the evidence says "poor fit".
-    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT)]
+    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT, value_parser = super::numbers::fit_percent, allow_negative_numbers = true)]
     min_fit: f64,
     #[command(flatten)]
     run: RunFlags,

@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     labels: Option<PathBuf>,
     /// Minimum validation F_PV (%) below which the evidence says "poor fit".
-    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT)]
+    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT, value_parser = super::numbers::fit_percent, allow_negative_numbers = true)]
     min_fit: f64,
     #[command(flatten)]
     run: RunFlags,
@@ -134,6 +134,9 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let mut files = args.run.files(&args.paths, &exclude, s)?;
     if let Some(v) = &args.valve {
         files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
+    }
+    if files.is_empty() {
+        return Err(monitoring::MonitoringError::NoFiles.into());
     }
     let jsonl = out.as_ref().map(|(jsonl, _)| jsonl.as_path());
     let bar = crate::progress::Progress::new(s.progress, "batch");

@@ -28,7 +28,7 @@ pub struct Args {
     #[arg(long, value_name = "COL")]
     output: Option<String>,
     /// Fraction of the record used for identification.
-    #[arg(long, value_name = "F", default_value = "0.6666666666666666")]
+    #[arg(long, value_name = "F", default_value = "0.6666666666666666", value_parser = super::search_flags::parse_split, allow_hyphen_values = true)]
     split: f64,
     #[command(flatten)]
     data: DataFlags,

@@ -46,7 +46,7 @@ pub struct DataFlags {
     #[arg(long, value_name = "LO,HI", value_parser = OpRange::parse, allow_hyphen_values = true)]
     op_range: Option<OpRange>,
     /// Most data rows read from a file (a longer file is refused, not read for minutes).
-    #[arg(long, value_name = "N", default_value_t = datasets::Limits::default().max_rows)]
+    #[arg(long, value_name = "N", default_value_t = datasets::Limits::default().max_rows, value_parser = super::numbers::count)]
     max_rows: usize,
 }
 

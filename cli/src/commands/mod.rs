@@ -7,6 +7,7 @@ pub mod diagnose;
 pub mod identify;
 pub mod load;
 pub mod models;
+pub(crate) mod numbers;
 pub mod quantify;
 pub mod search_flags;
 pub mod simulate;

@@ -123,7 +123,19 @@ pub(crate) fn run_one(
     let run = combination.run(problem, Some(&bar.tick()));
     bar.finish();
     // Keep the error's type (a node budget breach is bad usage, see `crate::run_from`).
-    Ok(run.map_err(|e| anyhow::Error::new(e).context(d.source.clone()))?)
+    let fitted = run.map_err(|e| anyhow::Error::new(e).context(d.source.clone()))?;
+    // A given step so coarse that the region is one node returns the grid as the estimate,
+    // with a "95 % region" that may exclude the truth (`--step 2.3` against S = 2.35).
+    if let Some(step) = flags.step {
+        if fitted.result.interval.nodes <= 1 {
+            let _ = writeln!(
+                s.stderr,
+                "warning: --step {step}: the {:.0} % region is a single grid node, so S and J are known only to the step and the region says nothing: give a finer --step, or none for the default plan",
+                100.0 * fitted.result.interval.confidence
+            );
+        }
+    }
+    Ok(fitted)
 }
 
 pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult {
@@ -170,7 +182,33 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     ))
 }
 
-pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
+/// `names` without repeats (first occurrence kept), with a note on stderr naming the repeats
+/// (`--stiction kano,kano` ran Kano twice).
+fn once(names: Vec<String>, flag: &str, s: &mut Streams<'_>) -> Vec<String> {
+    let mut kept: Vec<String> = Vec::new();
+    let mut repeated: Vec<String> = Vec::new();
+    for n in names {
+        if kept.contains(&n) {
+            if !repeated.contains(&n) {
+                repeated.push(n);
+            }
+        } else {
+            kept.push(n);
+        }
+    }
+    if !repeated.is_empty() {
+        let _ = writeln!(
+            s.stderr,
+            "note: {flag} names {} more than once: each runs once",
+            repeated.join(", ")
+        );
+    }
+    kept
+}
+
+pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
+    args.stiction = once(std::mem::take(&mut args.stiction), "--stiction", s);
+    args.linear = once(std::mem::take(&mut args.linear), "--linear", s);
     // Validate every name first: a typo is bad usage, not a row error.
     for name in &args.stiction {
         find_model(name).map_err(usage)?;

@@ -34,7 +34,7 @@ pub(crate) struct SearchFlags {
     pub delay: DelayArg,
     /// Grid step in OP units (% of span): exhaustive grid at this step. Default: a coarse grid
     /// at span/40 refined at step 0.1 around its best node.
-    #[arg(long, value_name = "X", allow_hyphen_values = true)]
+    #[arg(long, value_name = "X", allow_hyphen_values = true, value_parser = super::numbers::positive)]
     pub step: Option<f64>,
     /// Initialization of the valve model (paper §2.4).
     #[arg(long, default_value = "In.3", value_parser = parse_init)]
@@ -48,7 +48,7 @@ pub(crate) struct SearchFlags {
     pub split: f64,
     /// Node budget per grid stage: a grid with more nodes is refused (a usage error) rather
     /// than run for minutes or out of memory.
-    #[arg(long, value_name = "N", default_value_t = grid_search::budget::DEFAULT_MAX_NODES)]
+    #[arg(long, value_name = "N", default_value_t = grid_search::budget::DEFAULT_MAX_NODES, value_parser = super::numbers::count)]
     pub max_nodes: usize,
 }
 

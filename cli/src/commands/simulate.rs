@@ -24,19 +24,19 @@ pub struct Args {
     #[arg(long = "param", value_name = "K=V", value_parser = parse_param)]
     params: Vec<(String, f64)>,
     /// PI proportional gain.
-    #[arg(long, value_name = "KC", allow_negative_numbers = true)]
+    #[arg(long, value_name = "KC", allow_negative_numbers = true, value_parser = super::numbers::finite)]
     kc: Option<f64>,
     /// PI integral gain.
-    #[arg(long, value_name = "KI", allow_negative_numbers = true)]
+    #[arg(long, value_name = "KI", allow_negative_numbers = true, value_parser = super::numbers::finite)]
     ki: Option<f64>,
     /// Amplitude a of the paper's disturbance a (sin(0.03k) + 0.5 sin(0.07k)) (eq. 11).
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", value_parser = super::numbers::non_negative)]
     disturbance: Option<f64>,
     /// Extra process dead time in samples.
     #[arg(long, value_name = "N")]
     delay: Option<usize>,
     /// Standard deviation σ_e of the white noise.
-    #[arg(long, value_name = "SIGMA")]
+    #[arg(long, value_name = "SIGMA", value_parser = super::numbers::non_negative)]
     noise: Option<f64>,
     /// Number of samples written (after the warm-up).
     #[arg(long, value_name = "N")]

@@ -25,13 +25,13 @@ pub struct Args {
     #[command(flatten)]
     combos: Combos,
     /// Maintenance threshold on S, % of valve span.
-    #[arg(long, value_name = "S%", default_value_t = DEFAULT_THRESHOLD)]
+    #[arg(long, value_name = "S%", default_value_t = DEFAULT_THRESHOLD, value_parser = super::numbers::non_negative)]
     threshold: f64,
     /// Minimum validation F_PV (%) for a registration to count in the trend.
-    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT)]
+    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT, value_parser = super::numbers::fit_percent, allow_negative_numbers = true)]
     min_fit: f64,
     /// How far ahead (days) the trend is projected for the `watch` verdict.
-    #[arg(long, value_name = "DAYS", default_value_t = DEFAULT_HORIZON)]
+    #[arg(long, value_name = "DAYS", default_value_t = DEFAULT_HORIZON, value_parser = super::numbers::positive)]
     horizon: f64,
     #[command(flatten)]
     run: RunFlags,

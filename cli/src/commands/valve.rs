@@ -27,10 +27,10 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "down")]
     start: StartFlag,
     /// In.1 start: OP value where the valve stopped (u_s0); default OP(0).
-    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    #[arg(long, value_name = "X", allow_negative_numbers = true, value_parser = super::numbers::finite)]
     us0: Option<f64>,
     /// In.1 start: valve position at the first sample (MV(0)); default: consistent with the start.
-    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    #[arg(long, value_name = "X", allow_negative_numbers = true, value_parser = super::numbers::finite)]
     mv0: Option<f64>,
     /// Clip OP to [LO, HI] before the model (as public implementations do for OP in %).
     #[arg(long, value_name = "LO,HI", value_parser = parse_clip, allow_hyphen_values = true)]
