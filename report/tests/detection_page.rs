@@ -68,7 +68,7 @@ fn detect_page_has_the_verdict_the_test_table_and_two_checked_figures() {
         format!(
             "Detection: {} ({}).",
             det.verdict,
-            report::text::score_and_tests(&det)
+            report::text::score_and_tests(det)
         )
     );
     let t = tables(&page);
