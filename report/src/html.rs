@@ -130,7 +130,7 @@ th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}\
 td.t,th.t{text-align:left}td.nw{white-space:nowrap}\
 dl.facts{display:grid;grid-template-columns:max-content auto;gap:.15em 1.2em}\
 dl.facts dt{color:#555}dl.facts dd{margin:0}\
-figure{margin:1.2em 0}figure svg{width:100%;height:auto;max-height:85vh;display:block}\
+figure{margin:1.2em 0}figure svg{width:100%;height:auto;display:block}\
 figcaption{font-size:.95em;color:#333;margin-top:.3em;max-width:62rem}\
 footer{margin-top:3em;color:#666;font-size:.9em}";
 
