@@ -714,7 +714,6 @@ pub fn s_trend(
     name: &str,
 ) -> Result<Figure, ReportError> {
     let first = points.iter().map(|p| p.day).fold(f64::INFINITY, f64::min);
-    let x = |d: f64| d;
     let mut series = Vec::new();
     for (status, label, color, mark) in [
         (TrendStatus::Used, "S, used", palette::BLUE, Mark::Dots(4)),
@@ -737,12 +736,12 @@ pub fn s_trend(
         }
         series.push(Series {
             name: label.into(),
-            points: sel.iter().map(|p| (x(p.day), p.s)).collect(),
+            points: sel.iter().map(|p| (p.day, p.s)).collect(),
             mark,
             color,
             bars: sel
                 .iter()
-                .filter_map(|p| p.interval.map(|iv| (x(p.day), iv[0], iv[1])))
+                .filter_map(|p| p.interval.map(|iv| (p.day, iv[0], iv[1])))
                 .collect(),
         });
     }
@@ -755,7 +754,7 @@ pub fn s_trend(
             format!("trend {:+.3} % per 30 days", 30.0 * l.slope),
             [first, last]
                 .iter()
-                .map(|&d| (x(d), l.s0 + l.slope * (d - l.day0)))
+                .map(|&d| (d, l.s0 + l.slope * (d - l.day0)))
                 .collect(),
             palette::GREEN,
         ));
