@@ -133,6 +133,9 @@ fn numeric_flags_refuse_nan_inf_and_out_of_range() {
         (vec!["quantify", f, "--step", "NaN"], "--step"),
         (vec!["quantify", f, "--max-nodes", "0"], "--max-nodes"),
         (vec!["quantify", f, "--max-rows", "0"], "--max-rows"),
+        (vec!["quantify", f, "--window", "0"], "--window"),
+        (vec!["quantify", f, "--max-work", "NaN"], "--max-work"),
+        (vec!["detect", f, "--window", "inf"], "--window"),
         (vec!["identify", f, "--split", "NaN"], "--split"),
         (vec!["simulate", "--noise", "NaN"], "--noise"),
         (vec!["simulate", "--kc", "inf"], "--kc"),
@@ -387,5 +390,83 @@ fn edge_values_and_single_sample_spikes() {
         );
         let s = json(&o)["S"].as_f64().unwrap();
         assert!((s - 4.0).abs() < 0.5, "OP[{k}] = {v}: S = {s}");
+    }
+}
+
+/// A long record is analysed on its latest `--window` rows, with a note, and every command
+/// gives the answer it gives on those rows cut by hand (the old code had no window: 1 M rows
+/// of `quantify` ran past 150 s). `--window` longer than the record changes nothing.
+#[test]
+fn a_long_record_is_analysed_on_its_latest_rows() {
+    let dir = temp_dir("window");
+    let cols = simulated("6", "3000");
+    let whole = dir.join("whole.csv");
+    std::fs::write(&whole, csv(&cols, |v| v)).unwrap();
+    let tail: [Vec<f64>; 4] = cols.clone().map(|c| c[1800..].to_vec());
+    let cut = dir.join("cut.csv");
+    std::fs::write(&cut, csv(&tail, |v| v)).unwrap();
+    let (whole, cut) = (whole.to_str().unwrap(), cut.to_str().unwrap());
+    for cmd in ["quantify", "detect", "diagnose"] {
+        let w = run(&[cmd, whole, "--window", "1200", "--json"], b"");
+        assert!(
+            w.stderr
+                .contains("analysed the latest 1200 of 3000 rows (rows 1802-3001)"),
+            "{cmd}: {}",
+            w.stderr
+        );
+        let c = run(&[cmd, cut, "--json"], b"");
+        let (mut w, mut c) = (json(&w), json(&c));
+        for v in [&mut w, &mut c] {
+            strip_volatile(v);
+        }
+        assert_eq!(w, c, "{cmd}: the window and the rows cut by hand");
+        let all = run(&[cmd, whole, "--window", "3000", "--json"], b"");
+        assert!(
+            !all.stderr.contains("analysed the latest"),
+            "{}",
+            all.stderr
+        );
+    }
+}
+
+/// Timings, file names and the reader's notes differ between two files of the same rows.
+fn strip_volatile(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(m) => {
+            m.retain(|k, _| {
+                !matches!(
+                    k.as_str(),
+                    "elapsed_ms" | "source" | "file" | "notes" | "reader_notes" | "seconds"
+                )
+            });
+            for x in m.values_mut() {
+                strip_volatile(x);
+            }
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(strip_volatile),
+        _ => {}
+    }
+}
+
+/// The work budget counts samples × the model's cost per node, not nodes alone: ARMAX
+/// 50,50,50 on 3000 samples (a few thousand nodes, within the node budget) ran for minutes;
+/// now a usage error naming `--max-work`, and a smaller budget refuses the default plan.
+#[test]
+fn the_work_budget_counts_samples_and_orders() {
+    let dir = temp_dir("work");
+    let cols = simulated("7", "3000");
+    let f = dir.join("loop.csv");
+    std::fs::write(&f, csv(&cols, |v| v)).unwrap();
+    let f = f.to_str().unwrap();
+    for args in [
+        vec!["quantify", f, "--linear", "armax", "--orders", "50,50,50"],
+        vec!["quantify", f, "--max-work", "1e6"],
+    ] {
+        let (code, line) = err_line(&args, b"");
+        assert_eq!(code, 2, "{args:?}: {line}");
+        assert!(
+            line.contains("--max-work") && line.contains("3000 samples"),
+            "{line}"
+        );
     }
 }

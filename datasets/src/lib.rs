@@ -42,7 +42,7 @@ pub use note::{Note, NoteKind};
 pub use raw::raw_columns;
 pub use read::{
     compression, read_columns, read_csv, read_csv_path, ColumnInput, Compression, GapPolicy,
-    ReadOptions, COMPRESSED_SHARE,
+    ReadOptions, COMPRESSED_SHARE, DEFAULT_WINDOW,
 };
 pub use registration::{format_epoch, parse_registration_name, RegistrationName};
 pub use units::OpRange;

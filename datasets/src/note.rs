@@ -37,6 +37,8 @@ pub enum NoteKind {
     Integrating,
     /// Single-sample spikes found (replaced by the previous sample, or kept when too many).
     Spikes,
+    /// A long record cut to its latest rows (`ReadOptions::window`).
+    Window,
 }
 
 impl NoteKind {

@@ -18,13 +18,57 @@
 //! * A step coarser than a quarter of the OP span leaves fewer than five values per parameter
 //!   (one node when the step exceeds the span): the "estimate" would be the grid, not the data.
 //!   It is refused ([`SearchError::InvalidOption`]).
+//! * The work budget ([`DEFAULT_MAX_WORK`], [`check_work`]) counts what a stage costs: its
+//!   nodes × the record's samples × the identifier's cost per sample. Over it is
+//!   [`SearchError::Work`], a usage error like the node budget.
 
+use linear_id::LinearIdentifier;
 use stiction_models::ModelEntry;
 
 use crate::{GridPlan, SearchError};
 
 /// The default node budget per stage (see the module documentation).
 pub const DEFAULT_MAX_NODES: usize = 200_000;
+
+/// The default work budget per stage: nodes × samples × the identifier's
+/// [`LinearIdentifier::cost_per_sample`].
+///
+/// A node's cost grows with the record's length and, for the recursive identifiers, with the
+/// square of their orders, which the node budget alone does not see (`--linear armax --orders
+/// 50,50,50` on 3000 samples ran for minutes within it). Measured with ARMAX (release build,
+/// this 2-core machine): one unit is about 0.43 ns of CPU, so 5e10 units are about 21 s of
+/// CPU for one stage. The default plans stay far below it: Kano × ARX's coarse grid (861
+/// nodes) on the 50 000 rows of the reader's default window costs 1.7e9; ARMAX 10,10,10 on
+/// 3000 samples 2.3e9; ARMAX 50,50,50 on 3000 samples, 5.8e10, is refused. PARSIM-K keeps the
+/// default p² (484 for its default orders), which overstates its cost about 13 times: the
+/// budget refuses it early rather than late.
+pub const DEFAULT_MAX_WORK: f64 = 5e10;
+
+/// Check `nodes` evaluations of `identifier` on `samples` samples against `max_work`.
+// `!(a <= b)` is deliberate: it is true for NaN too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub fn check_work<I: LinearIdentifier + ?Sized>(
+    nodes: usize,
+    samples: usize,
+    identifier: &I,
+    max_work: f64,
+    what: &'static str,
+) -> Result<(), SearchError> {
+    let cost = identifier.cost_per_sample();
+    let work = nodes as f64 * samples as f64 * cost;
+    if !(work <= max_work) {
+        return Err(SearchError::Work {
+            what,
+            nodes,
+            samples,
+            identifier: identifier.name(),
+            cost,
+            work,
+            budget: max_work,
+        });
+    }
+    Ok(())
+}
 
 /// Boxes larger than this many times the budget are not enumerated: the model's constraints
 /// keep at least a sixth of a box for the built-in models (kano-asym: a third), so such a box

@@ -112,6 +112,29 @@ pub enum SearchError {
         /// The budget.
         budget: usize,
     },
+    /// A grid stage costs more than the work budget ([`SearchOptions::max_work`]): its nodes ×
+    /// the record's samples × the identifier's cost per sample
+    /// ([`linear_id::LinearIdentifier::cost_per_sample`]).
+    #[error(
+        "the {what} would cost {:.3e} work units ({nodes} nodes x {samples} samples x {} per sample for {identifier}), over the work budget of {:.3e}: give a coarser --step, lower --orders or a shorter --window, or a larger budget (--max-work)",
+        .work, short_number(*.cost), .budget
+    )]
+    Work {
+        /// Which stage (`grid`, `coarse grid`, `refinement`, `nodes`).
+        what: &'static str,
+        /// Its nodes.
+        nodes: usize,
+        /// The record's samples.
+        samples: usize,
+        /// The identifier.
+        identifier: &'static str,
+        /// Its cost per sample.
+        cost: f64,
+        /// nodes × samples × cost.
+        work: f64,
+        /// The budget.
+        budget: f64,
+    },
     /// Every node was skipped: no estimate exists.
     #[error("no grid node could be evaluated ({nodes} nodes); most common reason: {reason}")]
     NoValidNode {
@@ -155,7 +178,9 @@ impl SearchError {
     pub fn is_usage(&self) -> bool {
         matches!(
             self,
-            SearchError::Budget { .. } | SearchError::InvalidOption { .. }
+            SearchError::Budget { .. }
+                | SearchError::Work { .. }
+                | SearchError::InvalidOption { .. }
         )
     }
 }

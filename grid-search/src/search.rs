@@ -126,6 +126,7 @@ impl GridPlan {
 /// | `criterion` | prediction | [`Criterion`] ranking the nodes |
 /// | `confidence` | 0.95 | level of the likelihood-ratio region behind [`Interval`] |
 /// | `max_nodes` | 200 000 | node budget per grid stage |
+/// | `max_work` | 5e10 | work budget per grid stage (nodes × samples × cost per sample) |
 /// | `node_fits` | criterion | fits computed at every node ([`NodeFits`]) |
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -143,6 +144,9 @@ pub struct SearchOptions {
     /// Node budget per grid stage ([`crate::budget`]): a grid over it is
     /// [`SearchError::Budget`], never an allocation failure.
     pub max_nodes: usize,
+    /// Work budget per grid stage ([`crate::budget::check_work`]): nodes × the record's
+    /// samples × the identifier's cost per sample; over it is [`SearchError::Work`].
+    pub max_work: f64,
     /// Which fits the fast path computes at every node ([`NodeFits`]).
     pub node_fits: NodeFits,
 }
@@ -172,6 +176,7 @@ impl Default for SearchOptions {
             criterion: Criterion::Prediction,
             confidence: 0.95,
             max_nodes: crate::budget::DEFAULT_MAX_NODES,
+            max_work: crate::budget::DEFAULT_MAX_WORK,
             node_fits: NodeFits::Criterion,
         }
     }
@@ -1088,6 +1093,9 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
         }
     };
     let done = AtomicUsize::new(0);
+    let work = |nodes: usize, what: &'static str| {
+        crate::budget::check_work(nodes, problem.op.len(), identifier, options.max_work, what)
+    };
     let eval_all = |nodes: Vec<Vec<f64>>| -> Vec<NodeFit> {
         let planned = nodes.len();
         done.store(0, Ordering::Relaxed);
@@ -1101,7 +1109,8 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
     let mut notes = Vec::new();
     let surface = match options.grid {
         GridPlan::Exhaustive { step } => {
-            crate::budget::check_grid(entry, prep.span, step, max_nodes, "grid")?;
+            let n = crate::budget::check_grid(entry, prep.span, step, max_nodes, "grid")?;
+            work(n, "grid")?;
             eval_all(grid::nodes(entry, prep.span, step))
         }
         GridPlan::CoarseToFine {
@@ -1109,7 +1118,8 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
             fine,
             radius,
         } => {
-            crate::budget::check_grid(entry, prep.span, coarse, max_nodes, "coarse grid")?;
+            let n = crate::budget::check_grid(entry, prep.span, coarse, max_nodes, "coarse grid")?;
+            work(n, "coarse grid")?;
             let mut all = eval_all(grid::nodes(entry, prep.span, coarse));
             if let Some(b) = best_index(&all, crit) {
                 let bounds: Vec<(f64, f64)> = all[b]
@@ -1139,6 +1149,7 @@ pub fn quantify_with<I: LinearIdentifier + ?Sized>(
                         .into_iter()
                         .filter(|p| !seen.contains(&node_key(p, fine)))
                         .collect();
+                work(fine_nodes.len(), "refinement")?;
                 all.extend(eval_all(fine_nodes));
             }
             all
@@ -1158,6 +1169,13 @@ pub fn evaluate_nodes<I: LinearIdentifier + ?Sized>(
     options: &SearchOptions,
     nodes: Vec<Vec<f64>>,
 ) -> Result<Vec<NodeFit>, SearchError> {
+    crate::budget::check_work(
+        nodes.len(),
+        problem.op.len(),
+        identifier,
+        options.max_work,
+        "nodes",
+    )?;
     let prep = prepare(entry, identifier, problem, options, NodePath::Fast)?;
     let fits = prep.ctx.evaluate_all(nodes, &|| {});
     if stiction_models::cancel::requested() {

@@ -271,6 +271,13 @@ impl LinearIdentifier for Arx {
         // strictly more equations than unknowns
         self.n0() + self.n + self.m + 1
     }
+    /// A grid search identifies an ARX from sums over the record ([`Arx::output_sums`]), linear
+    /// in its p = n + m parameters: measured against ARMAX's p² (one `quantify` of 1405 nodes
+    /// on 3000 samples: ARX at p = 4, 20, 60 took 0.06, 0.34, 1.22 s of CPU above the
+    /// detector's share, ARMAX at p = 30 1.65 s), about 10 p in the same units.
+    fn cost_per_sample(&self) -> f64 {
+        10.0 * (self.n + self.m).max(1) as f64
+    }
     fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
         check_data(u, y, self.min_samples())?;
         let y_mean = mean(y);

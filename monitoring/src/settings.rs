@@ -236,6 +236,8 @@ pub struct SearchArgs {
     pub split: f64,
     /// Node budget of one grid stage.
     pub max_nodes: usize,
+    /// Work budget of one grid stage (nodes × samples × cost per sample).
+    pub max_work: f64,
 }
 
 impl Default for SearchArgs {
@@ -248,6 +250,7 @@ impl Default for SearchArgs {
             criterion: "prediction".into(),
             split: 2.0 / 3.0,
             max_nodes: grid_search::budget::DEFAULT_MAX_NODES,
+            max_work: grid_search::budget::DEFAULT_MAX_WORK,
         }
     }
 }
@@ -415,6 +418,7 @@ impl SearchArgs {
                 split: self.split,
                 criterion,
                 max_nodes: self.max_nodes,
+                max_work: self.max_work,
                 ..SearchOptions::default()
             },
         })

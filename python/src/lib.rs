@@ -133,7 +133,7 @@ mod tests {
 
 /// The reader's options from a dict with the CLI's flag names (`pv`, `op`, `sp`, `mv`,
 /// `time`, `mode`, `gaps` = "refuse" | "hold" | "drop", `op_range` = (lo, hi) or None,
-/// `max_rows`).
+/// `max_rows`, `window`).
 #[derive(Debug, Default)]
 struct ReadArgs {
     pv: Option<String>,
@@ -145,6 +145,7 @@ struct ReadArgs {
     gaps: Option<String>,
     op_range: Option<(f64, f64)>,
     max_rows: Option<usize>,
+    window: Option<usize>,
 }
 
 /// [`ReadArgs`] from a dict; an unknown key is a [`UsageError`] (a misspelt option must not be
@@ -168,9 +169,10 @@ fn read_args(d: Option<&Bound<'_, PyDict>>) -> PyResult<ReadArgs> {
             "gaps" => a.gaps = Some(v.extract().map_err(bad)?),
             "op_range" => a.op_range = Some(v.extract().map_err(bad)?),
             "max_rows" => a.max_rows = Some(v.extract().map_err(bad)?),
+            "window" => a.window = Some(v.extract().map_err(bad)?),
             other => {
                 return Err(usage_err(format!(
-                    "unknown reader option {other:?}; known: pv, op, sp, mv, time, mode, gaps, op_range, max_rows"
+                    "unknown reader option {other:?}; known: pv, op, sp, mv, time, mode, gaps, op_range, max_rows, window"
                 )))
             }
         }
@@ -209,6 +211,7 @@ impl ReadArgs {
             op_range,
             limits,
             accept_constant: false,
+            window: self.window.unwrap_or(datasets::DEFAULT_WINDOW),
         })
     }
 }

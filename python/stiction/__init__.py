@@ -45,7 +45,7 @@ __all__ = [
 ]
 
 #: Search options, with the names of the CLI's flags (`stiction quantify --help`).
-SEARCH_OPTIONS = ("orders", "delay", "step", "init", "criterion", "split", "max_nodes")
+SEARCH_OPTIONS = ("orders", "delay", "step", "init", "criterion", "split", "max_nodes", "max_work")
 
 
 def _number(key: str, value: Any, *, above: Optional[float] = None, at_least: Optional[float] = None,
@@ -109,6 +109,8 @@ def _check_options(options: Dict[str, Any]) -> Dict[str, Any]:
             _number("split", value, above=0, below=1)
         elif key == "max_nodes":
             _number("max_nodes", value, at_least=1, whole=True)
+        elif key == "max_work":
+            _number("max_work", value, above=0)
         elif key in ("threshold",):
             _number(key, value, at_least=0)
         elif key == "horizon":
@@ -170,7 +172,8 @@ def quantify(
     registered); `linear`: an identifier (arx, armax, earx, earmax, harx, larx, ss). Search
     options, as the CLI's flags: `orders` ("2,2" or "n=2,m=2"), `delay` (samples or
     "auto"), `step` (grid step, % of span), `init` ("In.1", "In.2", "In.3"), `criterion`
-    ("prediction", "simulation"), `split` (identification fraction), `max_nodes`; and the
+    ("prediction", "simulation"), `split` (identification fraction), `max_nodes`, `max_work`
+    (work budget per grid stage); and the
     reader's options.
 
     Returns the quantify document: `S`, `J` (% of valve span), `interval`, `fit_pv_val`,
@@ -304,7 +307,8 @@ def read(
 
     `data` is a DataFrame, a dict of columns or a path (CSV). Reader options, with the CLI's
     flag names: `pv`, `op`, `sp`, `mv`, `time` (column names), `mode` (controller-mode column),
-    `gaps` ("refuse", "hold", "drop"), `op_range` ((lo, hi) in OP's units), `max_rows`.
+    `gaps` ("refuse", "hold", "drop"), `op_range` ((lo, hi) in OP's units), `max_rows`,
+    `window` (the most rows analysed: the latest of a longer record, default 50 000).
 
     Returns a dict: `t`, `sp`, `pv`, `op`, `mv` (numpy arrays, or None when absent), `start`
     (seconds since the epoch, or None), `source`, `notes` (list of sentences).

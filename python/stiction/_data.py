@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 #: The reader's options, with the CLI's flag names.
-READ_OPTIONS = ("pv", "op", "sp", "mv", "time", "mode", "gaps", "op_range", "max_rows")
+READ_OPTIONS = ("pv", "op", "sp", "mv", "time", "mode", "gaps", "op_range", "max_rows", "window")
 
 
 def frame(data: Any) -> pd.DataFrame:
@@ -100,8 +100,8 @@ def options(kwargs: Mapping[str, Any]) -> dict:
             raise UsageError(f"{key}={value!r}: expected a column name (text)")
         if key == "gaps" and value not in ("refuse", "hold", "drop"):
             raise UsageError(f"gaps={value!r}: expected one of 'refuse', 'hold', 'drop'")
-        if key == "max_rows" and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
-            raise UsageError(f"max_rows={value!r}: expected a whole number >= 1")
+        if key in ("max_rows", "window") and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+            raise UsageError(f"{key}={value!r}: expected a whole number >= 1")
         if key == "op_range":
             ok = isinstance(value, (tuple, list)) and len(value) == 2
             if ok:

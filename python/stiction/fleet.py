@@ -39,7 +39,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 #: Batch settings besides the search options and the reader's (the flags of `stiction batch`).
 BATCH_OPTIONS = ("stiction", "linear", "integrating", "min_fit")
-SEARCH_OPTIONS = ("orders", "delay", "step", "init", "criterion", "split", "max_nodes")
+SEARCH_OPTIONS = ("orders", "delay", "step", "init", "criterion", "split", "max_nodes", "max_work")
 
 
 def options(
@@ -50,7 +50,7 @@ def options(
 ) -> str:
     """The batch options as the JSON each task gets, from the names of `stiction batch`'s flags:
     `stiction`, `linear` (a name or a list), `integrating` ("auto", "yes", "no"), `min_fit`, the
-    search options (`orders`, `delay`, `step`, `init`, `criterion`, `split`, `max_nodes`) and the
+    search options (`orders`, `delay`, `step`, `init`, `criterion`, `split`, `max_nodes`, `max_work`) and the
     reader's (`pv`, `op`, ..., `gaps`, `op_range`). Checked by the library: an unknown name or a
     value that cannot work raises `UsageError` here, before any task is sent."""
     reader = {k: v for k, v in kwargs.items() if k in _data.READ_OPTIONS}

@@ -48,6 +48,11 @@ pub struct DataFlags {
     /// Most data rows read from a file (a longer file is refused, not read for minutes).
     #[arg(long, value_name = "N", default_value_t = datasets::Limits::default().max_rows, value_parser = super::numbers::count)]
     max_rows: usize,
+    /// Analyse at most the latest N rows of a longer record (a note says which rows): S, J and
+    /// the verdict then describe the valve at the end of the record, and the time a command
+    /// takes stays bounded. Give the record's length to analyse all of it.
+    #[arg(long, value_name = "N", default_value_t = datasets::DEFAULT_WINDOW, value_parser = super::numbers::count)]
+    window: usize,
 }
 
 impl DataFlags {
@@ -89,6 +94,7 @@ impl DataFlags {
             },
             op_range: self.op_range.unwrap_or_default(),
             accept_constant: false,
+            window: self.window,
         }
     }
 }

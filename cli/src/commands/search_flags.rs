@@ -50,6 +50,11 @@ pub(crate) struct SearchFlags {
     /// than run for minutes or out of memory.
     #[arg(long, value_name = "N", default_value_t = grid_search::budget::DEFAULT_MAX_NODES, value_parser = super::numbers::count)]
     pub max_nodes: usize,
+    /// Work budget per grid stage: nodes × the record's samples × the linear model's cost per
+    /// sample (its number of parameters squared; 10 × for ARX). A stage over it is refused (a
+    /// usage error) rather than run for minutes.
+    #[arg(long, value_name = "W", default_value_t = grid_search::budget::DEFAULT_MAX_WORK, value_parser = super::numbers::positive)]
+    pub max_work: f64,
 }
 
 /// `--criterion`.
@@ -81,6 +86,7 @@ impl SearchFlags {
             criterion: Criterion::from(self.criterion).label().to_string(),
             split: self.split,
             max_nodes: self.max_nodes,
+            max_work: self.max_work,
         }
     }
 
