@@ -500,6 +500,9 @@ fn detect_json(
 ///   the detector's verdict and score (within 1e-3);
 /// * the columns in another order and renamed in other case, written back as CSV and read
 ///   again: the same S, J, verdict and score;
+/// * OP (in % of span as read) written as a fraction of span, which the reader takes back to
+///   %: the same verdict, the score within 1e-6, S and J within two grid steps (OP / 100 × 100
+///   may differ from OP in its last bit, which can move a tie between two nodes).
 fn oracle(
     d: &datasets::LoopData,
     pv: &[f64],
@@ -555,13 +558,17 @@ fn oracle(
             None => text.push_str(&format!("{},{}\n", opc[i], pvc[i])),
         }
     }
-    let opts = ReadOptions {
+    let keep = ReadOptions {
         min_rows: 30,
         op_range: datasets::OpRange::Keep,
         ..ReadOptions::default()
     };
-    let again = |text: &str| -> Option<(f64, f64, detection::Verdict, f64)> {
-        let d2 = datasets::read_csv(text.as_bytes(), "oracle.csv", &opts).ok()?;
+    let detect_units = ReadOptions {
+        op_range: datasets::OpRange::Detect,
+        ..keep.clone()
+    };
+    let again = |text: &str, opts: &ReadOptions| -> Option<(f64, f64, detection::Verdict, f64)> {
+        let d2 = datasets::read_csv(text.as_bytes(), "oracle.csv", opts).ok()?;
         let pv2 = d2.pv.as_deref()?;
         let (lo, hi) = d2
             .op
@@ -597,7 +604,7 @@ fn oracle(
     if d.mv.is_some() || d.notes.iter().any(|n| n.kind.changes_samples()) {
         return None;
     }
-    if let Some((s2, j2, v2, sc2)) = again(&text) {
+    if let Some((s2, j2, v2, sc2)) = again(&text, &keep) {
         if (s2 - s).abs() > 1e-9
             || (j2 - j).abs() > 1e-9
             || v2 != *verdict
@@ -606,6 +613,42 @@ fn oracle(
             return Some(format!(
                 "columns reordered and renamed: S {s2}, J {j2}, {v2} ({sc2:.6}) against S {s}, J {j}, {verdict} ({score:.6})"
             ));
+        }
+    }
+    // OP as a fraction of span (when it is within the fraction rule's range once divided).
+    if op.iter().all(|v| (-5.0..=105.0).contains(v)) {
+        let mut text = String::from(if spc.is_some() { "OP,SP,PV" } else { "OP,PV" });
+        text.push('\n');
+        for i in 0..n {
+            let f = format!("{:?}", op[i] / 100.0);
+            match &spc {
+                Some(spc) => text.push_str(&format!("{f},{},{}\n", spc[i], pvc[i])),
+                None => text.push_str(&format!("{f},{}\n", pvc[i])),
+            }
+        }
+        if let Some((s2, j2, v2, sc2)) = again(&text, &detect_units) {
+            let (lo, hi) = op
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            let step = match grid_step {
+                Some(step) => step,
+                None => match GridPlan::for_span(hi - lo) {
+                    GridPlan::CoarseToFine { fine, .. } => fine,
+                    GridPlan::Exhaustive { step } => step,
+                },
+            };
+            let tol = 1e-6 + 2.0 * step;
+            if (s2 - s).abs() > tol
+                || (j2 - j).abs() > tol
+                || v2 != *verdict
+                || (sc2 - score).abs() > 1e-6
+            {
+                return Some(format!(
+                    "OP as a fraction of span: S {s2}, J {j2}, {v2} ({sc2:.6}) against S {s}, J {j}, {verdict} ({score:.6})"
+                ));
+            }
         }
     }
     None
