@@ -3,35 +3,9 @@
 //! registrations are the valve's, and every registration that names other causes is listed
 //! with the likelihood ratios that made it differ.
 
-use serde::Serialize;
+pub use monitoring::{Consensus, Disagreement};
 
 use crate::Diagnosis;
-
-/// The causes a valve's diagnosed registrations agree on ([`consensus`]).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Consensus {
-    /// Registrations diagnosed.
-    pub registrations: usize,
-    /// The causes named on more than half of them, with on how many, in order of count then
-    /// name (empty: no cause holds on most registrations).
-    pub causes: Vec<(String, usize)>,
-    /// The registrations whose causes differ from [`Consensus::causes`]: label, their causes
-    /// and why, one phrase per cause missing or added.
-    pub disagreeing: Vec<Disagreement>,
-}
-
-/// One registration whose causes differ from those of most registrations.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Disagreement {
-    /// The registration's label.
-    pub label: String,
-    /// The causes it names.
-    pub causes: Vec<String>,
-    /// Why, in words with numbers: for each cause of the consensus it does not name, its
-    /// likelihood ratio there against its threshold (or that it was not tested); for each cause
-    /// it names beyond the consensus, the same.
-    pub why: Vec<String>,
-}
 
 /// The consensus of one valve's registrations, each `(label, diagnosis)`.
 pub fn consensus(diagnoses: &[(&str, &Diagnosis)]) -> Consensus {

@@ -1,13 +1,16 @@
 //! The diagnosis of one registration of a valve's trend, in one sentence
 //! ([`monitoring::registration::Diagnoser`]): what the model misses in that record and what the
-//! extension changes. `stiction trend` asks it for each weak or outlying registration.
+//! extension changes. `stiction trend` asks it for each registration, for the weak and outlying
+//! ones' evidence and for the causes the valve's registrations agree on ([`consensus`]).
 
 use datasets::ReadOptions;
 use grid_search::Problem;
 use monitoring::registration::{increments, Diagnoser, Registration};
 use monitoring::{span_of, Combination, Delay};
 
-use crate::{diagnose, DiagnoseOptions, Diagnosis};
+use rayon::prelude::*;
+
+use crate::{consensus, diagnose, Consensus, DiagnoseOptions, Diagnosis};
 
 /// Diagnoses a registration with one combination as baseline: its orders in full (defaults
 /// filled in), dead time 0, its grid and search options (`discrepancy::diagnose`, as
@@ -22,30 +25,62 @@ impl Diagnoser for RegistrationDiagnosis {
         combination: &Combination,
         read: &ReadOptions,
     ) -> Result<String, String> {
-        let d = datasets::read_path(&reg.path, read).map_err(|e| e.to_string())?;
-        let d = if reg.integrating { increments(&d) } else { d };
-        let pv = d.require_pv().map_err(|e| e.to_string())?;
-        let span = span_of(&d.op);
-        let identifier = combination
-            .identifier(0)
-            .map_err(|e| monitoring::error_line(&e))?;
-        let baseline = Combination {
-            orders: crate::orders_without_delay(identifier.as_ref()),
-            delay: Delay::Fixed(0),
-            grid: None,
-            search: grid_search::SearchOptions::default(),
-            ..combination.clone()
-        };
-        let mut options = DiagnoseOptions::for_span(span);
-        options.search = combination.options(span);
-        let problem = Problem {
-            op: &d.op,
-            pv,
-            mv: d.mv.as_deref(),
-        };
-        let dg = diagnose(problem, &baseline, &options).map_err(|e| e.to_string())?;
-        Ok(sentence(&dg))
+        diagnosis(reg, combination, read).map(|d| sentence(&d))
     }
+
+    fn diagnose_all(
+        &self,
+        registrations: &[&Registration],
+        labels: &[String],
+        combination: &Combination,
+        read: &ReadOptions,
+    ) -> (Vec<Result<String, String>>, Consensus) {
+        let found: Vec<Result<Diagnosis, String>> = registrations
+            .par_iter()
+            .map(|reg| diagnosis(reg, combination, read))
+            .collect();
+        let diagnosed: Vec<(&str, &Diagnosis)> = labels
+            .iter()
+            .zip(&found)
+            .filter_map(|(label, d)| d.as_ref().ok().map(|d| (label.as_str(), d)))
+            .collect();
+        let agreed = consensus(&diagnosed);
+        let sentences = found
+            .iter()
+            .map(|d| d.as_ref().map(sentence).map_err(Clone::clone))
+            .collect();
+        (sentences, agreed)
+    }
+}
+
+/// The diagnosis of `reg` with `combination` as baseline (see [`RegistrationDiagnosis`]).
+fn diagnosis(
+    reg: &Registration,
+    combination: &Combination,
+    read: &ReadOptions,
+) -> Result<Diagnosis, String> {
+    let d = datasets::read_path(&reg.path, read).map_err(|e| e.to_string())?;
+    let d = if reg.integrating { increments(&d) } else { d };
+    let pv = d.require_pv().map_err(|e| e.to_string())?;
+    let span = span_of(&d.op);
+    let identifier = combination
+        .identifier(0)
+        .map_err(|e| monitoring::error_line(&e))?;
+    let baseline = Combination {
+        orders: crate::orders_without_delay(identifier.as_ref()),
+        delay: Delay::Fixed(0),
+        grid: None,
+        search: grid_search::SearchOptions::default(),
+        ..combination.clone()
+    };
+    let mut options = DiagnoseOptions::for_span(span);
+    options.search = combination.options(span);
+    let problem = Problem {
+        op: &d.op,
+        pv,
+        mv: d.mv.as_deref(),
+    };
+    diagnose(problem, &baseline, &options).map_err(|e| e.to_string())
 }
 
 /// The diagnosis in one sentence.

@@ -12,6 +12,7 @@
 
 pub mod batch;
 mod combination;
+mod consensus;
 pub mod detect;
 pub mod identify;
 mod record;
@@ -26,6 +27,7 @@ pub use combination::{
     build_identifier, paper_example, problem, span_of, Combination, Delay, FitSummary, Fitted,
     MAX_AUTO_DELAY,
 };
+pub use consensus::{Consensus, Disagreement};
 pub use detect::{
     detect_document, detect_file, detect_loop, sample_time, DetectError, Detected, DetectionRecord,
 };

@@ -649,8 +649,9 @@ impl ExplainFit for FitEvidence {
 }
 
 /// The diagnosis of one registration with one combination as baseline, in one sentence (what
-/// the model misses in that record and what the extension changes). The trend asks it for its
-/// doubtful registrations; `discrepancy` implements it (this crate cannot depend on it).
+/// the model misses in that record and what the extension changes), and what a valve's
+/// registrations agree on. The trend asks it for its doubtful registrations and for the causes
+/// of the valve; `discrepancy` implements it (this crate cannot depend on it).
 pub trait Diagnoser {
     /// The sentence, or why the diagnosis failed.
     fn diagnose(
@@ -659,6 +660,17 @@ pub trait Diagnoser {
         combination: &Combination,
         read: &ReadOptions,
     ) -> Result<String, String>;
+
+    /// Diagnose each of `registrations` once with `combination` as baseline: each one's
+    /// sentence (or why its diagnosis failed), in order, and what the diagnosed ones agree on,
+    /// each labelled by `labels` (same order).
+    fn diagnose_all(
+        &self,
+        registrations: &[&Registration],
+        labels: &[String],
+        combination: &Combination,
+        read: &ReadOptions,
+    ) -> (Vec<Result<String, String>>, crate::Consensus);
 }
 
 /// Share of the variance of `r` carried by its moving average over `len/10` samples.

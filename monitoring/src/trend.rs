@@ -318,6 +318,9 @@ pub struct ValveTrend {
     pub verdict: Maintenance,
     /// Why, in one sentence.
     pub reason: String,
+    /// What the registrations' diagnoses agree on, with the first combination as baseline
+    /// (`None` without a diagnoser).
+    pub causes: Option<crate::Consensus>,
 }
 
 /// The registration files of `files` grouped by valve (file-name prefix before `_`).
@@ -415,7 +418,28 @@ pub fn follow(
             }
         })
         .collect();
+    let mut causes = None;
     if let Some(diagnoser) = diagnoser {
+        // Every registration with a fit of the first combination is diagnosed once: its
+        // sentence serves that combination's doubtful registrations, and the diagnoses give
+        // the causes the valve's registrations agree on.
+        let fitted: Vec<usize> = (0..regs.len())
+            .filter(|&k| !combinations.is_empty() && regs[k].fit(0).is_some())
+            .collect();
+        let mut first: Vec<Option<String>> = vec![None; regs.len()];
+        if !fitted.is_empty() {
+            let refs: Vec<&Registration> = fitted.iter().map(|&k| &regs[k]).collect();
+            let labels: Vec<String> = refs
+                .iter()
+                .map(|r| r.start.map(format_epoch).unwrap_or_else(|| r.file.clone()))
+                .collect();
+            let (sentences, consensus) =
+                diagnoser.diagnose_all(&refs, &labels, &combinations[0], &run.read);
+            for (&k, sentence) in fitted.iter().zip(sentences) {
+                first[k] = Some(sentence.unwrap_or_else(|e| format!("diagnosis failed: {e}")));
+            }
+            causes = Some(consensus);
+        }
         let jobs: Vec<(usize, usize)> = trends
             .iter()
             .enumerate()
@@ -432,9 +456,12 @@ pub fn follow(
         let found: Vec<((usize, usize), String)> = jobs
             .par_iter()
             .map(|&(k, c)| {
-                let why = diagnoser
-                    .diagnose(&regs[k], &combinations[c], &run.read)
-                    .unwrap_or_else(|e| format!("diagnosis failed: {e}"));
+                let why = match (c, &first[k]) {
+                    (0, Some(sentence)) => sentence.clone(),
+                    _ => diagnoser
+                        .diagnose(&regs[k], &combinations[c], &run.read)
+                        .unwrap_or_else(|e| format!("diagnosis failed: {e}")),
+                };
                 ((k, c), why)
             })
             .collect();
@@ -466,6 +493,7 @@ pub fn follow(
         slope_30d,
         verdict,
         reason,
+        causes,
     })
 }
 
@@ -575,6 +603,9 @@ pub struct TrendRecord {
     pub rule: String,
     /// Each combination.
     pub combinations: Vec<CombinationRecord>,
+    /// What the registrations' diagnoses agree on (first combination as baseline; `null`
+    /// without diagnoses).
+    pub causes: Option<crate::Consensus>,
 }
 
 impl ValveTrend {
@@ -648,6 +679,7 @@ impl ValveTrend {
             reason: self.reason.clone(),
             rule: self.rule(),
             combinations,
+            causes: self.causes.clone(),
         }
     }
 }

@@ -275,7 +275,8 @@ def trend(
     `level`, `latest`, `slope_per_30_days`, `registrations`, ... `paths`: a directory, a file
     or a list of them (registration files named `<valve>_YYYYMMDD-HHMM`); `valve` is needed
     when they hold several valves. `threshold` (S, %) and `horizon` (days) of the maintenance
-    rule; `diagnose=False` skips the diagnosis of doubtful registrations. Other options: the
+    rule; `causes` says which causes the registrations' diagnoses agree on; `diagnose=False`
+    skips the diagnoses (then `causes` is None). Other options: the
     search options, `integrating`, `min_fit` and the reader's.
 
     >>> t = stiction.trend("../shared/data/plant", valve="2411FIC20102")  # doctest: +SKIP

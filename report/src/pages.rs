@@ -897,6 +897,39 @@ pub fn trend_page(vt: &ValveTrend) -> Result<Report, ReportError> {
         }
         sections.push(sec);
     }
+    if let Some(c) = &vt.causes {
+        let lines = crate::text::causes_lines(c, &crate::text::baseline_of(vt));
+        let mut sec = Section::new("Causes the registrations agree on".to_string());
+        sec.push(Block::Paragraph(
+            lines[0]
+                .strip_prefix("causes: ")
+                .unwrap_or(&lines[0])
+                .to_string(),
+        ));
+        if !c.disagreeing.is_empty() {
+            sec.push(Block::Table {
+                header: ["registration", "causes", "why it differs"]
+                    .map(String::from)
+                    .to_vec(),
+                rows: c
+                    .disagreeing
+                    .iter()
+                    .map(|d| {
+                        vec![
+                            d.label.clone(),
+                            if d.causes.is_empty() {
+                                "none".to_string()
+                            } else {
+                                d.causes.join(", ")
+                            },
+                            d.why.join("; "),
+                        ]
+                    })
+                    .collect(),
+            });
+        }
+        sections.push(sec);
+    }
     // Registrations the reader refused: the reason and the raw columns (the first few).
     let refused: Vec<(&Registration, &RegistrationError)> = regs
         .iter()

@@ -396,9 +396,64 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
         )?;
         writeln!(out, "  {}", level_line(t))?;
     }
+    if let Some(c) = &vt.causes {
+        let lines = causes_lines(c, &baseline_of(vt));
+        writeln!(out, "\n{}", lines[0])?;
+        for l in &lines[1..] {
+            writeln!(out, "  {l}")?;
+        }
+    }
     writeln!(out, "\nverdict: {}: {}", vt.verdict, vt.reason)?;
     writeln!(out, "rule: {}", vt.rule())?;
     Ok(text)
+}
+
+/// The combination a trend's diagnoses start from (its first), as `kano + arx`.
+pub fn baseline_of(vt: &ValveTrend) -> String {
+    vt.combinations
+        .first()
+        .map_or_else(String::new, |c| format!("{} + {}", c.stiction, c.linear))
+}
+
+/// What a valve's diagnosed registrations agree on: the first line says which causes hold on
+/// most registrations (or that none does), one more line per registration that disagrees.
+pub fn causes_lines(c: &monitoring::Consensus, baseline: &str) -> Vec<String> {
+    let n = c.registrations;
+    let head = if c.causes.is_empty() {
+        let none = n - c.disagreeing.len();
+        if 2 * none > n {
+            format!(
+                "causes: none (no cause named on {none} of the {n} registration(s) diagnosed with {baseline} as baseline)"
+            )
+        } else {
+            format!(
+                "causes: no cause holds on most of the {n} registration(s) diagnosed with {baseline} as baseline"
+            )
+        }
+    } else {
+        format!(
+            "causes: {} (of the {n} registration(s) diagnosed with {baseline} as baseline)",
+            c.causes
+                .iter()
+                .map(|(cause, k)| format!("{cause} on {k}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    let mut lines = vec![head];
+    for d in &c.disagreeing {
+        lines.push(format!(
+            "{} names {}: {}",
+            d.label,
+            if d.causes.is_empty() {
+                "none".to_string()
+            } else {
+                d.causes.join(", ")
+            },
+            d.why.join("; ")
+        ));
+    }
+    lines
 }
 
 /// The detector's line under `quantify` and `diagnose`:

@@ -35,8 +35,8 @@ pub struct Args {
     horizon: f64,
     #[command(flatten)]
     run: RunFlags,
-    /// Do not diagnose the weak and outlying registrations (faster; `why` then lists only the
-    /// evidence from the quantification itself).
+    /// Do not diagnose the registrations (faster; `why` then lists only the evidence from the
+    /// quantification itself, and no causes the registrations agree on are reported).
     #[arg(long)]
     no_diagnose: bool,
     #[command(flatten)]
