@@ -426,9 +426,27 @@ pub fn causes_lines(c: &monitoring::Consensus, baseline: &str) -> Vec<String> {
                 "causes: none (no cause named on {none} of the {n} registration(s) diagnosed with {baseline} as baseline)"
             )
         } else {
-            format!(
-                "causes: no cause holds on most of the {n} registration(s) diagnosed with {baseline} as baseline"
-            )
+            // No consensus: every registration naming a cause disagrees; the counts say more
+            // than a line for each (they stay in the JSON and the page's table).
+            let mut counts: Vec<(&str, usize)> = Vec::new();
+            for d in &c.disagreeing {
+                for cause in &d.causes {
+                    match counts.iter_mut().find(|(name, _)| name == cause) {
+                        Some(e) => e.1 += 1,
+                        None => counts.push((cause, 1)),
+                    }
+                }
+            }
+            counts.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+            let named: Vec<String> = counts
+                .iter()
+                .map(|(cause, k)| format!("{cause} on {k}"))
+                .chain((none > 0).then(|| format!("none on {none}")))
+                .collect();
+            return vec![format!(
+                "causes: no cause holds on most of the {n} registration(s) diagnosed with {baseline} as baseline: {}",
+                named.join(", ")
+            )];
         }
     } else {
         format!(
