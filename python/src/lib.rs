@@ -634,6 +634,29 @@ fn batch_resume(
     ))
 }
 
+/// The lock of a batch output (`monitoring::batch::lock_output`): held until `release()` or
+/// until the object is dropped (the process's end releases it too).
+#[pyclass(module = "stiction._native")]
+struct OutputLock {
+    file: Option<std::fs::File>,
+}
+
+#[pymethods]
+impl OutputLock {
+    /// Release the lock (idempotent).
+    fn release(&mut self) {
+        self.file = None;
+    }
+}
+
+/// Hold the lock of the batch output `jsonl` (`OUT.jsonl.lock`, the one `stiction batch`
+/// takes): a second run on the same output raises `DataError` naming it.
+#[pyfunction]
+fn lock_output(jsonl: std::path::PathBuf) -> PyResult<OutputLock> {
+    let file = monitoring::batch::lock_output(&jsonl).map_err(data_err)?;
+    Ok(OutputLock { file: Some(file) })
+}
+
 /// One file's rows as JSON lines (`monitoring::batch::run_file`, then the file's label): what
 /// each task of a fleet runs. Never raises for bad data: the error is in the rows.
 #[pyfunction]
@@ -964,6 +987,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch_options, m)?)?;
     m.add_function(wrap_pyfunction!(batch_files, m)?)?;
     m.add_function(wrap_pyfunction!(batch_resume, m)?)?;
+    m.add_function(wrap_pyfunction!(lock_output, m)?)?;
+    m.add_class::<OutputLock>()?;
     m.add_function(wrap_pyfunction!(batch_file, m)?)?;
     m.add_function(wrap_pyfunction!(batch_labels, m)?)?;
     m.add_function(wrap_pyfunction!(batch_finish, m)?)?;

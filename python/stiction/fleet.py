@@ -2,8 +2,10 @@
 
 The work is split as `stiction batch` splits it: one task per registration file, giving that
 file's rows (one per stiction x linear combination; a file that cannot be read gives its error
-row). The driver lists the files and skips those whose rows are already in `OUT.jsonl` (same
-name, size, modification time and settings: the library's resume step, the one the CLI uses),
+row). The driver takes the output's lock (`OUT.jsonl.lock`, the one `stiction batch` takes: a
+second run on the same output, from either, is refused), lists the files and skips those whose
+rows are already in `OUT.jsonl` (same full path, content hash and settings: the library's resume
+step, the one the CLI uses),
 sends the rest to Dask's distributed scheduler, appends each file's rows to `OUT.jsonl` as they
 arrive (an interrupted run resumes where it stopped, with this module or with the CLI) and
 writes `OUT.csv` at the end as the CLI does. With `db=`, each file's rows also go to the audit
@@ -111,9 +113,10 @@ def run(
     (rows already there are left as they are); the rows an earlier run left in OUT.jsonl are
     appended too. Other keyword arguments are the batch options (see `options`).
 
-    The summary (rows, ok, errors, and with labels the AUC) is in the frame's `attrs`.
+    The summary (rows, ok, errors, and with labels the AUC) is in the frame's `attrs`. A run on
+    an output another run (this module's or `stiction batch`) is writing raises `DataError`.
     """
-    from distributed import Client, LocalCluster, as_completed
+    import distributed  # noqa: F401  (the fleet needs it: fail before taking the lock)
 
     if _data.is_path(paths):
         paths = [paths]
@@ -129,6 +132,18 @@ def run(
     for note in notes:
         sys.stderr.write(f"note: {note}\n")
     label_of = _native.batch_labels(str(labels)) if labels is not None else {}
+    lock = _native.lock_output(str(jsonl))
+    try:
+        return _run_locked(files, opts, jsonl, csv, db, label_of, client, scheduler, n_workers,
+                           progress, tmp)
+    finally:
+        lock.release()
+
+
+def _run_locked(files, opts, jsonl, csv, db, label_of, client, scheduler, n_workers, progress, tmp):
+    """`run` while it holds the output's lock."""
+    from distributed import Client, LocalCluster, as_completed
+
     todo, kept, torn = _native.batch_resume(files, opts, str(jsonl))
     if db is not None and kept:
         _append_kept(db, jsonl, set(todo))

@@ -80,3 +80,16 @@ def test_fleet_options_are_checked_before_any_task(loops):
         fleet.options(orders="1,2,3,4,5")
     with pytest.raises(stiction.UsageError):
         fleet.options(stiction="nope")
+
+
+def test_a_second_run_on_the_same_output_is_refused(loops, cluster, tmp_path):
+    # the lock `stiction batch -o OUT` takes, held here as a running batch would hold it
+    out = tmp_path / "busy"
+    held = stiction._native.lock_output(f"{out}.jsonl")
+    try:
+        with pytest.raises(stiction.DataError, match="another batch run is writing this output"):
+            fleet.run([loops], out, client=cluster, step=0.5, progress=False)
+    finally:
+        held.release()
+    frame = fleet.run([loops], out, client=cluster, step=0.5, progress=False)
+    assert len(frame) == 25
