@@ -6,18 +6,18 @@
 
 use std::path::Path;
 
-use datasets::format_epoch;
 use datasets::LoopData;
 use detection::Detection;
 use discrepancy::Diagnosis;
 use grid_search::{Criterion, Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
-use monitoring::registration::{Registration, RegistrationError};
-use monitoring::trend::ValveTrend;
-use monitoring::{median, Detected, Fitted, Flag};
+use monitoring::{Detected, Fitted};
 use stiction_models::ModelEntry;
 
-use crate::figures::{self, Figure, LoopSignals, TrendLine, TrendPoint, TrendStatus};
+use crate::figures::{self, Figure, LoopSignals};
 use crate::{Block, Report, ReportError, Section};
+
+mod trend;
+pub use trend::trend_page;
 
 /// The loop's name for titles: the file stem, or the source as given.
 pub fn loop_name(d: &LoopData) -> String {
@@ -403,7 +403,7 @@ pub fn compare_page(
 
 /// The head of a reason (the words before its first colon), for a table cell; the whole
 /// reason when it has no colon or a long head.
-fn short_reason(reason: &str) -> String {
+pub(crate) fn short_reason(reason: &str) -> String {
     match reason.split_once(':') {
         Some((head, _)) if head.chars().count() <= 40 => head.trim().to_string(),
         _ => reason.to_string(),
@@ -762,214 +762,6 @@ pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError>
         subtitle: format!("{} · {} samples · stiction detect", d.source, d.len()),
         summary: Vec::new(),
         sections: vec![first, tests],
-    })
-}
-
-/// The report of `trend`: the verdict, then per combination S over the registrations and
-/// the table behind it.
-pub fn trend_page(vt: &ValveTrend) -> Result<Report, ReportError> {
-    let threshold = vt.options.threshold;
-    let (valve, regs) = (vt.valve.as_str(), vt.registrations.as_slice());
-    let (verdict, reason, rule) = (vt.verdict.label(), vt.reason.as_str(), vt.rule());
-    let dated = regs.iter().all(|r| r.start.is_some());
-    let day = |k: usize, r: &Registration| match (dated, r.start) {
-        (true, Some(t)) => t / 86400.0,
-        _ => (k + 1) as f64,
-    };
-    let mut sections = Vec::new();
-    for (c, ct) in vt.combinations.iter().enumerate() {
-        let t = &ct.trend;
-        let model = format!("{} × {}", ct.stiction, ct.linear);
-        let mut sec = Section::new(model.clone());
-        let mut points = Vec::new();
-        let mut rows: Vec<Vec<String>> = Vec::new();
-        let mut whys: Vec<String> = Vec::new();
-        for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
-            let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
-            match (r.fit(c), r.error(c)) {
-                (None, e) => rows.push(vec![
-                    (k + 1).to_string(),
-                    time,
-                    "-".into(),
-                    "-".into(),
-                    "-".into(),
-                    "-".into(),
-                    "error".into(),
-                    format!(
-                        "{}: {}",
-                        r.file,
-                        e.map(ToString::to_string).unwrap_or_default()
-                    ),
-                ]),
-                (Some(f), _) => {
-                    let status = match flag {
-                        Flag::Used => TrendStatus::Used,
-                        Flag::Weak | Flag::Error => TrendStatus::Weak,
-                        Flag::Outlier => TrendStatus::Outlier,
-                    };
-                    points.push(TrendPoint {
-                        day: day(k, r),
-                        s: f.s,
-                        interval: Some(f.s_range),
-                        status,
-                    });
-                    rows.push(vec![
-                        (k + 1).to_string(),
-                        time,
-                        format!("{:.2}", f.s),
-                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
-                        format!("{:.2}", f.j),
-                        format!("{:.1}", f.fit_val),
-                        flag.label().into(),
-                        if *flag == Flag::Used {
-                            String::new()
-                        } else {
-                            f.evidence
-                                .iter()
-                                .map(|e| short_reason(&e.to_string()))
-                                .collect::<Vec<_>>()
-                                .join("; ")
-                        },
-                    ]);
-                    if *flag != Flag::Used && !f.evidence.is_empty() {
-                        whys.push(format!(
-                            "#{} ({}): {}",
-                            k + 1,
-                            rows.last().map_or("", |r| r[1].as_str()),
-                            f.evidence
-                                .iter()
-                                .map(ToString::to_string)
-                                .collect::<Vec<_>>()
-                                .join("; ")
-                        ));
-                    }
-                }
-            }
-        }
-        // The Theil-Sen line through the used points: slope, and the median intercept.
-        let line = t.slope_30d.filter(|_| dated).and_then(|m30| {
-            let slope = m30 / 30.0;
-            let used: Vec<&TrendPoint> = points
-                .iter()
-                .filter(|p| p.status == TrendStatus::Used)
-                .collect();
-            let day0 = used.first()?.day;
-            let icpt: Vec<f64> = used.iter().map(|p| p.s - slope * (p.day - day0)).collect();
-            Some(TrendLine {
-                day0,
-                s0: median(&icpt),
-                slope,
-            })
-        });
-        sec.push(Block::Paragraph(format!(
-            "Level (median S of the usable registrations) {}; trend {}; latest usable S {}.",
-            t.level.map_or("-".into(), |v| format!("{v:.2} %")),
-            t.slope_30d
-                .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
-            t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
-        )));
-        if !points.is_empty() {
-            let fig = figures::s_trend(
-                valve,
-                &model,
-                &points,
-                threshold,
-                line,
-                dated,
-                &format!("{}-{}-s-trend", ct.stiction, ct.linear),
-            )?;
-            sec.push(Block::Figure(fig));
-        }
-        sec.push(Block::Table {
-            header: ["#", "time", "S", "S range", "J", "F_PV val", "flag", "why"]
-                .map(String::from)
-                .to_vec(),
-            rows,
-        });
-        if !whys.is_empty() {
-            sec.push(Block::Details {
-                summary: format!(
-                    "Why {} registration(s) were left out of the trend, in full",
-                    whys.len()
-                ),
-                paragraphs: whys,
-            });
-        }
-        sections.push(sec);
-    }
-    if let Some(c) = &vt.causes {
-        let lines = crate::text::causes_lines(c, &crate::text::baseline_of(vt));
-        let mut sec = Section::new("Causes the registrations agree on".to_string());
-        sec.push(Block::Paragraph(
-            lines[0]
-                .strip_prefix("causes: ")
-                .unwrap_or(&lines[0])
-                .to_string(),
-        ));
-        if !c.disagreeing.is_empty() {
-            sec.push(Block::Table {
-                header: ["registration", "causes", "why it differs"]
-                    .map(String::from)
-                    .to_vec(),
-                rows: c
-                    .disagreeing
-                    .iter()
-                    .map(|d| {
-                        vec![
-                            d.label.clone(),
-                            if d.causes.is_empty() {
-                                "none".to_string()
-                            } else {
-                                d.causes.join(", ")
-                            },
-                            d.why.join("; "),
-                        ]
-                    })
-                    .collect(),
-            });
-        }
-        sections.push(sec);
-    }
-    // Registrations the reader refused: the reason and the raw columns (the first few).
-    let refused: Vec<(&Registration, &RegistrationError)> = regs
-        .iter()
-        .filter_map(|r| r.outcome.as_ref().err().map(|e| (r, e)))
-        .collect();
-    if !refused.is_empty() {
-        let mut sec = Section::new(format!("Refused registrations ({})", refused.len()));
-        for (k, (r, e)) in refused.iter().enumerate() {
-            sec.push(Block::Note(format!("{}: {e}", r.file)));
-            if k >= 4 {
-                continue;
-            }
-            let stem = r
-                .path
-                .file_stem()
-                .map_or_else(|| r.file.clone(), |s| s.to_string_lossy().into_owned());
-            if let Some(cols) = datasets::raw_columns(&r.path) {
-                let fig = figures::raw_signals(&stem, &cols, &format!("raw-{}", k + 1))?;
-                sec.push(Block::Figure(fig));
-            }
-        }
-        sections.push(sec);
-    }
-    let mut rules = Section::new("How the verdict is reached");
-    rules.push(Block::Paragraph(rule));
-    sections.push(rules);
-    // The verdict first, in its own box, then why.
-    let mut first = Section::new("Verdict");
-    first.push(Block::Verdict(format!("Verdict: {verdict}.")));
-    first.push(Block::Paragraph(reason.to_string()));
-    sections.insert(0, first);
-    Ok(Report {
-        title: format!("trend: valve {valve}"),
-        subtitle: format!(
-            "{} registration(s) · stiction trend · threshold {} % of valve span",
-            regs.len(),
-            threshold
-        ),
-        summary: Vec::new(),
-        sections,
     })
 }
 
