@@ -22,6 +22,7 @@ fn main() {
     for e in [
         Effect::Clean,
         Effect::Asymmetric,
+        Effect::ProcessChange,
         Effect::Delay,
         Effect::Disturbance,
     ] {
