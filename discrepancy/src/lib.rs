@@ -193,7 +193,7 @@ impl Context<'_> {
     /// The quantisation step of OP (`datasets::quantisation::step`), `None` when OP is not
     /// on a lattice.
     pub fn op_step(&self) -> Option<f64> {
-        datasets::quantisation::step(self.problem.op)
+        op_step(self.problem.op)
     }
 
     /// Validation samples.
@@ -1462,7 +1462,7 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
     // OP on a lattice: the valve from its best initial state and, as well, with its
     // thresholds moved by up to one quantisation step (see `rounding_band`)
     let mut valves = vec![q.stiction.box_clone()];
-    if let Some(step) = datasets::quantisation::step(problem.op) {
+    if let Some(step) = op_step(problem.op) {
         let params = q.stiction.param_values();
         valves.extend(
             rounding_band(last.stiction, &params, step, span_of(problem.op))
@@ -1519,6 +1519,12 @@ fn open_set(problem: Problem<'_>, last: &Fitted, options: &DiagnoseOptions) -> O
         error: None,
         window_from: Some(from),
     })
+}
+
+/// OP's quantisation step (`datasets::quantisation::step`), `None` when OP is not on a
+/// lattice: what the thresholds of `asymmetric-stiction` and of the open set allow for.
+pub fn op_step(op: &[f64]) -> Option<f64> {
+    datasets::quantisation::step(op)
 }
 
 /// The valves whose parameters in OP units (`ParamSpec::max_span_fraction` > 0) are each
