@@ -37,6 +37,8 @@ pub enum NoteKind {
     Integrating,
     /// Single-sample spikes found (replaced by the previous sample, or kept when too many).
     Spikes,
+    /// PV or OP written on a lattice (counts, fixed decimals) coarse relative to its motion.
+    Quantised,
 }
 
 impl NoteKind {
