@@ -43,6 +43,7 @@ fn main() {
                     "op01" => (round_to(&c.sim.op, 0.1), c.sim.pv.clone()),
                     "pv001" => (c.sim.op.clone(), round_to(&c.sim.pv, 0.01)),
                     "pv12" => (c.sim.op.clone(), round_to(&c.sim.pv, 100.0 / 4095.0)),
+                    "pv01" => (c.sim.op.clone(), round_to(&c.sim.pv, 0.1)),
                     "both" => (
                         round_to(&c.sim.op, 100.0 / 16383.0),
                         round_to(&c.sim.pv, 0.01),
