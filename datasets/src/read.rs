@@ -1463,7 +1463,7 @@ fn check_quantisation(columns: &[Column], notes: &mut Vec<Note>) {
         let what = if matches!(col.role, Role::Op) {
             "the diagnosis takes valve thresholds within one step for the same (a slip within a step of its threshold is hidden by the rounding)"
         } else {
-            "the rounding adds at most a twelfth of the step squared to its noise variance"
+            "the rounding adds about the step squared over 12 to its noise variance"
         };
         notes.push(Note::new(
             NoteKind::Quantised,
