@@ -28,6 +28,7 @@ mod error;
 pub mod limits;
 mod mat;
 mod note;
+pub mod quantisation;
 mod raw;
 mod read;
 mod registration;

@@ -39,6 +39,8 @@ pub enum NoteKind {
     Spikes,
     /// A long record cut to its latest rows (`ReadOptions::window`).
     Window,
+    /// PV or OP written on a lattice (counts, fixed decimals) coarse relative to its motion.
+    Quantised,
 }
 
 impl NoteKind {

@@ -846,6 +846,7 @@ fn finish(
     keep_window(&mut columns, &mut lines, opts.window, &mut notes);
     check_flat(&file, &columns, &lines, &mut notes)?;
     check_compression(&columns, &mut notes);
+    check_quantisation(&columns, &mut notes);
 
     let n = lines.len();
     if let Some((column, total)) = mode_cut.filter(|_| n < needed) {
@@ -1468,6 +1469,51 @@ fn check_compression(columns: &[Column], notes: &mut Vec<Note>) {
                 ),
             ));
         }
+    }
+}
+
+/// A quantised column is noted when its step is at least this share of its median move
+/// between samples (coarse relative to its motion; `crate::quantisation`).
+pub const QUANTISED_SHARE: f64 = 0.01;
+
+/// PV and OP on a lattice (`crate::quantisation::step`) coarse relative to their motion: a
+/// note with the step and its share of the median move (records of `FLAT_MIN_ROWS` rows or
+/// more, as for flat stretches).
+fn check_quantisation(columns: &[Column], notes: &mut Vec<Note>) {
+    if columns
+        .first()
+        .is_none_or(|c| c.values.len() < FLAT_MIN_ROWS)
+    {
+        return;
+    }
+    for col in columns
+        .iter()
+        .filter(|c| matches!(c.role, Role::Pv | Role::Op))
+    {
+        let v: Vec<f64> = col.values.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+        let (Some(q), Some(m)) = (
+            crate::quantisation::step(&v),
+            crate::quantisation::median_move(&v),
+        ) else {
+            continue;
+        };
+        if q < QUANTISED_SHARE * m {
+            continue;
+        }
+        let what = if matches!(col.role, Role::Op) {
+            "the diagnosis takes valve thresholds within one step for the same (a slip within a step of its threshold is hidden by the rounding)"
+        } else {
+            "the rounding adds about the step squared over 12 to its noise variance"
+        };
+        notes.push(Note::new(
+            NoteKind::Quantised,
+            format!(
+                "column {}: values on a lattice of step {} ({} % of its median move between samples), as counts or a fixed number of decimals write them; {what}; kept",
+                col.name,
+                crate::units::sig(q),
+                crate::units::sig(100.0 * q / m)
+            ),
+        ));
     }
 }
 
