@@ -187,6 +187,8 @@ pub struct Context<'a> {
     pub residuals: &'a ResidualAnalysis,
     /// Options.
     pub options: &'a DiagnoseOptions,
+    /// OP's own oscillation, computed once per record.
+    pub(crate) own_cycle: &'a causes::OwnCycle,
 }
 
 impl Context<'_> {
@@ -379,6 +381,7 @@ fn refit_final(
         return (None, selection);
     };
     let known = registry();
+    let own_cycle = causes::OwnCycle::default();
     for name in chain {
         let Some(entry) = known.iter().find(|e| e.name == *name) else {
             return (None, selection);
@@ -398,6 +401,7 @@ fn refit_final(
             baseline: &current,
             residuals: &res,
             options,
+            own_cycle: &own_cycle,
         };
         let Ok(ext) = (entry.build)().extend(&ctx) else {
             return (None, selection);
@@ -726,6 +730,7 @@ pub fn diagnose_with_progress(
         let q = &base.result;
         ResidualAnalysis::new(problem.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index)
     };
+    let own_cycle = causes::OwnCycle::default();
     let ctx = Context {
         problem,
         span,
@@ -733,6 +738,7 @@ pub fn diagnose_with_progress(
         baseline: &base,
         residuals: &residuals,
         options,
+        own_cycle: &own_cycle,
     };
     let base_fit = base.fit_val();
     let (bs, bj) = (base.result.s, base.result.j);
@@ -838,6 +844,7 @@ pub fn diagnose_with_progress(
         span,
         baseline,
         options,
+        own_cycle: &own_cycle,
     };
     let mut path = Path::default();
     if let Some(i) = chosen.filter(|&i| findings[i].cause != "no-stiction") {
@@ -1179,6 +1186,7 @@ struct ForwardCtx<'a> {
     span: f64,
     baseline: &'a Baseline,
     options: &'a DiagnoseOptions,
+    own_cycle: &'a causes::OwnCycle,
 }
 
 /// One forward-selection path: the causes in the order added (the first is the start's) and
@@ -1239,6 +1247,7 @@ impl ForwardCtx<'_> {
                 baseline: current,
                 residuals: &res,
                 options,
+                own_cycle: self.own_cycle,
             };
             let prev = *causes.last().unwrap_or(&"baseline");
             let candidates: Vec<&'static CauseEntry> = registry()
@@ -1281,9 +1290,9 @@ impl ForwardCtx<'_> {
                     f.reference = format!("the {prev} extension");
                 }
                 if f.significant
-                    && f.fitted
-                        .as_ref()
-                        .is_some_and(|x| causes::notches_the_valves_cycle(problem.op, x))
+                    && f.fitted.as_ref().is_some_and(|x| {
+                        causes::notches_the_valves_cycle(self.own_cycle, problem.op, x)
+                    })
                 {
                     f.significant = false;
                     f.evidence = format!(
