@@ -6,7 +6,7 @@ use grid_search::estimate_delay;
 use linear_id::{find_identifier, IdError, LinearIdentifier, OrderValue};
 use stiction_models::find_model;
 
-use crate::eval::{LocalFit, PatternSearch};
+use crate::eval::{Evaluator, LocalFit, PatternSearch};
 use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitted};
 
 /// Whether the extensions that refit the model on a grid (or from its (S, J)) keep the
@@ -211,6 +211,7 @@ fn warm_grid(
     }
     .max(fine);
     let start = current_valve(ctx);
+    let evaluator = Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
     let key = |p: &[f64]| -> Vec<i64> { p.iter().map(|v| (v / fine).round() as i64).collect() };
     let mut seen = std::collections::HashSet::new();
     let mut nodes: Vec<grid_search::NodeFit> = Vec::new();
@@ -226,13 +227,7 @@ fn warm_grid(
     let mut first = grid_search::grid::nodes(entry, ctx.span, 2.0 * coarse);
     first.push(start.clone());
     let first: Vec<Vec<f64>> = first.into_iter().filter(|p| seen.insert(key(p))).collect();
-    nodes.extend(grid_search::evaluate_nodes(
-        entry,
-        identifier.as_ref(),
-        ctx.problem,
-        &ctx.options.search,
-        first,
-    )?);
+    nodes.extend(evaluator.evaluate(first)?);
     let mut centre: Vec<f64> = best_node(&nodes)
         .unwrap_or_else(|| start.clone())
         .iter()
@@ -249,13 +244,7 @@ fn warm_grid(
         if fresh.is_empty() {
             break;
         }
-        nodes.extend(grid_search::evaluate_nodes(
-            entry,
-            identifier.as_ref(),
-            ctx.problem,
-            &ctx.options.search,
-            fresh,
-        )?);
+        nodes.extend(evaluator.evaluate(fresh)?);
         let Some(best) = best_node(&nodes) else {
             break;
         };
@@ -278,20 +267,12 @@ fn warm_grid(
             .into_iter()
             .filter(|p| seen.insert(key(p)))
             .collect();
-    nodes.extend(grid_search::evaluate_nodes(
-        entry,
-        identifier.as_ref(),
-        ctx.problem,
-        &ctx.options.search,
-        fresh,
-    )?);
+    nodes.extend(evaluator.evaluate(fresh)?);
     let best = best_node(&nodes).unwrap_or_else(|| start.clone());
     let directions = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![1.0, 1.0]];
     let refine = |from: &[f64]| {
         PatternSearch {
             entry,
-            identifier: identifier.as_ref(),
-            problem: ctx.problem,
             options: &ctx.options.search,
             span: ctx.span,
             coarse: coarse / 2.0,
@@ -301,13 +282,14 @@ fn warm_grid(
             scales: Vec::new(),
             admit: None,
         }
-        .run(from)
+        .run(&evaluator, from)
     };
     let best_fine: Vec<f64> = best.iter().map(|v| (v / fine).round() * fine).collect();
     nodes.extend(refine(&best_fine)?);
     if best_fine != start {
         nodes.extend(refine(&start)?);
     }
+    drop(evaluator);
     let fit = LocalFit {
         entry,
         linear,
@@ -334,10 +316,12 @@ fn local_disturbance(
     let linear = combination.linear;
     let identifier = combination.identifier(ctx.baseline.delay)?;
     let current = current_valve(ctx);
-    let mut nodes = axis_search(ctx, identifier.as_ref(), &current)?;
+    let evaluator = Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+    let mut nodes = axis_search(ctx, &evaluator, &current)?;
     if let Some(start) = also_from.filter(|p| *p != current.as_slice()) {
-        nodes.extend(axis_search(ctx, identifier.as_ref(), start)?);
+        nodes.extend(axis_search(ctx, &evaluator, start)?);
     }
+    drop(evaluator);
     let fit = LocalFit {
         entry,
         linear,
@@ -360,11 +344,11 @@ fn current_valve(ctx: &Context<'_>) -> Vec<f64> {
         .collect()
 }
 
-/// A pattern search of the current valve's model with `identifier` from `start`, one
-/// direction per parameter, at most 400 nodes.
+/// A pattern search of the current valve's model with `evaluator`'s identifier from `start`,
+/// one direction per parameter, at most 400 nodes.
 fn axis_search(
     ctx: &Context<'_>,
-    identifier: &dyn LinearIdentifier,
+    evaluator: &Evaluator<'_>,
     start: &[f64],
 ) -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
     let k = start.len();
@@ -375,28 +359,26 @@ fn axis_search(
     pattern_search(
         ctx,
         ctx.baseline_spec.stiction,
-        identifier,
+        evaluator,
         fine,
         directions,
         start,
     )
 }
 
-/// A pattern search of `entry` with `identifier` from `start` along `directions`: steps from
-/// span/20 halved down to `fine` (also the rounding lattice), at most 400 nodes, the model's
-/// own admissible region.
+/// A pattern search of `entry` with `evaluator` (built for `entry`) from `start` along
+/// `directions`: steps from span/20 halved down to `fine` (also the rounding lattice), at
+/// most 400 nodes, the model's own admissible region.
 fn pattern_search(
     ctx: &Context<'_>,
     entry: &'static stiction_models::ModelEntry,
-    identifier: &dyn LinearIdentifier,
+    evaluator: &Evaluator<'_>,
     fine: f64,
     directions: Vec<Vec<f64>>,
     start: &[f64],
 ) -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
     PatternSearch {
         entry,
-        identifier,
-        problem: ctx.problem,
         options: &ctx.options.search,
         span: ctx.span,
         coarse: (ctx.span / 20.0).max(fine),
@@ -406,7 +388,7 @@ fn pattern_search(
         scales: Vec::new(),
         admit: None,
     }
-    .run(start)
+    .run(evaluator, start)
 }
 
 /// The extension a local search from the current valve found (`local_disturbance`,
@@ -465,8 +447,10 @@ impl Cause for AsymmetricStiction {
         let fine = ctx.options.search.grid.step();
         let snap = |v: f64| (v / fine).round() * fine;
         let start = vec![snap((q.s - q.j).max(0.0)), snap(q.j), snap(q.j)];
+        let evaluator =
+            Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
         let search_at = |fine: f64, directions: Vec<Vec<f64>>, from: &[f64]| {
-            pattern_search(ctx, entry, identifier.as_ref(), fine, directions, from)
+            pattern_search(ctx, entry, &evaluator, fine, directions, from)
         };
         let search = |directions: Vec<Vec<f64>>, from: &[f64]| search_at(fine, directions, from);
         let crit = ctx.options.search.criterion;
@@ -514,13 +498,7 @@ impl Cause for AsymmetricStiction {
                 }
             }
         }
-        let coarse = grid_search::evaluate_nodes(
-            entry,
-            identifier.as_ref(),
-            ctx.problem,
-            &ctx.options.search,
-            lattice,
-        )?;
+        let coarse = evaluator.evaluate(lattice)?;
         let mut ranked: Vec<&grid_search::NodeFit> = coarse.iter().collect();
         ranked.sort_by(|x, y| y.score(crit).total_cmp(&x.score(crit)));
         starts.extend(ranked.iter().take(2).map(|n| n.params.clone()));
@@ -556,6 +534,7 @@ impl Cause for AsymmetricStiction {
             &[free_best[0], jm, jm],
         )?;
         let sym_fit = best_of(&sym2).map_or(sym_fit, |(_, f)| f.max(sym_fit));
+        drop(evaluator);
         let mut nodes = sym;
         nodes.extend(free);
         nodes.extend(sym2);
@@ -782,11 +761,13 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
     // current valve
     let search = |d: usize| -> Result<(usize, Vec<grid_search::NodeFit>), DiagnoseError> {
         let identifier = spec.identifier(d)?;
-        let mut nodes = axis_search(ctx, identifier.as_ref(), &start)?;
+        let evaluator =
+            Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+        let mut nodes = axis_search(ctx, &evaluator, &start)?;
         if let Some((_, _, p)) = scan.iter().find(|(k, _, _)| *k == d) {
             let p: Vec<f64> = p.iter().map(|v| snap(*v, fine)).collect();
             if p != start {
-                nodes.extend(axis_search(ctx, identifier.as_ref(), &p)?);
+                nodes.extend(axis_search(ctx, &evaluator, &p)?);
             }
         }
         Ok((d, nodes))
@@ -890,7 +871,9 @@ fn local_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         .collect();
     let best = pick_delay(&scores, spec.fixed_delay());
     let identifier = spec.identifier(best)?;
-    let nodes = axis_search(ctx, identifier.as_ref(), &start)?;
+    let evaluator = Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+    let nodes = axis_search(ctx, &evaluator, &start)?;
+    drop(evaluator);
     let fit = LocalFit {
         entry,
         linear: spec.linear,
