@@ -619,55 +619,12 @@ impl Cause for TimeDelay {
         let current = spec.fixed_delay();
         let coarse = pick_delay(&scan.scores, current);
         let max = ctx.options.max_delay.max(coarse);
-        let mut tried: Vec<usize> = Vec::new();
-        let mut fits: Vec<(usize, Fitted)> = Vec::new();
-        let mut want: Vec<usize> = (coarse.saturating_sub(1)..=(coarse + 1).min(max)).collect();
-        let mut last_error = None;
-        // index in `fits` of the best fit so far
-        let mut best_fit: Option<usize> = None;
-        loop {
-            for d in want.drain(..).filter(|&d| d != current) {
-                if tried.contains(&d) {
-                    continue;
-                }
-                tried.push(d);
-                // a neighbour that cannot be fitted (e.g. no stable node) is not a candidate
-                match ctx.quantify(spec.stiction, spec.linear, d) {
-                    Ok(f) => {
-                        if best_fit.is_none_or(|b| f.fit_val() > fits[b].1.fit_val()) {
-                            best_fit = Some(fits.len());
-                        }
-                        fits.push((d, f));
-                    }
-                    Err(e) => last_error = Some(e),
-                }
-            }
-            let Some(pick) = best_fit.map(|b| fits[b].0) else {
-                break;
-            };
-            // the best at an end of the fitted range: the dead time beyond it decides
-            let (lo, hi) = (tried.iter().min(), tried.iter().max());
-            let next = pick + 1 + usize::from(pick + 1 == current);
-            if Some(&pick) == hi && next <= max && !tried.contains(&next) {
-                want.push(next);
-            } else if Some(&pick) == lo && pick > 0 {
-                let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
-                if prev != current && !tried.contains(&prev) {
-                    want.push(prev);
-                }
-            }
-            if want.is_empty() {
-                break;
-            }
-        }
-        // every dead time tried failed: the last failure says why
-        let Some(i) = best_fit else {
-            return Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
-                model: spec.stiction.name.to_string(),
-            }));
-        };
-        let best = fits[i].0;
-        let mut fitted = fits.swap_remove(i).1;
+        // a neighbour that cannot be fitted (e.g. no stable node) is not a candidate
+        let (mut fits, i) = fit_around(coarse, current, max, spec.stiction.name, |d| {
+            let f = ctx.quantify(spec.stiction, spec.linear, d)?;
+            Ok(Some((f.fit_val(), f)))
+        })?;
+        let (best, _, mut fitted) = fits.swap_remove(i);
         fitted.delay_scan = Some(grid_search::DelayScan {
             delay: best,
             scores: scan.scores,
@@ -690,6 +647,76 @@ fn pick_delay(scores: &[(usize, f64)], current: usize) -> usize {
         .filter(|(d, f)| *d != current && f.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map_or(current + 1, |(d, _)| *d)
+}
+
+/// Fits at several dead times (dead time, score, fit) and the index of the best.
+type DelayFits<T> = (Vec<(usize, f64, T)>, usize);
+
+/// The dead times around the scan's pick `coarse_pick` other than `current`, each fitted by
+/// `fit` (a validation score and the fit; `None`: nothing to compare at that dead time):
+/// `coarse_pick ± 1`, then, while the best so far is at an end of the range fitted, the dead
+/// time beyond it (up to `max`). The dead times of a round are fitted in parallel. Returns
+/// every fit with its dead time and score, and the index of the best (the first of equal
+/// scores); when none could be fitted, the last error (or an empty search of `model`).
+fn fit_around<T: Send>(
+    coarse_pick: usize,
+    current: usize,
+    max: usize,
+    model: &str,
+    fit: impl Fn(usize) -> Result<Option<(f64, T)>, DiagnoseError> + Sync,
+) -> Result<DelayFits<T>, DiagnoseError> {
+    use rayon::prelude::*;
+    let mut tried: Vec<usize> = Vec::new();
+    let mut fits: Vec<(usize, f64, T)> = Vec::new();
+    let mut want: Vec<usize> =
+        (coarse_pick.saturating_sub(1)..=(coarse_pick + 1).min(max)).collect();
+    let mut last_error = None;
+    // index in `fits` of the best fit so far
+    let mut best: Option<usize> = None;
+    loop {
+        let batch: Vec<usize> = want
+            .drain(..)
+            .filter(|&d| d != current && !tried.contains(&d))
+            .collect();
+        tried.extend(&batch);
+        let results: Vec<_> = batch.into_par_iter().map(|d| (d, fit(d))).collect();
+        for (d, r) in results {
+            match r {
+                Ok(Some((f, t))) => {
+                    if best.is_none_or(|b| f > fits[b].1) {
+                        best = Some(fits.len());
+                    }
+                    fits.push((d, f, t));
+                }
+                Ok(None) => {}
+                Err(e) => last_error = Some(e),
+            }
+        }
+        let Some(pick) = best.map(|b| fits[b].0) else {
+            break;
+        };
+        // the best at an end of the fitted range: the dead time beyond it decides
+        let (lo, hi) = (tried.iter().min(), tried.iter().max());
+        let next = pick + 1 + usize::from(pick + 1 == current);
+        if Some(&pick) == hi && next <= max && !tried.contains(&next) {
+            want.push(next);
+        } else if Some(&pick) == lo && pick > 0 {
+            let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
+            if prev != current && !tried.contains(&prev) {
+                want.push(prev);
+            }
+        }
+        if want.is_empty() {
+            break;
+        }
+    }
+    // every dead time tried failed: the last failure says why
+    match best {
+        Some(i) => Ok((fits, i)),
+        None => Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
+            model: model.to_string(),
+        })),
+    }
 }
 
 /// Half-width, in coarse (span/20) steps, of the box around the current valve that the
@@ -759,7 +786,7 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
     let max = ctx.options.max_delay.max(coarse_pick);
     // the pattern searches at dead time `d`: from the scan's best node there and from the
     // current valve
-    let search = |d: usize| -> Result<(usize, Vec<grid_search::NodeFit>), DiagnoseError> {
+    let search = |d: usize| -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
         let identifier = spec.identifier(d)?;
         let evaluator =
             Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
@@ -770,7 +797,7 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
                 nodes.extend(axis_search(ctx, &evaluator, &p)?);
             }
         }
-        Ok((d, nodes))
+        Ok(nodes)
     };
     let best_of = |nodes: &[grid_search::NodeFit]| {
         nodes
@@ -779,54 +806,11 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
             .filter(|f| f.is_finite())
             .fold(f64::NEG_INFINITY, f64::max)
     };
-    let mut tried: Vec<usize> = Vec::new();
-    let mut fits: Vec<(usize, f64, Vec<grid_search::NodeFit>)> = Vec::new();
-    let mut want: Vec<usize> =
-        (coarse_pick.saturating_sub(1)..=(coarse_pick + 1).min(max)).collect();
-    let mut last_error = None;
-    loop {
-        let batch: Vec<usize> = want
-            .drain(..)
-            .filter(|&d| d != current && !tried.contains(&d))
-            .collect();
-        tried.extend(&batch);
-        for r in batch.into_par_iter().map(search).collect::<Vec<_>>() {
-            match r {
-                Ok((d, nodes)) => {
-                    let f = best_of(&nodes);
-                    if f.is_finite() {
-                        fits.push((d, f, nodes));
-                    }
-                }
-                Err(e) => last_error = Some(e),
-            }
-        }
-        let Some(pick) = fits
-            .iter()
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(d, _, _)| *d)
-        else {
-            break;
-        };
-        let (lo, hi) = (tried.iter().min(), tried.iter().max());
-        let next = pick + 1 + usize::from(pick + 1 == current);
-        if Some(&pick) == hi && next <= max && !tried.contains(&next) {
-            want.push(next);
-        } else if Some(&pick) == lo && pick > 0 {
-            let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
-            if prev != current && !tried.contains(&prev) {
-                want.push(prev);
-            }
-        }
-        if want.is_empty() {
-            break;
-        }
-    }
-    let Some(i) = (0..fits.len()).max_by(|&a, &b| fits[a].1.total_cmp(&fits[b].1)) else {
-        return Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
-            model: entry.name.to_string(),
-        }));
-    };
+    let (mut fits, i) = fit_around(coarse_pick, current, max, entry.name, |d| {
+        let nodes = search(d)?;
+        let f = best_of(&nodes);
+        Ok(f.is_finite().then_some((f, nodes)))
+    })?;
     let (best, _, nodes) = fits.swap_remove(i);
     let fit = LocalFit {
         entry,

@@ -301,6 +301,8 @@ fn orders_text(orders: &[(String, linear_id::OrderValue)]) -> String {
 /// cause of `chain` is extended on it again in order (each on the previous one's model, as
 /// the forward selection did). The model is `None` when there is nothing to refit, or a fit
 /// fails (too few samples, an extension that cannot be fitted): the final model then stands.
+/// `own_cycle`: OP's own oscillation over the whole record (used when `from` is `None`).
+#[allow(clippy::too_many_arguments)]
 fn refit_final(
     problem: Problem<'_>,
     span: f64,
@@ -309,6 +311,7 @@ fn refit_final(
     chain: &[&'static str],
     from: Option<usize>,
     options: &DiagnoseOptions,
+    own_cycle: &causes::OwnCycle,
 ) -> (Option<Fitted>, Option<OrderSelection>) {
     let data = match from {
         Some(f) => Problem {
@@ -381,7 +384,13 @@ fn refit_final(
         return (None, selection);
     };
     let known = registry();
-    let own_cycle = causes::OwnCycle::default();
+    // after a change, OP's own oscillation on the samples refitted
+    let recent_cycle = causes::OwnCycle::default();
+    let own_cycle = if from.is_some() {
+        &recent_cycle
+    } else {
+        own_cycle
+    };
     for name in chain {
         let Some(entry) = known.iter().find(|e| e.name == *name) else {
             return (None, selection);
@@ -401,7 +410,7 @@ fn refit_final(
             baseline: &current,
             residuals: &res,
             options,
-            own_cycle: &own_cycle,
+            own_cycle,
         };
         let Ok(ext) = (entry.build)().extend(&ctx) else {
             return (None, selection);
@@ -973,7 +982,9 @@ pub fn diagnose_with_progress(
     let selected_chain: Vec<&'static str> = causes.clone();
     let selected_before = selected_model(&picks, &steps, chosen, &findings);
     let refit = |chain: &[&'static str], from: Option<usize>| {
-        refit_final(problem, span, baseline, &base, chain, from, options)
+        refit_final(
+            problem, span, baseline, &base, chain, from, options, &own_cycle,
+        )
     };
     let (pre_refit, pre_selection) = if healthy {
         (None, None)
