@@ -408,6 +408,29 @@ fn fft(x: &mut [(f64, f64)]) {
     }
 }
 
+/// `|Σ r_t e^(iωt)|²` by the direct sums.
+fn direct_power(r: &[f64], w: f64) -> f64 {
+    let (mut a, mut b) = (0.0, 0.0);
+    for (t, v) in r.iter().enumerate() {
+        let (s, c) = (w * t as f64).sin_cos();
+        a += v * c;
+        b += v * s;
+    }
+    a * a + b * b
+}
+
+/// `|Σ r_t e^(iωt)|²` by Goertzel's recursion: [`direct_power`] to a relative ~1e-10 on the
+/// periodogram's grid, without a sine and cosine per sample.
+fn goertzel_power(r: &[f64], w: f64) -> f64 {
+    let c = 2.0 * w.cos();
+    let (mut s1, mut s2) = (0.0f64, 0.0f64);
+    for &v in r {
+        let s0 = v + c * s1 - s2;
+        (s2, s1) = (s1, s0);
+    }
+    (s1 * s1 + s2 * s2 - c * s1 * s2).max(0.0)
+}
+
 /// The dominant frequency (rad/sample) of `x` with its mean and linear trend removed, over
 /// periods from `min_period` samples to `max_period` samples: the periodogram's peak on the
 /// Fourier grid `2πk/N`, refined by a golden-section search between its neighbours. `None`
@@ -425,15 +448,7 @@ pub fn dominant_frequency(x: &[f64], min_period: f64, max_period: f64) -> Option
     let r: Vec<f64> = (0..n)
         .map(|t| x[t] - xm - slope * (t as f64 - tm))
         .collect();
-    let power = |w: f64| {
-        let (mut a, mut b) = (0.0, 0.0);
-        for (t, v) in r.iter().enumerate() {
-            let (s, c) = (w * t as f64).sin_cos();
-            a += v * c;
-            b += v * s;
-        }
-        a * a + b * b
-    };
+    let power = |w: f64| direct_power(&r, w);
     // period N / k within [min_period, max_period]
     let k0 = (nf / max_period).ceil().max(1.0) as usize;
     let k1 = (nf / min_period).floor() as usize;
@@ -442,7 +457,12 @@ pub fn dominant_frequency(x: &[f64], min_period: f64, max_period: f64) -> Option
     }
     let mut step = 2.0 * std::f64::consts::PI / nf;
     let w0 = if n * (k1 - k0 + 1) <= DIRECT_GRID_WORK {
-        let grid: Vec<f64> = (k0..=k1).map(|k| power(k as f64 * step)).collect();
+        // the grid's powers by Goertzel's recursion (two multiply-adds per sample instead of
+        // a sine and a cosine: the grid was 7 % of a diagnosis); the same peak as the direct
+        // sums, which the refinement below evaluates
+        let grid: Vec<f64> = (k0..=k1)
+            .map(|k| goertzel_power(&r, k as f64 * step))
+            .collect();
         let i = (0..grid.len()).max_by(|&a, &b| grid[a].total_cmp(&grid[b]))?;
         if grid[i].is_nan() || grid[i] <= 0.0 {
             return None;
@@ -527,6 +547,40 @@ mod tests {
         }
         let y = (0..len).map(|k| 20.0 + x[k] + 0.01 * rnd()).collect();
         (u, y)
+    }
+
+    /// Goertzel's grid powers agree with the direct sums and peak at the same frequency, on
+    /// a sine in noise, a random walk and white noise of 3000 samples.
+    #[test]
+    fn goertzel_grid_peaks_where_the_direct_sums_do() {
+        let mut state = 12345u64;
+        let mut noise = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let n = 3000;
+        let sine: Vec<f64> = (0..n)
+            .map(|t| (0.07 * t as f64).sin() + 0.5 * noise())
+            .collect();
+        let mut walk = vec![0.0; n];
+        for t in 1..n {
+            walk[t] = walk[t - 1] + noise();
+        }
+        let white: Vec<f64> = (0..n).map(|_| noise()).collect();
+        for x in [sine, walk, white] {
+            let step = 2.0 * std::f64::consts::PI / n as f64;
+            let grid = |p: fn(&[f64], f64) -> f64| -> Vec<f64> {
+                (2..=375).map(|k| p(&x, k as f64 * step)).collect()
+            };
+            let (direct, fast) = (grid(direct_power), grid(goertzel_power));
+            for (d, g) in direct.iter().zip(&fast) {
+                assert!((d - g).abs() <= 1e-8 * d.abs().max(1e-300), "{d} vs {g}");
+            }
+            let peak = |v: &[f64]| (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b]));
+            assert_eq!(peak(&direct), peak(&fast));
+        }
     }
 
     #[test]
