@@ -6,7 +6,7 @@ use grid_search::estimate_delay;
 use linear_id::{find_identifier, IdError, LinearIdentifier, OrderValue};
 use stiction_models::find_model;
 
-use crate::eval::{LocalFit, PatternSearch};
+use crate::eval::{Evaluator, LocalFit, PatternSearch};
 use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitted};
 
 /// Whether the extensions that refit the model on a grid (or from its (S, J)) keep the
@@ -82,7 +82,7 @@ impl Cause for Disturbance {
                 // a grid node that fails for HARX only leaves the bias form
                 disturbance_extension(ctx, "harx", &orders, 2, Some(&bias_valve))
                     .ok()
-                    .filter(|h| !notches_the_valves_cycle(ctx.problem.op, &h.fitted))
+                    .filter(|h| !notches_the_valves_cycle(ctx.own_cycle, ctx.problem.op, &h.fitted))
             }
             _ => None,
         };
@@ -109,12 +109,11 @@ const OWN_CYCLE_TOLERANCE: f64 = 0.2;
 /// notched out. The forward selection applies the same rule to every model built on a HARX
 /// model (a dead time found on top of a notch at the cycle that brings the stiction back
 /// makes the notch the valve's cycle after all).
-pub(crate) fn notches_the_valves_cycle(op: &[f64], fitted: &Fitted) -> bool {
+pub(crate) fn notches_the_valves_cycle(own: &OwnCycle, op: &[f64], fitted: &Fitted) -> bool {
     let Some(omega) = fitted.result.linear.harmonic() else {
         return false;
     };
-    let Some(own) = linear_id::dominant_frequency(op, HARMONIC_MIN_PERIOD, op.len() as f64 / 2.0)
-    else {
+    let Some(own) = own.of(op) else {
         return false;
     };
     let on_cycle = (1..=3).any(|k| {
@@ -122,6 +121,22 @@ pub(crate) fn notches_the_valves_cycle(op: &[f64], fitted: &Fitted) -> bool {
         (omega - w).abs() <= OWN_CYCLE_TOLERANCE * w
     });
     on_cycle && fitted.result.s > grid_search::NEGLIGIBLE_S
+}
+
+/// The dominant frequency of OP (the loop's own oscillation, [`notches_the_valves_cycle`]),
+/// computed on first use and kept for the rest of the diagnosis: every HARX model the
+/// forward selection fits is checked against it, and its periodogram of a 3000-sample record
+/// took 20-30 ms each time (8 % of a disturbance + dead-time diagnosis).
+#[derive(Debug, Default)]
+pub(crate) struct OwnCycle(std::sync::OnceLock<Option<f64>>);
+
+impl OwnCycle {
+    /// The dominant frequency of `op`, the same record at every call.
+    pub(crate) fn of(&self, op: &[f64]) -> Option<f64> {
+        *self.0.get_or_init(|| {
+            linear_id::dominant_frequency(op, HARMONIC_MIN_PERIOD, op.len() as f64 / 2.0)
+        })
+    }
 }
 
 /// Periods (samples) HARX's frequency is sought in: from 8 samples to half the residual
@@ -196,6 +211,7 @@ fn warm_grid(
     }
     .max(fine);
     let start = current_valve(ctx);
+    let evaluator = Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
     let key = |p: &[f64]| -> Vec<i64> { p.iter().map(|v| (v / fine).round() as i64).collect() };
     let mut seen = std::collections::HashSet::new();
     let mut nodes: Vec<grid_search::NodeFit> = Vec::new();
@@ -211,13 +227,7 @@ fn warm_grid(
     let mut first = grid_search::grid::nodes(entry, ctx.span, 2.0 * coarse);
     first.push(start.clone());
     let first: Vec<Vec<f64>> = first.into_iter().filter(|p| seen.insert(key(p))).collect();
-    nodes.extend(grid_search::evaluate_nodes(
-        entry,
-        identifier.as_ref(),
-        ctx.problem,
-        &ctx.options.search,
-        first,
-    )?);
+    nodes.extend(evaluator.evaluate(first)?);
     let mut centre: Vec<f64> = best_node(&nodes)
         .unwrap_or_else(|| start.clone())
         .iter()
@@ -234,13 +244,7 @@ fn warm_grid(
         if fresh.is_empty() {
             break;
         }
-        nodes.extend(grid_search::evaluate_nodes(
-            entry,
-            identifier.as_ref(),
-            ctx.problem,
-            &ctx.options.search,
-            fresh,
-        )?);
+        nodes.extend(evaluator.evaluate(fresh)?);
         let Some(best) = best_node(&nodes) else {
             break;
         };
@@ -263,20 +267,12 @@ fn warm_grid(
             .into_iter()
             .filter(|p| seen.insert(key(p)))
             .collect();
-    nodes.extend(grid_search::evaluate_nodes(
-        entry,
-        identifier.as_ref(),
-        ctx.problem,
-        &ctx.options.search,
-        fresh,
-    )?);
+    nodes.extend(evaluator.evaluate(fresh)?);
     let best = best_node(&nodes).unwrap_or_else(|| start.clone());
     let directions = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![1.0, 1.0]];
     let refine = |from: &[f64]| {
         PatternSearch {
             entry,
-            identifier: identifier.as_ref(),
-            problem: ctx.problem,
             options: &ctx.options.search,
             span: ctx.span,
             coarse: coarse / 2.0,
@@ -286,13 +282,14 @@ fn warm_grid(
             scales: Vec::new(),
             admit: None,
         }
-        .run(from)
+        .run(&evaluator, from)
     };
     let best_fine: Vec<f64> = best.iter().map(|v| (v / fine).round() * fine).collect();
     nodes.extend(refine(&best_fine)?);
     if best_fine != start {
         nodes.extend(refine(&start)?);
     }
+    drop(evaluator);
     let fit = LocalFit {
         entry,
         linear,
@@ -319,10 +316,12 @@ fn local_disturbance(
     let linear = combination.linear;
     let identifier = combination.identifier(ctx.baseline.delay)?;
     let current = current_valve(ctx);
-    let mut nodes = axis_search(ctx, identifier.as_ref(), &current)?;
+    let evaluator = Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+    let mut nodes = axis_search(ctx, &evaluator, &current)?;
     if let Some(start) = also_from.filter(|p| *p != current.as_slice()) {
-        nodes.extend(axis_search(ctx, identifier.as_ref(), start)?);
+        nodes.extend(axis_search(ctx, &evaluator, start)?);
     }
+    drop(evaluator);
     let fit = LocalFit {
         entry,
         linear,
@@ -345,11 +344,11 @@ fn current_valve(ctx: &Context<'_>) -> Vec<f64> {
         .collect()
 }
 
-/// A pattern search of the current valve's model with `identifier` from `start`, one
-/// direction per parameter, at most 400 nodes.
+/// A pattern search of the current valve's model with `evaluator`'s identifier from `start`,
+/// one direction per parameter, at most 400 nodes.
 fn axis_search(
     ctx: &Context<'_>,
-    identifier: &dyn LinearIdentifier,
+    evaluator: &Evaluator<'_>,
     start: &[f64],
 ) -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
     let k = start.len();
@@ -360,28 +359,26 @@ fn axis_search(
     pattern_search(
         ctx,
         ctx.baseline_spec.stiction,
-        identifier,
+        evaluator,
         fine,
         directions,
         start,
     )
 }
 
-/// A pattern search of `entry` with `identifier` from `start` along `directions`: steps from
-/// span/20 halved down to `fine` (also the rounding lattice), at most 400 nodes, the model's
-/// own admissible region.
+/// A pattern search of `entry` with `evaluator` (built for `entry`) from `start` along
+/// `directions`: steps from span/20 halved down to `fine` (also the rounding lattice), at
+/// most 400 nodes, the model's own admissible region.
 fn pattern_search(
     ctx: &Context<'_>,
     entry: &'static stiction_models::ModelEntry,
-    identifier: &dyn LinearIdentifier,
+    evaluator: &Evaluator<'_>,
     fine: f64,
     directions: Vec<Vec<f64>>,
     start: &[f64],
 ) -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
     PatternSearch {
         entry,
-        identifier,
-        problem: ctx.problem,
         options: &ctx.options.search,
         span: ctx.span,
         coarse: (ctx.span / 20.0).max(fine),
@@ -391,7 +388,7 @@ fn pattern_search(
         scales: Vec::new(),
         admit: None,
     }
-    .run(start)
+    .run(evaluator, start)
 }
 
 /// The extension a local search from the current valve found (`local_disturbance`,
@@ -450,8 +447,10 @@ impl Cause for AsymmetricStiction {
         let fine = ctx.options.search.grid.step();
         let snap = |v: f64| (v / fine).round() * fine;
         let start = vec![snap((q.s - q.j).max(0.0)), snap(q.j), snap(q.j)];
+        let evaluator =
+            Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
         let search_at = |fine: f64, directions: Vec<Vec<f64>>, from: &[f64]| {
-            pattern_search(ctx, entry, identifier.as_ref(), fine, directions, from)
+            pattern_search(ctx, entry, &evaluator, fine, directions, from)
         };
         let search = |directions: Vec<Vec<f64>>, from: &[f64]| search_at(fine, directions, from);
         let crit = ctx.options.search.criterion;
@@ -499,13 +498,7 @@ impl Cause for AsymmetricStiction {
                 }
             }
         }
-        let coarse = grid_search::evaluate_nodes(
-            entry,
-            identifier.as_ref(),
-            ctx.problem,
-            &ctx.options.search,
-            lattice,
-        )?;
+        let coarse = evaluator.evaluate(lattice)?;
         let mut ranked: Vec<&grid_search::NodeFit> = coarse.iter().collect();
         ranked.sort_by(|x, y| y.score(crit).total_cmp(&x.score(crit)));
         starts.extend(ranked.iter().take(2).map(|n| n.params.clone()));
@@ -581,17 +574,12 @@ impl Cause for AsymmetricStiction {
                     }
                 }
             }
-            banded = grid_search::evaluate_nodes(
-                entry,
-                identifier.as_ref(),
-                ctx.problem,
-                &ctx.options.search,
-                lattice,
-            )?;
+            banded = evaluator.evaluate(lattice)?;
             if let Some((_, f)) = best_of(&banded) {
                 sym_fit = sym_fit.max(f);
             }
         }
+        drop(evaluator);
         let mut nodes = sym;
         nodes.extend(free);
         nodes.extend(sym2);
@@ -671,55 +659,12 @@ impl Cause for TimeDelay {
         let current = spec.fixed_delay();
         let coarse = pick_delay(&scan.scores, current);
         let max = ctx.options.max_delay.max(coarse);
-        let mut tried: Vec<usize> = Vec::new();
-        let mut fits: Vec<(usize, Fitted)> = Vec::new();
-        let mut want: Vec<usize> = (coarse.saturating_sub(1)..=(coarse + 1).min(max)).collect();
-        let mut last_error = None;
-        // index in `fits` of the best fit so far
-        let mut best_fit: Option<usize> = None;
-        loop {
-            for d in want.drain(..).filter(|&d| d != current) {
-                if tried.contains(&d) {
-                    continue;
-                }
-                tried.push(d);
-                // a neighbour that cannot be fitted (e.g. no stable node) is not a candidate
-                match ctx.quantify(spec.stiction, spec.linear, d) {
-                    Ok(f) => {
-                        if best_fit.is_none_or(|b| f.fit_val() > fits[b].1.fit_val()) {
-                            best_fit = Some(fits.len());
-                        }
-                        fits.push((d, f));
-                    }
-                    Err(e) => last_error = Some(e),
-                }
-            }
-            let Some(pick) = best_fit.map(|b| fits[b].0) else {
-                break;
-            };
-            // the best at an end of the fitted range: the dead time beyond it decides
-            let (lo, hi) = (tried.iter().min(), tried.iter().max());
-            let next = pick + 1 + usize::from(pick + 1 == current);
-            if Some(&pick) == hi && next <= max && !tried.contains(&next) {
-                want.push(next);
-            } else if Some(&pick) == lo && pick > 0 {
-                let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
-                if prev != current && !tried.contains(&prev) {
-                    want.push(prev);
-                }
-            }
-            if want.is_empty() {
-                break;
-            }
-        }
-        // every dead time tried failed: the last failure says why
-        let Some(i) = best_fit else {
-            return Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
-                model: spec.stiction.name.to_string(),
-            }));
-        };
-        let best = fits[i].0;
-        let mut fitted = fits.swap_remove(i).1;
+        // a neighbour that cannot be fitted (e.g. no stable node) is not a candidate
+        let (mut fits, i) = fit_around(coarse, current, max, spec.stiction.name, |d| {
+            let f = ctx.quantify(spec.stiction, spec.linear, d)?;
+            Ok(Some((f.fit_val(), f)))
+        })?;
+        let (best, _, mut fitted) = fits.swap_remove(i);
         fitted.delay_scan = Some(grid_search::DelayScan {
             delay: best,
             scores: scan.scores,
@@ -742,6 +687,76 @@ fn pick_delay(scores: &[(usize, f64)], current: usize) -> usize {
         .filter(|(d, f)| *d != current && f.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map_or(current + 1, |(d, _)| *d)
+}
+
+/// Fits at several dead times (dead time, score, fit) and the index of the best.
+type DelayFits<T> = (Vec<(usize, f64, T)>, usize);
+
+/// The dead times around the scan's pick `coarse_pick` other than `current`, each fitted by
+/// `fit` (a validation score and the fit; `None`: nothing to compare at that dead time):
+/// `coarse_pick ± 1`, then, while the best so far is at an end of the range fitted, the dead
+/// time beyond it (up to `max`). The dead times of a round are fitted in parallel. Returns
+/// every fit with its dead time and score, and the index of the best (the first of equal
+/// scores); when none could be fitted, the last error (or an empty search of `model`).
+fn fit_around<T: Send>(
+    coarse_pick: usize,
+    current: usize,
+    max: usize,
+    model: &str,
+    fit: impl Fn(usize) -> Result<Option<(f64, T)>, DiagnoseError> + Sync,
+) -> Result<DelayFits<T>, DiagnoseError> {
+    use rayon::prelude::*;
+    let mut tried: Vec<usize> = Vec::new();
+    let mut fits: Vec<(usize, f64, T)> = Vec::new();
+    let mut want: Vec<usize> =
+        (coarse_pick.saturating_sub(1)..=(coarse_pick + 1).min(max)).collect();
+    let mut last_error = None;
+    // index in `fits` of the best fit so far
+    let mut best: Option<usize> = None;
+    loop {
+        let batch: Vec<usize> = want
+            .drain(..)
+            .filter(|&d| d != current && !tried.contains(&d))
+            .collect();
+        tried.extend(&batch);
+        let results: Vec<_> = batch.into_par_iter().map(|d| (d, fit(d))).collect();
+        for (d, r) in results {
+            match r {
+                Ok(Some((f, t))) => {
+                    if best.is_none_or(|b| f > fits[b].1) {
+                        best = Some(fits.len());
+                    }
+                    fits.push((d, f, t));
+                }
+                Ok(None) => {}
+                Err(e) => last_error = Some(e),
+            }
+        }
+        let Some(pick) = best.map(|b| fits[b].0) else {
+            break;
+        };
+        // the best at an end of the fitted range: the dead time beyond it decides
+        let (lo, hi) = (tried.iter().min(), tried.iter().max());
+        let next = pick + 1 + usize::from(pick + 1 == current);
+        if Some(&pick) == hi && next <= max && !tried.contains(&next) {
+            want.push(next);
+        } else if Some(&pick) == lo && pick > 0 {
+            let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
+            if prev != current && !tried.contains(&prev) {
+                want.push(prev);
+            }
+        }
+        if want.is_empty() {
+            break;
+        }
+    }
+    // every dead time tried failed: the last failure says why
+    match best {
+        Some(i) => Ok((fits, i)),
+        None => Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
+            model: model.to_string(),
+        })),
+    }
 }
 
 /// Half-width, in coarse (span/20) steps, of the box around the current valve that the
@@ -811,16 +826,18 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
     let max = ctx.options.max_delay.max(coarse_pick);
     // the pattern searches at dead time `d`: from the scan's best node there and from the
     // current valve
-    let search = |d: usize| -> Result<(usize, Vec<grid_search::NodeFit>), DiagnoseError> {
+    let search = |d: usize| -> Result<Vec<grid_search::NodeFit>, DiagnoseError> {
         let identifier = spec.identifier(d)?;
-        let mut nodes = axis_search(ctx, identifier.as_ref(), &start)?;
+        let evaluator =
+            Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+        let mut nodes = axis_search(ctx, &evaluator, &start)?;
         if let Some((_, _, p)) = scan.iter().find(|(k, _, _)| *k == d) {
             let p: Vec<f64> = p.iter().map(|v| snap(*v, fine)).collect();
             if p != start {
-                nodes.extend(axis_search(ctx, identifier.as_ref(), &p)?);
+                nodes.extend(axis_search(ctx, &evaluator, &p)?);
             }
         }
-        Ok((d, nodes))
+        Ok(nodes)
     };
     let best_of = |nodes: &[grid_search::NodeFit]| {
         nodes
@@ -829,54 +846,11 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
             .filter(|f| f.is_finite())
             .fold(f64::NEG_INFINITY, f64::max)
     };
-    let mut tried: Vec<usize> = Vec::new();
-    let mut fits: Vec<(usize, f64, Vec<grid_search::NodeFit>)> = Vec::new();
-    let mut want: Vec<usize> =
-        (coarse_pick.saturating_sub(1)..=(coarse_pick + 1).min(max)).collect();
-    let mut last_error = None;
-    loop {
-        let batch: Vec<usize> = want
-            .drain(..)
-            .filter(|&d| d != current && !tried.contains(&d))
-            .collect();
-        tried.extend(&batch);
-        for r in batch.into_par_iter().map(search).collect::<Vec<_>>() {
-            match r {
-                Ok((d, nodes)) => {
-                    let f = best_of(&nodes);
-                    if f.is_finite() {
-                        fits.push((d, f, nodes));
-                    }
-                }
-                Err(e) => last_error = Some(e),
-            }
-        }
-        let Some(pick) = fits
-            .iter()
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(d, _, _)| *d)
-        else {
-            break;
-        };
-        let (lo, hi) = (tried.iter().min(), tried.iter().max());
-        let next = pick + 1 + usize::from(pick + 1 == current);
-        if Some(&pick) == hi && next <= max && !tried.contains(&next) {
-            want.push(next);
-        } else if Some(&pick) == lo && pick > 0 {
-            let prev = pick - 1 - usize::from(pick - 1 == current && pick >= 2);
-            if prev != current && !tried.contains(&prev) {
-                want.push(prev);
-            }
-        }
-        if want.is_empty() {
-            break;
-        }
-    }
-    let Some(i) = (0..fits.len()).max_by(|&a, &b| fits[a].1.total_cmp(&fits[b].1)) else {
-        return Err(last_error.unwrap_or_else(|| DiagnoseError::EmptySearch {
-            model: entry.name.to_string(),
-        }));
-    };
+    let (mut fits, i) = fit_around(coarse_pick, current, max, entry.name, |d| {
+        let nodes = search(d)?;
+        let f = best_of(&nodes);
+        Ok(f.is_finite().then_some((f, nodes)))
+    })?;
     let (best, _, nodes) = fits.swap_remove(i);
     let fit = LocalFit {
         entry,
@@ -921,7 +895,9 @@ fn local_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         .collect();
     let best = pick_delay(&scores, spec.fixed_delay());
     let identifier = spec.identifier(best)?;
-    let nodes = axis_search(ctx, identifier.as_ref(), &start)?;
+    let evaluator = Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+    let nodes = axis_search(ctx, &evaluator, &start)?;
+    drop(evaluator);
     let fit = LocalFit {
         entry,
         linear: spec.linear,

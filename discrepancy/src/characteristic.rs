@@ -8,7 +8,7 @@ use grid_search::NodeFit;
 use linear_id::find_identifier;
 use stiction_models::{find_model, MAX_SHAPE};
 
-use crate::eval::{Admit, LocalFit, PatternSearch};
+use crate::eval::{Admit, Evaluator, LocalFit, PatternSearch};
 use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension};
 
 /// Largest |a| the extension searches: `e^6 ≈ 400` is the gain ratio over the whole span, more
@@ -136,11 +136,11 @@ impl Cause for ValveCharacteristic {
         let admit_ref = move |p: &[f64]| admit(p) && p[2].abs() <= negligible + 1e-9;
         // the shape moves by 1 per coarse step of S, by fine/coarse at the finest
         let scales = vec![1.0, 1.0, 1.0 / coarse];
+        let evaluator =
+            Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
         let search = |directions: Vec<Vec<f64>>, from: &[f64], budget: usize, admit: &Admit| {
             PatternSearch {
                 entry,
-                identifier: identifier.as_ref(),
-                problem: ctx.problem,
                 options: &ctx.options.search,
                 span,
                 coarse,
@@ -150,7 +150,7 @@ impl Cause for ValveCharacteristic {
                 scales: scales.clone(),
                 admit: Some(admit),
             }
-            .run(from)
+            .run(&evaluator, from)
         };
         let crit = ctx.options.search.criterion;
         let best_of = |nodes: &[NodeFit]| {
@@ -186,13 +186,7 @@ impl Cause for ValveCharacteristic {
                 coarse_nodes.push(vec![s0, j0, a0]);
             }
         }
-        let lattice = grid_search::evaluate_nodes(
-            entry,
-            identifier.as_ref(),
-            ctx.problem,
-            &ctx.options.search,
-            coarse_nodes,
-        )?;
+        let lattice = evaluator.evaluate(coarse_nodes)?;
         let best_sign = |sign: f64| {
             lattice
                 .iter()
@@ -212,6 +206,7 @@ impl Cause for ValveCharacteristic {
         let (free_best, _) = best_of(&free).unwrap_or((lin_best.clone(), lin_fit));
         // Fair reference: the reference search again from the optimum's linear projection.
         let lin2 = search(dirs, &[free_best[0], free_best[1], 0.0], 150, &admit_ref)?;
+        drop(evaluator);
         let mut nodes = lin;
         nodes.extend(free);
         nodes.extend(lin2);

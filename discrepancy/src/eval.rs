@@ -8,7 +8,7 @@
 
 use std::time::Instant;
 
-use grid_search::{evaluate_nodes, NodeFit, Problem, SearchOptions};
+use grid_search::{NodeEvaluator, NodeFit, SearchOptions};
 use linear_id::{IdentifierEntry, LinearIdentifier};
 use stiction_models::ModelEntry;
 
@@ -70,17 +70,18 @@ impl LocalFit {
     }
 }
 
+/// A node evaluator with a boxed identifier's model.
+pub(crate) type Evaluator<'a> = NodeEvaluator<'a, dyn LinearIdentifier + 'a>;
+
 /// Which parameter vectors a search may evaluate.
 pub(crate) type Admit = dyn Fn(&[f64]) -> bool + Sync;
 
 /// A pattern search over a model's parameters, started at a given node: each round tries a
 /// step along every direction (both signs), moves to the best improvement, and halves the
-/// step down to `fine` when nothing improves. Nodes are evaluated by
-/// [`grid_search::evaluate_nodes`], exactly as grid nodes are.
+/// step down to `fine` when nothing improves. Nodes are evaluated by a
+/// [`grid_search::NodeEvaluator`], exactly as grid nodes are.
 pub(crate) struct PatternSearch<'a> {
     pub entry: &'static ModelEntry,
-    pub identifier: &'a dyn LinearIdentifier,
-    pub problem: Problem<'a>,
     pub options: &'a SearchOptions,
     pub span: f64,
     pub coarse: f64,
@@ -97,17 +98,16 @@ pub(crate) struct PatternSearch<'a> {
 }
 
 impl PatternSearch<'_> {
-    pub fn run(&self, start: &[f64]) -> Result<Vec<NodeFit>, DiagnoseError> {
+    /// The search from `start`, its nodes evaluated by `evaluator` (built for `entry`, the
+    /// search's identifier and data: shared by searches and lattices on the same model, its
+    /// checks and OP's index built once).
+    pub fn run(
+        &self,
+        evaluator: &Evaluator<'_>,
+        start: &[f64],
+    ) -> Result<Vec<NodeFit>, DiagnoseError> {
         let crit = self.options.criterion;
-        let eval = |nodes: Vec<Vec<f64>>| {
-            evaluate_nodes(
-                self.entry,
-                self.identifier,
-                self.problem,
-                self.options,
-                nodes,
-            )
-        };
+        let eval = |nodes: Vec<Vec<f64>>| evaluator.evaluate(nodes);
         let mut visited = eval(vec![start.to_vec()])?;
         let mut best = 0usize;
         let mut step = self.coarse.max(self.fine);

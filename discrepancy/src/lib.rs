@@ -187,6 +187,8 @@ pub struct Context<'a> {
     pub residuals: &'a ResidualAnalysis,
     /// Options.
     pub options: &'a DiagnoseOptions,
+    /// OP's own oscillation, computed once per record.
+    pub(crate) own_cycle: &'a causes::OwnCycle,
 }
 
 impl Context<'_> {
@@ -305,6 +307,8 @@ fn orders_text(orders: &[(String, linear_id::OrderValue)]) -> String {
 /// cause of `chain` is extended on it again in order (each on the previous one's model, as
 /// the forward selection did). The model is `None` when there is nothing to refit, or a fit
 /// fails (too few samples, an extension that cannot be fitted): the final model then stands.
+/// `own_cycle`: OP's own oscillation over the whole record (used when `from` is `None`).
+#[allow(clippy::too_many_arguments)]
 fn refit_final(
     problem: Problem<'_>,
     span: f64,
@@ -313,6 +317,7 @@ fn refit_final(
     chain: &[&'static str],
     from: Option<usize>,
     options: &DiagnoseOptions,
+    own_cycle: &causes::OwnCycle,
 ) -> (Option<Fitted>, Option<OrderSelection>) {
     let data = match from {
         Some(f) => Problem {
@@ -385,6 +390,13 @@ fn refit_final(
         return (None, selection);
     };
     let known = registry();
+    // after a change, OP's own oscillation on the samples refitted
+    let recent_cycle = causes::OwnCycle::default();
+    let own_cycle = if from.is_some() {
+        &recent_cycle
+    } else {
+        own_cycle
+    };
     for name in chain {
         let Some(entry) = known.iter().find(|e| e.name == *name) else {
             return (None, selection);
@@ -404,6 +416,7 @@ fn refit_final(
             baseline: &current,
             residuals: &res,
             options,
+            own_cycle,
         };
         let Ok(ext) = (entry.build)().extend(&ctx) else {
             return (None, selection);
@@ -732,6 +745,7 @@ pub fn diagnose_with_progress(
         let q = &base.result;
         ResidualAnalysis::new(problem.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index)
     };
+    let own_cycle = causes::OwnCycle::default();
     let ctx = Context {
         problem,
         span,
@@ -739,6 +753,7 @@ pub fn diagnose_with_progress(
         baseline: &base,
         residuals: &residuals,
         options,
+        own_cycle: &own_cycle,
     };
     let base_fit = base.fit_val();
     let (bs, bj) = (base.result.s, base.result.j);
@@ -844,6 +859,7 @@ pub fn diagnose_with_progress(
         span,
         baseline,
         options,
+        own_cycle: &own_cycle,
     };
     let mut path = Path::default();
     if let Some(i) = chosen.filter(|&i| findings[i].cause != "no-stiction") {
@@ -972,7 +988,9 @@ pub fn diagnose_with_progress(
     let selected_chain: Vec<&'static str> = causes.clone();
     let selected_before = selected_model(&picks, &steps, chosen, &findings);
     let refit = |chain: &[&'static str], from: Option<usize>| {
-        refit_final(problem, span, baseline, &base, chain, from, options)
+        refit_final(
+            problem, span, baseline, &base, chain, from, options, &own_cycle,
+        )
     };
     let (pre_refit, pre_selection) = if healthy {
         (None, None)
@@ -1185,6 +1203,7 @@ struct ForwardCtx<'a> {
     span: f64,
     baseline: &'a Baseline,
     options: &'a DiagnoseOptions,
+    own_cycle: &'a causes::OwnCycle,
 }
 
 /// One forward-selection path: the causes in the order added (the first is the start's) and
@@ -1245,6 +1264,7 @@ impl ForwardCtx<'_> {
                 baseline: current,
                 residuals: &res,
                 options,
+                own_cycle: self.own_cycle,
             };
             let prev = *causes.last().unwrap_or(&"baseline");
             let candidates: Vec<&'static CauseEntry> = registry()
@@ -1287,9 +1307,9 @@ impl ForwardCtx<'_> {
                     f.reference = format!("the {prev} extension");
                 }
                 if f.significant
-                    && f.fitted
-                        .as_ref()
-                        .is_some_and(|x| causes::notches_the_valves_cycle(problem.op, x))
+                    && f.fitted.as_ref().is_some_and(|x| {
+                        causes::notches_the_valves_cycle(self.own_cycle, problem.op, x)
+                    })
                 {
                     f.significant = false;
                     f.evidence = format!(

@@ -22,7 +22,7 @@ pub mod trust;
 
 pub use search::{
     evaluate_nodes, quantify, quantify_from_surface, quantify_with, Criterion, Fits, GridPlan,
-    Interval, NodeFit, NodeFits, NodePath, Problem, Quantification, SearchOptions,
+    Interval, NodeEvaluator, NodeFit, NodeFits, NodePath, Problem, Quantification, SearchOptions,
 };
 pub use skip::Skip;
 pub use trust::{Doubt, Severity, Verdict, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};

@@ -1169,19 +1169,51 @@ pub fn evaluate_nodes<I: LinearIdentifier + ?Sized>(
     options: &SearchOptions,
     nodes: Vec<Vec<f64>>,
 ) -> Result<Vec<NodeFit>, SearchError> {
-    crate::budget::check_work(
-        nodes.len(),
-        problem.op.len(),
-        identifier,
-        options.max_work,
-        "nodes",
-    )?;
-    let prep = prepare(entry, identifier, problem, options, NodePath::Fast)?;
-    let fits = prep.ctx.evaluate_all(nodes, &|| {});
-    if stiction_models::cancel::requested() {
-        return Err(SearchError::Interrupted);
+    NodeEvaluator::new(entry, identifier, problem, options)?.evaluate(nodes)
+}
+
+/// [`evaluate_nodes`] for searches that evaluate a few nodes at a time on the same problem
+/// (pattern searches, lattices in stages): the data's checks and OP's event index are built
+/// once, not at every call. Each node is evaluated as [`evaluate_nodes`] evaluates it (the
+/// same bits).
+pub struct NodeEvaluator<'a, I: ?Sized> {
+    prep: Prepared<'a, I>,
+    identifier: &'a I,
+    samples: usize,
+    max_work: f64,
+}
+
+impl<'a, I: LinearIdentifier + ?Sized> NodeEvaluator<'a, I> {
+    /// Check the data and options (the errors of [`evaluate_nodes`]) and index OP.
+    pub fn new(
+        entry: &'a ModelEntry,
+        identifier: &'a I,
+        problem: Problem<'a>,
+        options: &SearchOptions,
+    ) -> Result<Self, SearchError> {
+        Ok(NodeEvaluator {
+            prep: prepare(entry, identifier, problem, options, NodePath::Fast)?,
+            identifier,
+            samples: problem.op.len(),
+            max_work: options.max_work,
+        })
     }
-    Ok(fits)
+
+    /// Evaluate `nodes` in parallel, in the given order (within the work budget).
+    pub fn evaluate(&self, nodes: Vec<Vec<f64>>) -> Result<Vec<NodeFit>, SearchError> {
+        crate::budget::check_work(
+            nodes.len(),
+            self.samples,
+            self.identifier,
+            self.max_work,
+            "nodes",
+        )?;
+        let fits = self.prep.ctx.evaluate_all(nodes, &|| {});
+        if stiction_models::cancel::requested() {
+            return Err(SearchError::Interrupted);
+        }
+        Ok(fits)
+    }
 }
 
 /// The result of a search whose nodes were evaluated with [`evaluate_nodes`]: selects the best

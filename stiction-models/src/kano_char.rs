@@ -142,8 +142,17 @@ impl KanoChar {
     }
     fn map(&self, mv: &mut [f64]) {
         if self.a != 0.0 {
+            // a sticky valve holds its position for many samples: the characteristic of a
+            // repeated position is the previous sample's (the same bits)
+            let mut last: Option<(f64, f64)> = None;
             for m in mv {
-                *m = characteristic(self.a, *m);
+                let x = *m;
+                let y = match last {
+                    Some((px, py)) if px.to_bits() == x.to_bits() => py,
+                    _ => characteristic(self.a, x),
+                };
+                last = Some((x, y));
+                *m = y;
             }
         }
     }
