@@ -14,6 +14,10 @@
 //!   whose OP barely moves counts as wrong: it cannot be judged), the share of sticky and free
 //!   loops left inconclusive, and how many of the loops that cannot be judged got
 //!   `inconclusive`.
+//! * **Loop kind**: the training population is fitted with each loop's own kind (known, like
+//!   its label); the validation populations are judged as `--integrating auto` judges a
+//!   record (decided by [`detection::kind::evidence`], a level's tag letter `L` breaking a
+//!   tie), and the accuracy of that decision is printed.
 //! * **Models**: the one in `detection/src/score.rs` as it is (before a refit: the baseline),
 //!   and the one fitted here on the training population (ridge-penalised logistic regression
 //!   of [`detection::logistic`]), whose coefficients are printed for `score.rs`.
@@ -25,13 +29,14 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use datasets::simulate::population::{Family, Label, PopulationSpec};
 use datasets::simulate::{Disturbance, PlantPreset, PlantSpec, Scenario};
-use detection::score::{features, Model, FEATURES};
+use detection::hammerstein::{oracle_lr, REGION_LR};
+use detection::score::{features, Model, FEATURES, NO_STICTION_AT, STICTION_AT};
 use detection::{combine, logistic, registry, run_all, Registration, TestOutcome, Verdict};
 use rayon::prelude::*;
 use stiction_models::Kano;
 
 const USAGE: &str = "\
-usage: cargo xtask detect-calibrate [--train N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--paper] [--dump DIR]
+usage: cargo xtask detect-calibrate [--train N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR]
 
   --train N    loops in the training population (default 320)
   --valid N    loops in each validation population (default 80)
@@ -39,6 +44,10 @@ usage: cargo xtask detect-calibrate [--train N] [--valid N] [--ridge L] [--plant
   --plant DIR  the labelled plant registrations, the test set (default ../shared/data/plant
                beside the repo); scored, never fitted on
   --no-plant   skip the plant test set
+  --integrating auto|truth
+               the loop kind the detector is given on the validation populations: decided
+               from the record, the tag letter breaking a tie, as `--integrating auto` does
+               (default), or the simulation's own (the training population always has its own)
   --paper      also score the reference paper's benchmark (`stiction simulate` loops)
   --dump DIR   also write the `in range` validation loops as CSV (t, SP, PV, OP) with an index.csv";
 
@@ -59,8 +68,13 @@ struct Case {
     ts: f64,
     /// Whether the detector treats the loop as integrating.
     integrating: bool,
+    /// What the record alone says of its kind ([`detection::kind::evidence`]; `None`: a tie).
+    kind_from_data: Option<bool>,
     outcomes: Vec<TestOutcome>,
     x: Vec<f64>,
+    /// Simulated sticky loops: how much better the true valve position explains the valve's
+    /// proxy than OP does ([`detection::hammerstein::oracle_lr`]).
+    oracle: Option<f64>,
 }
 
 impl Case {
@@ -155,7 +169,7 @@ fn validation_sets() -> Vec<Set> {
 
 /// The first `n` loops of `set` that simulate (a loop whose tuning cannot be stabilised is
 /// skipped and counted), evaluated.
-fn population(set: &Set, n: usize) -> Result<(Vec<Case>, usize)> {
+fn population(set: &Set, n: usize, auto: bool) -> Result<(Vec<Case>, usize)> {
     let got: Vec<Option<Case>> = (0..n)
         .into_par_iter()
         .map(|i| {
@@ -163,7 +177,17 @@ fn population(set: &Set, n: usize) -> Result<(Vec<Case>, usize)> {
                 Ok(l) => l,
                 Err(_) => return Ok(None),
             };
+            let oracle = if l.integrating {
+                let dpv: Vec<f64> = l.sim.pv.windows(2).map(|w| w[1] - w[0]).collect();
+                oracle_lr(&dpv, &l.sim.op[1..], &l.sim.mv[1..])
+            } else {
+                oracle_lr(&l.sim.pv, &l.sim.op, &l.sim.mv)
+            };
+            let (decided, _) = decide_kind(&l.sim.pv, &l.sim.op, l.family == Family::Level);
+            let kind_from_data =
+                detection::kind::evidence(&l.sim.pv, &l.sim.op).and_then(|e| e.integrating);
             Case {
+                oracle,
                 what: format!("{} #{i}: {}", set.name, l.what),
                 sticky: l.label == Label::Sticky,
                 judgeable: l.label != Label::CannotJudge,
@@ -172,7 +196,8 @@ fn population(set: &Set, n: usize) -> Result<(Vec<Case>, usize)> {
                 pv: l.sim.pv,
                 op: l.sim.op,
                 ts: l.sample_time,
-                integrating: l.integrating,
+                integrating: if auto { decided } else { l.integrating },
+                kind_from_data,
                 outcomes: Vec::new(),
                 x: Vec::new(),
             }
@@ -182,6 +207,74 @@ fn population(set: &Set, n: usize) -> Result<(Vec<Case>, usize)> {
         .collect::<Result<_>>()?;
     let skipped = got.iter().filter(|c| c.is_none()).count();
     Ok((got.into_iter().flatten().collect(), skipped))
+}
+
+/// `--integrating auto` on a simulated loop whose tag would carry the letter `L` when
+/// `level_tag`: the record decides, the tag breaks a tie (`(integrating, decided by the data)`).
+fn decide_kind(pv: &[f64], op: &[f64], level_tag: bool) -> (bool, bool) {
+    match detection::kind::evidence(pv, op).and_then(|e| e.integrating) {
+        Some(yes) => (yes, true),
+        None => (level_tag, false),
+    }
+}
+
+/// How well the record alone tells integrating loops from self-regulating ones.
+fn kind_table(sets: &[(&str, Vec<Case>)]) {
+    println!(
+        "  {:24} {:>4}  {:>18}  {:>22}  {:>22}",
+        "population", "n", "decided by data", "right where decided", "right with tag as tie-break"
+    );
+    let mut all = (0, 0, 0, 0);
+    for (name, cases) in sets.iter().map(|(n, c)| (*n, c)) {
+        let n = cases.len();
+        let decided: Vec<&Case> = cases
+            .iter()
+            .filter(|c| c.kind_from_data.is_some())
+            .collect();
+        let right = decided
+            .iter()
+            .filter(|c| c.kind_from_data == Some(c.kind_integrating))
+            .count();
+        // tie: the level family carries `L` in its tag
+        let right_tag = right + (n - decided.len());
+        println!(
+            "  {name:24} {n:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
+            decided.len(),
+            100.0 * decided.len() as f64 / n.max(1) as f64,
+            100.0 * right as f64 / decided.len().max(1) as f64,
+            decided.len(),
+            100.0 * right_tag as f64 / n.max(1) as f64
+        );
+        all = (
+            all.0 + n,
+            all.1 + decided.len(),
+            all.2 + right,
+            all.3 + right_tag,
+        );
+    }
+    let every = || sets.iter().flat_map(|(_, c)| c.iter());
+    let called = |truth: bool, said: bool| {
+        every()
+            .filter(|c| c.kind_integrating == truth && c.kind_from_data == Some(said))
+            .count()
+    };
+    println!(
+        "  integrating loops called self-regulating by the data: {} of {}; self-regulating called integrating: {} of {}",
+        called(true, false),
+        every().filter(|c| c.kind_integrating).count(),
+        called(false, true),
+        every().filter(|c| !c.kind_integrating).count()
+    );
+    println!(
+        "  {:24} {:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
+        "every validation loop",
+        all.0,
+        all.1,
+        100.0 * all.1 as f64 / all.0.max(1) as f64,
+        100.0 * all.2 as f64 / all.1.max(1) as f64,
+        all.1,
+        100.0 * all.3 as f64 / all.0.max(1) as f64
+    );
 }
 
 /// Figures of one group of loops under one model.
@@ -195,13 +288,19 @@ struct Figures {
     cannot_inconclusive: usize,
 }
 
+/// A sticky loop whose true valve position explains the valve's proxy no better than OP
+/// (oracle LR below the likelihood region's χ²₁ bound): its stiction never showed in the record.
+fn hidden(c: &Case) -> bool {
+    c.sticky && c.oracle.is_some_and(|o| o < REGION_LR)
+}
+
 fn figures_of(cases: &[&Case], model: &Model) -> Result<Figures> {
     let mut scores = Vec::new();
     let (mut conclusive, mut right, mut judged, mut undecided) = (0, 0, 0, 0);
     let (mut cannot, mut cannot_inc) = (0, 0);
     for c in cases {
         let (s, d) = judge(c, model)?;
-        if c.judgeable {
+        if c.judgeable && !(VISIBLE_ONLY.get() && hidden(c)) {
             scores.push((s, c.sticky));
             judged += 1;
             if d == Verdict::Inconclusive {
@@ -258,6 +357,12 @@ fn print_row(set: &str, kind: &str, f: &Figures) {
     );
 }
 
+thread_local! {
+    /// Whether [`figures_of`] leaves the sticky loops whose stiction never showed out of the
+    /// AUC and the inconclusive share (their conclusive verdicts still count).
+    static VISIBLE_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
 /// Which loops of a population a table row keeps.
 type KindFilter = fn(&Case) -> bool;
 
@@ -292,6 +397,10 @@ fn table(sets: &[(&str, Vec<Case>)], model: &Model) -> Result<()> {
 }
 
 fn print_model(model: &Model) {
+    println!(
+        "pub const NO_STICTION_AT: f64 = {};\npub const STICTION_AT: f64 = {};",
+        model.no_stiction_at, model.stiction_at
+    );
     println!("pub const INTERCEPT: f64 = {:.4};", model.intercept);
     println!(
         "pub const WEIGHTS: [f64; {}] = [{}];",
@@ -382,6 +491,8 @@ fn plant_cases(dir: &Path) -> Result<(Vec<Case>, Vec<String>)> {
             integrating,
             outcomes: Vec::new(),
             x: Vec::new(),
+            oracle: None,
+            kind_from_data: None,
         });
     }
     let cases = cases
@@ -398,10 +509,49 @@ fn fit(cases: &[&Case], ridge: f64) -> Result<Model> {
     let y: Vec<bool> = cases.iter().map(|c| c.sticky).collect();
     let w = vec![1.0; x.len()];
     let f = logistic::fit(&x, &y, &w, ridge).context("the logistic fit failed (singular)")?;
-    Ok(Model {
+    let mut model = Model {
         intercept: f.intercept,
         weights: f.weights,
-    })
+        stiction_at: STICTION_AT,
+        no_stiction_at: NO_STICTION_AT,
+    };
+    (model.no_stiction_at, model.stiction_at) = thresholds(&cases, &model)?;
+    Ok(model)
+}
+
+/// Most inconclusive share of the judgeable loops the verdict's thresholds may leave.
+const MAX_INCONCLUSIVE: f64 = 20.0;
+
+/// The verdict's thresholds `(no-stiction at or below, stiction at or above)` on a grid of
+/// 0.05 that decide the most of `cases` right among the conclusive while leaving at most
+/// [`MAX_INCONCLUSIVE`] % of them inconclusive (chosen on the training population).
+fn thresholds(cases: &[&&Case], model: &Model) -> Result<(f64, f64)> {
+    let scored: Vec<(&Case, Vec<TestOutcome>)> =
+        cases.iter().map(|c| (**c, c.outcomes.clone())).collect();
+    let mut best: Option<(f64, f64, f64)> = None;
+    for lo in 1..=10 {
+        for hi in 10..=19 {
+            let m = Model {
+                no_stiction_at: f64::from(lo) / 20.0,
+                stiction_at: f64::from(hi) / 20.0,
+                ..model.clone()
+            };
+            let (mut right, mut conclusive) = (0usize, 0usize);
+            for (c, outcomes) in &scored {
+                let d = combine(&c.registration()?, outcomes.clone(), &m).verdict;
+                if d != Verdict::Inconclusive {
+                    conclusive += 1;
+                    right += usize::from((d == Verdict::Stiction) == c.sticky);
+                }
+            }
+            let inconclusive = 100.0 * (1.0 - conclusive as f64 / scored.len().max(1) as f64);
+            let share = right as f64 / conclusive.max(1) as f64;
+            if inconclusive <= MAX_INCONCLUSIVE && best.is_none_or(|b| share > b.2) {
+                best = Some((m.no_stiction_at, m.stiction_at, share));
+            }
+        }
+    }
+    Ok(best.map_or((NO_STICTION_AT, STICTION_AT), |b| (b.0, b.1)))
 }
 
 /// Score and verdict of `case` under `model`.
@@ -467,6 +617,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     let mut ridge = 0.1;
     let mut paper = false;
     let mut dump: Option<PathBuf> = None;
+    let mut auto = true;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
         let mut value = |name: &str| {
@@ -488,6 +639,13 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
             "--no-plant" => plant_dir = None,
             "--ridge" => ridge = value("--ridge")?.parse().context("--ridge: a number")?,
             "--paper" => paper = true,
+            "--integrating" => {
+                auto = match value("--integrating")?.as_str() {
+                    "auto" => true,
+                    "truth" => false,
+                    other => bail!("--integrating: `auto` or `truth`, not {other:?}"),
+                }
+            }
             "--dump" => dump = Some(PathBuf::from(value("--dump")?)),
             "--help" | "-h" => {
                 println!("{USAGE}");
@@ -498,7 +656,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     }
     let started = std::time::Instant::now();
     let train_set = training_set();
-    let (train, skipped) = population(&train_set, n_train)?;
+    let (train, skipped) = population(&train_set, n_train, false)?;
     println!(
         "training population: {} loops ({skipped} skipped: no stabilising tuning) [{:.1} s]",
         train.len(),
@@ -506,7 +664,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     );
     let mut valid: Vec<(&str, Vec<Case>)> = Vec::new();
     for set in validation_sets() {
-        let (cases, skipped) = population(&set, n_valid)?;
+        let (cases, skipped) = population(&set, n_valid, auto)?;
         println!(
             "validation population {:24} {} loops ({skipped} skipped) [{:.1} s]",
             set.name,
@@ -519,6 +677,12 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
         dump_cases(dir, &valid[0].1)?;
         println!("wrote the `in range` validation loops to {}", dir.display());
     }
+
+    println!(
+        "\nloop kind from the record (detection::kind; the tag's letter `L` only breaks a tie; the detector treats loops as {}):",
+        if auto { "this decides (`--integrating auto`)" } else { "they are (`--integrating truth`)" }
+    );
+    kind_table(&valid);
 
     let today = Model::calibrated();
     println!("\nthe model in detection/src/score.rs, as it is:");
@@ -535,7 +699,32 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     table(&[("training", train)], &model)?;
     println!("\nvalidation populations (never fitted on):");
     table(&valid, &model)?;
+    VISIBLE_ONLY.set(true);
+    println!("\nthe same, the sticky loops whose stiction never showed (oracle LR < {REGION_LR}) left out of the AUC and the inconclusive share:");
+    table(&valid, &model)?;
+    VISIBLE_ONLY.set(false);
 
+    let hidden: Vec<&Case> = valid
+        .iter()
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.sticky && c.oracle.is_none_or(|o| o < REGION_LR))
+        .collect();
+    let sticky = valid
+        .iter()
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.sticky)
+        .count();
+    let oracle_scores: Vec<(f64, bool)> = valid
+        .iter()
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.judgeable)
+        .map(|c| (c.oracle.unwrap_or(0.0), c.sticky))
+        .collect();
+    println!(
+        "\nsticky validation loops whose true valve position explains the valve's proxy no better than OP (oracle LR < {REGION_LR}): {} of {sticky}; the oracle LR's own AUC (the true valve position known): {}",
+        hidden.len(),
+        fmt_auc(auc(&oracle_scores))
+    );
     println!("\neach test's own statistic on every validation loop that can be judged (AUC; not fitted):");
     let all: Vec<&Case> = valid
         .iter()
@@ -604,6 +793,8 @@ fn paper_case(preset: PlantPreset, a: f64, s: f64, j: f64, seed: u64) -> Result<
         sticky: s > 0.0,
         judgeable: true,
         kind_integrating: false,
+        oracle: None,
+        kind_from_data: None,
         sp: Some(sim.sp),
         pv: sim.pv,
         op: sim.op,

@@ -480,7 +480,7 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         "{} Ts={ts:.1}s N={samples} delay={delay} {tuning} | {} | {valve_what}{} | OP span {op_span:.2} %{}",
         family.as_str(),
         parts.join(" + "),
-        if stuck_long { " (stuck long)" } else { "" },
+        if sticky && stuck_long { " (stuck long)" } else { "" },
         if historian.is_empty() {
             String::new()
         } else {
