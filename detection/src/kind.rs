@@ -172,35 +172,50 @@ pub fn evidence(pv: &[f64], op: &[f64]) -> Option<KindEvidence> {
 mod tests {
     use super::*;
 
-    /// PV of a tank filled by OP (the rate follows OP), and of a first-order process (the
-    /// level follows OP), under the same OP.
-    fn loops() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let n = 600;
-        let op: Vec<f64> = (0..n)
-            .map(|k| 50.0 + 5.0 * ((k as f64) / 37.0).sin() + 3.0 * ((k as f64) / 11.0).cos())
-            .collect();
-        let mut level = vec![0.0; n];
-        let mut first = vec![0.0; n];
+    /// A PI loop around a tank filled by OP (integrating: the rate follows OP) or around a
+    /// first-order process (the level follows OP), with set-point steps and measurement noise:
+    /// `(op, pv)`.
+    fn closed_loop(integrating: bool) -> (Vec<f64>, Vec<f64>) {
+        let n = 1500;
+        let (mut op, mut pv) = (vec![50.0; n], vec![50.0; n]);
+        let mut y = 50.0;
+        let mut seed = 12345u64;
+        let mut noise = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.2
+        };
+        let (kc, ki) = if integrating { (2.0, 0.02) } else { (0.5, 0.1) };
+        let mut e_prev = 0.0;
         for k in 1..n {
-            let noise = 0.01 * (((k * 7919) % 101) as f64 / 101.0 - 0.5);
-            level[k] = level[k - 1] + 0.02 * (op[k - 1] - 50.0) + noise;
-            first[k] = 0.8 * first[k - 1] + 0.2 * (op[k - 1] - 50.0) + noise;
+            y = if integrating {
+                y + 0.02 * (op[k - 1] - 50.0)
+            } else {
+                0.9 * y + 0.1 * op[k - 1]
+            };
+            pv[k] = y + noise();
+            let sp = if (k / 300) % 2 == 0 { 50.0 } else { 55.0 };
+            let e = sp - pv[k];
+            op[k] = op[k - 1] + kc * (e - e_prev) + ki * e;
+            e_prev = e;
         }
-        (op, level, first)
+        (op, pv)
     }
 
     #[test]
     fn the_rate_or_the_level_following_op_decides() {
-        let (op, level, first) = loops();
+        let (op, level) = closed_loop(true);
         let e = evidence(&level, &op).unwrap();
         assert_eq!(e.integrating, Some(true), "{e:?}");
-        let e = evidence(&first, &op).unwrap();
+        let (op_first, first) = closed_loop(false);
+        let e = evidence(&first, &op_first).unwrap();
         assert_eq!(e.integrating, Some(false), "{e:?}");
         // in other units, the same decision
         let scaled: Vec<f64> = level.iter().map(|v| 1000.0 + 40.0 * v).collect();
         assert_eq!(evidence(&scaled, &op).unwrap().integrating, Some(true));
         // flat or short records say nothing
-        assert!(evidence(&vec![1.0; 600], &op).is_none());
+        assert!(evidence(&vec![1.0; 1500], &op).is_none());
         assert!(evidence(&level[..20], &op[..20]).is_none());
     }
 }
