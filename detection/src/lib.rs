@@ -60,6 +60,7 @@ pub mod curve_fit;
 pub mod figures;
 pub mod hammerstein;
 pub mod horch;
+pub mod kind;
 pub mod logistic;
 pub mod oscillation;
 pub mod score;

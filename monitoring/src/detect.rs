@@ -12,7 +12,7 @@ use datasets::{DataError, LoopData};
 use detection::{Detection, DetectionError, Verdict};
 use serde::Serialize;
 
-use crate::registration::{file_name, Integrating};
+use crate::registration::{file_name, Integrating, KindDecision};
 use crate::stats::median;
 
 /// Why the detector could not run on a record.
@@ -114,6 +114,18 @@ pub fn detect_loop(d: &LoopData, integrating: bool) -> Detected {
     }
 }
 
+/// [`detect_loop`] with the loop kind as [`Integrating::decide`] decided it; the detection
+/// carries the decision's note (what decided the kind).
+pub fn detect_decided(d: &LoopData, kind: KindDecision) -> Detected {
+    match try_detect(d, kind.integrating) {
+        Ok(mut det) => {
+            det.integrating_by = Some(kind.note());
+            Detected::Ran(det)
+        }
+        Err(e) => Detected::Failed(e),
+    }
+}
+
 /// [`detect_loop`] on the record of `file` (`None` for a made-up record, e.g. an example),
 /// integrating as `integrating` decides from the file's valve tag (the file name up to the
 /// first `_`), as `trend` and `batch` do.
@@ -121,7 +133,7 @@ pub fn detect_file(d: &LoopData, file: Option<&Path>, integrating: Integrating) 
     let valve = file
         .map(|f| datasets::parse_registration_name(&file_name(f)).valve)
         .unwrap_or_default();
-    detect_loop(d, integrating.applies(&valve))
+    detect_decided(d, integrating.decide(&valve, Some(d)))
 }
 
 fn try_detect(d: &LoopData, integrating: bool) -> Result<Detection, DetectError> {
@@ -168,6 +180,7 @@ pub fn detect_document(d: &LoopData, det: &Detection) -> serde_json::Value {
         "oscillating": det.oscillating,
         "period_s": det.period_s,
         "integrating": det.integrating,
+        "integrating_by": det.integrating_by,
         "sample_time_s": sample_time(d),
         "tests": tests,
     })

@@ -29,14 +29,16 @@ pub use combination::{
 };
 pub use consensus::{Consensus, Disagreement};
 pub use detect::{
-    detect_document, detect_file, detect_loop, sample_time, DetectError, Detected, DetectionRecord,
+    detect_decided, detect_document, detect_file, detect_loop, sample_time, DetectError, Detected,
+    DetectionRecord,
 };
 pub use record::{
     models_record, on_grid, CompareError, CompareRecord, DelayScore, GridRecord, IntervalRecord,
     OtherFit, QuantifyRecord,
 };
 pub use registration::{
-    Evidence, ExplainFit, FitEvidence, Integrating, Registration, RegistrationError, TimeSource,
+    Evidence, ExplainFit, FitEvidence, Integrating, KindDecision, KindSource, Registration,
+    RegistrationError, TimeSource,
 };
 pub use settings::{identifier_for, parse_orders, DelayArg, Orders, SearchArgs, Settings};
 pub use stats::{median, roc, theil_sen, Roc};

@@ -20,7 +20,7 @@ use datasets::{parse_registration_name, DataError, LoopData, Note, NoteKind, Rea
 use grid_search::{Problem, Quantification};
 use serde::{Deserialize, Serialize};
 
-use crate::detect::{detect_loop, Detected};
+use crate::detect::{detect_decided, Detected};
 use crate::{error_line, Combination, MonitoringError, QuantifyRecord};
 
 /// File extensions read from a directory.
@@ -30,7 +30,8 @@ pub const EXTENSIONS: [&str; 4] = ["csv", "tsv", "txt", "mat"];
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Integrating {
-    /// Level loops (tag letter `L`) are integrating, others not.
+    /// Decided from the record ([`Integrating::decide`]); a level tag (letter `L`) breaks a
+    /// tie.
     #[default]
     Auto,
     /// Every loop is integrating.
@@ -39,13 +40,97 @@ pub enum Integrating {
     No,
 }
 
+/// What decided whether a loop is integrating.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum KindSource {
+    /// `--integrating yes` or `no`.
+    Flag,
+    /// The record: how PV answers OP ([`detection::kind::evidence`]).
+    Data,
+    /// The record did not decide; the tag's letter `L` did.
+    Tag,
+    /// Neither the record nor a level tag: self-regulating.
+    Default,
+}
+
+/// Whether a loop is integrating, and what decided it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KindDecision {
+    /// Treated as integrating.
+    pub integrating: bool,
+    /// What decided.
+    pub by: KindSource,
+    /// `ln(RSS_self / RSS_integrating)` of the record, when computed.
+    pub log_ratio: Option<f64>,
+}
+
+impl KindDecision {
+    /// One line for people: the kind and what decided it.
+    pub fn note(&self) -> String {
+        let kind = if self.integrating {
+            "integrating"
+        } else {
+            "self-regulating"
+        };
+        let ratio = self.log_ratio.map_or(String::new(), |r| {
+            format!(", ln(RSS self-regulating / RSS integrating) = {r:.2}")
+        });
+        match self.by {
+            KindSource::Flag => format!("{kind}: as --integrating says"),
+            KindSource::Data => format!(
+                "{kind}: decided by the record (PV's {} follows OP{ratio})",
+                if self.integrating { "rate" } else { "level" }
+            ),
+            KindSource::Tag => format!(
+                "{kind}: the record does not decide{ratio}; the tag's letter L decided"
+            ),
+            KindSource::Default => format!(
+                "{kind}: the record does not decide{ratio} and the tag is not a level's; the default"
+            ),
+        }
+    }
+}
+
 impl Integrating {
-    /// Whether the loop of `valve` is treated as integrating.
-    pub fn applies(self, valve: &str) -> bool {
+    /// Whether the loop of `valve` with the record `d` (when read) is integrating: the one rule
+    /// of every command. `yes` and `no` decide; `auto` lets the record decide from how PV
+    /// answers OP ([`detection::kind::evidence`]: whether PV's rate or PV's level follows OP),
+    /// and only on a tie (or without a record) the tag's letter `L` ([`is_level_tag`]), else
+    /// self-regulating.
+    pub fn decide(self, valve: &str, d: Option<&LoopData>) -> KindDecision {
+        let flag = |integrating| KindDecision {
+            integrating,
+            by: KindSource::Flag,
+            log_ratio: None,
+        };
         match self {
-            Integrating::Yes => true,
-            Integrating::No => false,
-            Integrating::Auto => is_level_tag(valve),
+            Integrating::Yes => flag(true),
+            Integrating::No => flag(false),
+            Integrating::Auto => {
+                let evidence = d.and_then(|d| {
+                    d.pv.as_deref()
+                        .and_then(|pv| detection::kind::evidence(pv, &d.op))
+                });
+                let log_ratio = evidence.map(|e| e.log_ratio);
+                match evidence.and_then(|e| e.integrating) {
+                    Some(integrating) => KindDecision {
+                        integrating,
+                        by: KindSource::Data,
+                        log_ratio,
+                    },
+                    None if is_level_tag(valve) => KindDecision {
+                        integrating: true,
+                        by: KindSource::Tag,
+                        log_ratio,
+                    },
+                    None => KindDecision {
+                        integrating: false,
+                        by: KindSource::Default,
+                        log_ratio,
+                    },
+                }
+            }
         }
     }
 }
@@ -450,7 +535,7 @@ pub(crate) fn unread(path: &Path, integrating: Integrating) -> Registration {
     let name = parse_registration_name(&file);
     Registration {
         path: path.to_path_buf(),
-        integrating: integrating.applies(&name.valve),
+        integrating: integrating.decide(&name.valve, None).integrating,
         file,
         valve: name.valve,
         start: name.start,
@@ -487,7 +572,9 @@ fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
         }
     }
     reg.notes = d.notes.clone();
-    reg.detection = Some(detect_loop(&d, reg.integrating));
+    let kind = plan.integrating.decide(&reg.valve, Some(&d));
+    reg.integrating = kind.integrating;
+    reg.detection = Some(detect_decided(&d, kind));
     let used = if reg.integrating {
         increments(&d)
     } else {
@@ -702,10 +789,15 @@ mod tests {
 
     #[test]
     fn level_tags_are_integrating() {
-        assert!(Integrating::Auto.applies("2111LIC31102B"));
-        assert!(!Integrating::Auto.applies("2411FIC20102"));
-        assert!(Integrating::Yes.applies("2411FIC20102"));
-        assert!(!Integrating::No.applies("LIC1"));
+        // without a record, the tag decides under `auto`
+        assert!(Integrating::Auto.decide("2111LIC31102B", None).integrating);
+        assert_eq!(
+            Integrating::Auto.decide("2111LIC31102B", None).by,
+            KindSource::Tag
+        );
+        assert!(!Integrating::Auto.decide("2411FIC20102", None).integrating);
+        assert!(Integrating::Yes.decide("2411FIC20102", None).integrating);
+        assert!(!Integrating::No.decide("LIC1", None).integrating);
     }
 
     #[test]

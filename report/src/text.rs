@@ -519,14 +519,14 @@ pub fn detect(d: &LoopData, det: &Detection) -> Result<String, fmt::Error> {
         Some(p) => format!("oscillating, period {p:.0} s"),
         None => "no regular oscillation".to_string(),
     };
-    let kind = if det.integrating {
-        "integrating"
-    } else {
-        "self-regulating"
+    let kind = match &det.integrating_by {
+        Some(note) => format!("loop {note}"),
+        None if det.integrating => "integrating loop".to_string(),
+        None => "self-regulating loop".to_string(),
     };
     writeln!(
         out,
-        "  {oscillation}; {kind} loop; {} samples every {ts} s",
+        "  {oscillation}; {kind}; {} samples every {ts} s",
         d.op.len()
     )?;
     writeln!(

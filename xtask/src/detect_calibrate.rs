@@ -1,95 +1,79 @@
-//! `cargo xtask detect-calibrate`: fit the detection score's logistic coefficients and
-//! validate them, leaving one valve out.
+//! `cargo xtask detect-calibrate`: fit the detection score's logistic coefficients on a
+//! simulated training population and measure them on simulated populations never used for
+//! fitting; the shared plant registrations are a test set, measured and printed last.
 //!
-//! Data:
-//! * simulated loops from `datasets::simulate` (half self-regulating, half integrating; half
-//!   with a sticky Kano valve, S in [1, 8] %, J in [0, S]; half with a free valve), each with
-//!   one of four situations: set-point moves only, an external sinusoid, aggressive tuning
-//!   (closed-loop poles near the unit circle), or a slow drift with random load steps (the
-//!   disturbances sized in % of the valve's travel through the plant's input gain; OP clipped
-//!   to 0-100 % with conditional integration); plant
-//!   dynamics, tuning, noise and disturbance sizes drawn per loop from a seeded generator. A
-//!   training set (seeds from 1) and an independent validation set (seeds from 1 000 001);
-//! * the shared plant registrations (`../shared/data/plant`, labels from its `labels.csv`,
-//!   used only as the answer: the detector reads the time series alone). Integrating loops are
-//!   the level loops by the ISA tag letter `L`, the rule of the CLI's `--integrating auto`.
-//!
-//! Fit: by default on the simulated training loops alone; the plant registrations only
-//! validate, so every plant score is out of sample (leave one valve out holds trivially: no
-//! registration of any valve is in the fit). Measured with this tool on the shared data:
-//! fitted on the simulations and the other valves' registrations (`--with-plant`, the first
-//! calibration), the leave-one-valve-out ROC AUC was 0.429 with 83 % inconclusive; fitted on
-//! the simulations alone, 0.714 with 74.5 % inconclusive: two sticky valves (one with 23 of
-//! the 26 sticky registrations) are too few to calibrate on, and fitting on them taught the
-//! model the other valve's shape.
-//!
-//! Validation: for every plant valve (the tag before `_`), the model (with `--with-plant`:
-//! fitted on the simulated training loops and the registrations of the *other* valves) scores
-//! that valve's registrations (LOVO). The simulated validation loops are scored by the final
-//! model, whose coefficients are printed for `detection/src/score.rs`.
+//! The protocol (`docs/DETECTION.md`, "Calibration"):
+//! * **Training population** (`datasets::simulate::population`, seed 1): flow, pressure and
+//!   level loops, `Ts` 2-30 s, `N` 300-3000 samples; half sticky valves, half free.
+//! * **Validation populations**, each with its own seeds, none used for fitting: the training
+//!   ranges again (`in range`), and settings outside them: `N = 400`, `N = 4000`, `Ts = 1 s`,
+//!   `Ts = 60 s` (the training families otherwise) and the family left out of training
+//!   (`composition`: slow second-order loops with long dead time, the training's `Ts` and `N`).
+//! * **Figures**, per loop kind (self-regulating, integrating) and overall: the score's ROC AUC
+//!   (sticky against free), the verdict right on the conclusive (a conclusive verdict on a loop
+//!   whose OP barely moves counts as wrong: it cannot be judged), the share of sticky and free
+//!   loops left inconclusive, and how many of the loops that cannot be judged got
+//!   `inconclusive`.
+//! * **Loop kind**: the training population is fitted with each loop's own kind (known, like
+//!   its label); the validation populations are judged as `--integrating auto` judges a
+//!   record (decided by [`detection::kind::evidence`], a level's tag letter `L` breaking a
+//!   tie), and the accuracy of that decision is printed.
+//! * **Models**: the one in `detection/src/score.rs` as it is (before a refit: the baseline),
+//!   and the one fitted here on the training population (ridge-penalised logistic regression
+//!   of [`detection::logistic`]), whose coefficients are printed for `score.rs`.
+//! * **Test set**: the labelled plant registrations (`../shared/data/plant`), scored by both
+//!   models and printed after everything else; nothing here is chosen by them.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use datasets::simulate::{
-    Controller, Disturbance, Plant, PlantPreset, PlantSpec, Scenario, Setpoint,
-};
+use datasets::simulate::population::{Family, Label, PopulationSpec};
+use datasets::simulate::{Disturbance, PlantPreset, PlantSpec, Scenario};
 use detection::hammerstein::{oracle_lr, REGION_LR};
 use detection::score::{features, Model, FEATURES, NO_STICTION_AT, STICTION_AT};
 use detection::{combine, logistic, registry, run_all, Registration, TestOutcome, Verdict};
 use rayon::prelude::*;
-use stiction_models::{He, Kano, StictionModel};
+use stiction_models::Kano;
 
 const USAGE: &str = "\
-usage: cargo xtask detect-calibrate [--sims N] [--plant DIR] [--ridge L] [--with-plant] [--dump DIR] [--valve kano|he] [--samples N]
+usage: cargo xtask detect-calibrate [--train N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR]
 
-  --sims N     simulated loops in the training set and again in the validation set (default 240)
-  --plant DIR  the labelled plant registrations (default ../shared/data/plant beside the repo)
+  --train N    loops in the training population (default 320)
+  --valid N    loops in each validation population (default 80)
   --ridge L    ridge penalty of the logistic fit (default 0.1)
-  --with-plant also fit on the plant registrations (of the other valves, for leave one valve
-               out); by default they only validate: measured, fitting on them made the
-               leave-one-valve-out AUC worse (0.429 against 0.714 from the simulations alone)
-  --dump DIR   also write the simulated validation loops as CSV (t, SP, PV, OP) with an index.csv
-  --valve M    the sticky valves of the validation loops: `kano` (default, as in training) or
-               `he` (He et al.'s friction model at the same S and J: a check that the score
-               holds for a valve model it was not fitted on)
-  --samples N  samples per validation loop (default 751, as in training): the score's
-               likelihood ratios grow with the record's length";
-
-/// SplitMix64: a small seeded generator (the draw order is the code order below).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-}
+  --plant DIR  the labelled plant registrations, the test set (default ../shared/data/plant
+               beside the repo); scored, never fitted on
+  --no-plant   skip the plant test set
+  --integrating auto|truth
+               the loop kind the detector is given on the validation populations: decided
+               from the record, the tag letter breaking a tie, as `--integrating auto` does
+               (default), or the simulation's own (the training population always has its own)
+  --paper      also score the reference paper's benchmark (`stiction simulate` loops)
+  --dump DIR   also write the `in range` validation loops as CSV (t, SP, PV, OP) with an index.csv";
 
 /// One labelled registration.
+#[derive(Clone)]
 struct Case {
-    /// The valve (plant) or `sim` (simulated).
-    group: String,
     /// What it is, for the tables.
     what: String,
+    /// The valve sticks (false for free valves and for loops that cannot be judged).
     sticky: bool,
+    /// The record can show whether the valve sticks (false: OP barely moves).
+    judgeable: bool,
+    /// The process integrates (the loop kind of the tables).
+    kind_integrating: bool,
     sp: Option<Vec<f64>>,
     pv: Vec<f64>,
     op: Vec<f64>,
     ts: f64,
+    /// Whether the detector treats the loop as integrating.
     integrating: bool,
+    /// What the record alone says of its kind ([`detection::kind::evidence`]; `None`: a tie).
+    kind_from_data: Option<bool>,
     outcomes: Vec<TestOutcome>,
     x: Vec<f64>,
-    /// Simulated loops: how much better the true valve position explains the valve's proxy
-    /// than OP does ([`detection::hammerstein::oracle_lr`]).
+    /// Simulated sticky loops: how much better the true valve position explains the valve's
+    /// proxy than OP does ([`detection::hammerstein::oracle_lr`]).
     oracle: Option<f64>,
 }
 
@@ -109,174 +93,335 @@ impl Case {
     }
 }
 
-const SITUATIONS: [&str; 4] = [
-    "set-point moves",
-    "external sine",
-    "aggressive tuning",
-    "drift + load steps",
-];
+/// A named population.
+struct Set {
+    name: &'static str,
+    spec: PopulationSpec,
+}
 
-/// Simulated loop `index` of the set starting at `seed0`.
-fn simulated(seed0: u64, index: usize, he: bool, samples: usize) -> Result<Case> {
-    let seed = seed0 + index as u64;
-    let mut rng = Rng(seed.wrapping_mul(0xD1B5_4A32_D192_ED03));
-    let integrating = index % 2 == 1;
-    let sticky = (index / 2).is_multiple_of(2);
-    let situation = (index / 4) % SITUATIONS.len();
-    // Plant.
-    let delay = (rng.next() * 3.0) as usize;
-    let pole = rng.range(0.0, 0.95);
-    let gain = rng.range(0.5, 2.0);
-    let plant = if integrating {
-        let g = rng.range(0.02, 0.2);
-        if rng.next() < 0.5 {
-            Plant {
-                a: vec![1.0, -1.0],
-                b: vec![0.0, g],
-                c: vec![1.0],
-                delay,
+const TRAIN_FAMILIES: [Family; 3] = [Family::Flow, Family::Pressure, Family::Level];
+const TRAIN_TS: [f64; 2] = [2.0, 30.0];
+const TRAIN_N: [usize; 2] = [300, 3000];
+
+fn training_set() -> Set {
+    Set {
+        name: "training",
+        spec: PopulationSpec {
+            seed: 1,
+            families: TRAIN_FAMILIES.to_vec(),
+            sample_time: TRAIN_TS,
+            samples: TRAIN_N,
+        },
+    }
+}
+
+/// The validation populations: the training ranges with fresh seeds, then settings outside
+/// them.
+fn validation_sets() -> Vec<Set> {
+    let base = |seed: u64| PopulationSpec {
+        seed,
+        families: TRAIN_FAMILIES.to_vec(),
+        sample_time: TRAIN_TS,
+        samples: TRAIN_N,
+    };
+    vec![
+        Set {
+            name: "in range",
+            spec: base(1_000_001),
+        },
+        Set {
+            name: "N = 400",
+            spec: PopulationSpec {
+                samples: [400, 400],
+                ..base(2_000_001)
+            },
+        },
+        Set {
+            name: "N = 4000",
+            spec: PopulationSpec {
+                samples: [4000, 4000],
+                ..base(3_000_001)
+            },
+        },
+        Set {
+            name: "Ts = 1 s",
+            spec: PopulationSpec {
+                sample_time: [1.0, 1.0],
+                ..base(4_000_001)
+            },
+        },
+        Set {
+            name: "Ts = 60 s",
+            spec: PopulationSpec {
+                sample_time: [60.0, 60.0],
+                ..base(5_000_001)
+            },
+        },
+        Set {
+            name: "composition (left out)",
+            spec: PopulationSpec {
+                families: vec![Family::Composition],
+                ..base(6_000_001)
+            },
+        },
+    ]
+}
+
+/// The first `n` loops of `set` that simulate (a loop whose tuning cannot be stabilised is
+/// skipped and counted), evaluated.
+fn population(set: &Set, n: usize, auto: bool) -> Result<(Vec<Case>, usize)> {
+    let got: Vec<Option<Case>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let l = match set.spec.generate(i) {
+                Ok(l) => l,
+                Err(_) => return Ok(None),
+            };
+            let oracle = if l.integrating {
+                let dpv: Vec<f64> = l.sim.pv.windows(2).map(|w| w[1] - w[0]).collect();
+                oracle_lr(&dpv, &l.sim.op[1..], &l.sim.mv[1..])
+            } else {
+                oracle_lr(&l.sim.pv, &l.sim.op, &l.sim.mv)
+            };
+            let (decided, _) = decide_kind(&l.sim.pv, &l.sim.op, l.family == Family::Level);
+            let kind_from_data =
+                detection::kind::evidence(&l.sim.pv, &l.sim.op).and_then(|e| e.integrating);
+            Case {
+                oracle,
+                what: format!("{} #{i}: {}", set.name, l.what),
+                sticky: l.label == Label::Sticky,
+                judgeable: l.label != Label::CannotJudge,
+                kind_integrating: l.integrating,
+                sp: Some(l.sim.sp),
+                pv: l.sim.pv,
+                op: l.sim.op,
+                ts: l.sample_time,
+                integrating: if auto { decided } else { l.integrating },
+                kind_from_data,
+                outcomes: Vec::new(),
+                x: Vec::new(),
+            }
+            .evaluate()
+            .map(Some)
+        })
+        .collect::<Result<_>>()?;
+    let skipped = got.iter().filter(|c| c.is_none()).count();
+    Ok((got.into_iter().flatten().collect(), skipped))
+}
+
+/// `--integrating auto` on a simulated loop whose tag would carry the letter `L` when
+/// `level_tag`: the record decides, the tag breaks a tie (`(integrating, decided by the data)`).
+fn decide_kind(pv: &[f64], op: &[f64], level_tag: bool) -> (bool, bool) {
+    match detection::kind::evidence(pv, op).and_then(|e| e.integrating) {
+        Some(yes) => (yes, true),
+        None => (level_tag, false),
+    }
+}
+
+/// How well the record alone tells integrating loops from self-regulating ones.
+fn kind_table(sets: &[(&str, Vec<Case>)]) {
+    println!(
+        "  {:24} {:>4}  {:>18}  {:>22}  {:>22}",
+        "population", "n", "decided by data", "right where decided", "right with tag as tie-break"
+    );
+    let mut all = (0, 0, 0, 0);
+    for (name, cases) in sets.iter().map(|(n, c)| (*n, c)) {
+        let n = cases.len();
+        let decided: Vec<&Case> = cases
+            .iter()
+            .filter(|c| c.kind_from_data.is_some())
+            .collect();
+        let right = decided
+            .iter()
+            .filter(|c| c.kind_from_data == Some(c.kind_integrating))
+            .count();
+        // tie: the level family carries `L` in its tag
+        let right_tag = right + (n - decided.len());
+        println!(
+            "  {name:24} {n:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
+            decided.len(),
+            100.0 * decided.len() as f64 / n.max(1) as f64,
+            100.0 * right as f64 / decided.len().max(1) as f64,
+            decided.len(),
+            100.0 * right_tag as f64 / n.max(1) as f64
+        );
+        all = (
+            all.0 + n,
+            all.1 + decided.len(),
+            all.2 + right,
+            all.3 + right_tag,
+        );
+    }
+    let every = || sets.iter().flat_map(|(_, c)| c.iter());
+    let called = |truth: bool, said: bool| {
+        every()
+            .filter(|c| c.kind_integrating == truth && c.kind_from_data == Some(said))
+            .count()
+    };
+    println!(
+        "  integrating loops called self-regulating by the data: {} of {}; self-regulating called integrating: {} of {}",
+        called(true, false),
+        every().filter(|c| c.kind_integrating).count(),
+        called(false, true),
+        every().filter(|c| !c.kind_integrating).count()
+    );
+    println!(
+        "  {:24} {:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
+        "every validation loop",
+        all.0,
+        all.1,
+        100.0 * all.1 as f64 / all.0.max(1) as f64,
+        100.0 * all.2 as f64 / all.1.max(1) as f64,
+        all.1,
+        100.0 * all.3 as f64 / all.0.max(1) as f64
+    );
+}
+
+/// Figures of one group of loops under one model.
+struct Figures {
+    n: usize,
+    auc: Option<f64>,
+    right: f64,
+    conclusive: usize,
+    inconclusive: f64,
+    cannot: usize,
+    cannot_inconclusive: usize,
+}
+
+/// A sticky loop whose true valve position explains the valve's proxy no better than OP
+/// (oracle LR below the likelihood region's χ²₁ bound): its stiction never showed in the record.
+fn hidden(c: &Case) -> bool {
+    c.sticky && c.oracle.is_some_and(|o| o < REGION_LR)
+}
+
+fn figures_of(cases: &[&Case], model: &Model) -> Result<Figures> {
+    let mut scores = Vec::new();
+    let (mut conclusive, mut right, mut judged, mut undecided) = (0, 0, 0, 0);
+    let (mut cannot, mut cannot_inc) = (0, 0);
+    for c in cases {
+        let (s, d) = judge(c, model)?;
+        if c.judgeable && !(VISIBLE_ONLY.get() && hidden(c)) {
+            scores.push((s, c.sticky));
+            judged += 1;
+            if d == Verdict::Inconclusive {
+                undecided += 1;
             }
         } else {
-            let p = rng.range(0.3, 0.8);
-            Plant {
-                a: vec![1.0, -(1.0 + p), p],
-                b: vec![0.0, g * (1.0 - p)],
-                c: vec![1.0],
-                delay,
+            cannot += 1;
+            if d == Verdict::Inconclusive {
+                cannot_inc += 1;
             }
         }
-    } else {
-        Plant {
-            a: vec![1.0, -pole],
-            b: vec![0.0, gain * (1.0 - pole)],
-            c: vec![1.0],
-            delay,
-        }
-    };
-    // Tuning: a draw, scaled down until stable; for the aggressive situation scaled up until
-    // the closed loop's slowest pole is near the unit circle.
-    let (mut kc, mut ki) = if integrating {
-        let g = plant.b.iter().sum::<f64>();
-        (
-            rng.range(0.3, 1.5) / (g * 10.0),
-            rng.range(0.01, 0.05) / (g * 10.0),
-        )
-    } else {
-        (rng.range(0.1, 0.8) / gain, rng.range(0.05, 0.3) / gain)
-    };
-    for _ in 0..60 {
-        if plant.check_stability(kc, ki).is_ok() {
-            break;
-        }
-        kc *= 0.8;
-        ki *= 0.8;
-    }
-    if situation == 2 {
-        for _ in 0..200 {
-            let (nk, ni) = (kc * 1.05, ki * 1.05);
-            match plant.check_stability(nk, ni) {
-                Ok(m) if m < 0.97 => (kc, ki) = (nk, ni),
-                _ => break,
+        if d != Verdict::Inconclusive {
+            conclusive += 1;
+            if c.judgeable && (d == Verdict::Stiction) == c.sticky {
+                right += 1;
             }
         }
     }
-    let s = rng.range(1.0, 8.0);
-    let j = rng.range(0.0, 1.0) * s;
-    let valve: Box<dyn StictionModel> = match (sticky, he) {
-        (true, false) => Box::new(Kano::params().s(s).j(j).check()?),
-        (true, true) => Box::new(He::from_sj(s, j)?),
-        (false, _) => Box::new(Kano::params().check()?),
-    };
-    let noise = rng.range(0.01, 0.2);
-    // Disturbances enter the plant's difference equation; they are sized in % of the valve's
-    // travel (scaled by B(1), the plant's input gain), so that the controller compensates them
-    // with OP moves a real valve can make — a load drift on a level otherwise asks OP for
-    // hundreds of %.
-    let input_gain = plant.b.iter().sum::<f64>();
-    let amplitude = rng.range(0.3, 2.0);
-    let period = rng.range(20.0, 200.0);
-    let slope = rng.range(-0.004, 0.004);
-    let disturbances = match situation {
-        1 => vec![Disturbance::Sine {
-            amplitude: amplitude * input_gain,
-            frequency: 2.0 * std::f64::consts::PI / period,
-            phase: 0.0,
-        }],
-        3 => vec![
-            Disturbance::Drift {
-                slope: slope * input_gain,
-            },
-            Disturbance::RandomSteps {
-                probability: 0.005,
-                sigma: amplitude * input_gain,
-            },
-        ],
-        _ => Vec::new(),
-    };
-    let setpoint = if situation == 0 {
-        Setpoint::default()
-    } else {
-        Setpoint::constant()
-    };
-    let sim = Scenario {
-        plant: PlantSpec::Explicit(plant),
-        controller: Controller { kc, ki },
-        setpoint,
-        valve,
-        disturbances,
-        noise_sigma: noise,
-        samples,
-        warmup: 500,
-        seed,
-        sample_time: 10.0,
-        // A valve's travel is 0-100 %: OP saturates (with conditional integration), as a real
-        // controller's output does.
-        op_limits: Some([0.0, 100.0]),
-        ..Scenario::default()
+    Ok(Figures {
+        n: cases.len(),
+        auc: auc(&scores),
+        right: 100.0 * right as f64 / conclusive.max(1) as f64,
+        conclusive,
+        inconclusive: 100.0 * undecided as f64 / judged.max(1) as f64,
+        cannot,
+        cannot_inconclusive: cannot_inc,
+    })
+}
+
+/// Whether `f` meets the targets (AUC >= 0.95, >= 95 % right on the conclusive, <= 20 %
+/// inconclusive).
+fn meets(f: &Figures) -> bool {
+    f.auc.is_some_and(|a| a >= 0.95) && f.right >= 95.0 && f.inconclusive <= 20.0
+}
+
+fn print_header() {
+    println!(
+        "  {:24} {:16} {:>4}  {:>6}  {:>16}  {:>12}  {:>14}  targets",
+        "population", "loops", "n", "AUC", "right/conclusive", "inconclusive", "cannot judge"
+    );
+}
+
+fn print_row(set: &str, kind: &str, f: &Figures) {
+    println!(
+        "  {set:24} {kind:16} {:>4}  {:>6}  {:>9.1} % of {:>3}  {:>10.1} %  {:>6} of {:>3}  {}",
+        f.n,
+        fmt_auc(f.auc),
+        f.right,
+        f.conclusive,
+        f.inconclusive,
+        f.cannot_inconclusive,
+        f.cannot,
+        if meets(f) { "met" } else { "NOT met" }
+    );
+}
+
+thread_local! {
+    /// Whether [`figures_of`] leaves the sticky loops whose stiction never showed out of the
+    /// AUC and the inconclusive share (their conclusive verdicts still count).
+    static VISIBLE_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Which loops of a population a table row keeps.
+type KindFilter = fn(&Case) -> bool;
+
+/// The table of `sets` under `model`: every set by loop kind and overall, then all of them.
+fn table(sets: &[(&str, Vec<Case>)], model: &Model) -> Result<()> {
+    print_header();
+    let kinds: [(&str, KindFilter); 3] = [
+        ("self-regulating", |c| !c.kind_integrating),
+        ("integrating", |c| c.kind_integrating),
+        ("all", |_| true),
+    ];
+    for (name, cases) in sets {
+        for (kind, keep) in &kinds {
+            let sub: Vec<&Case> = cases.iter().filter(|c| keep(c)).collect();
+            if sub.is_empty() {
+                continue;
+            }
+            print_row(name, kind, &figures_of(&sub, model)?);
+        }
     }
-    .simulate()
-    .with_context(|| format!("simulated loop {index} (seed {seed})"))?;
-    let oracle = if integrating {
-        let dpv: Vec<f64> = sim.pv.windows(2).map(|w| w[1] - w[0]).collect();
-        oracle_lr(&dpv, &sim.op[1..], &sim.mv[1..])
-    } else {
-        oracle_lr(&sim.pv, &sim.op, &sim.mv)
-    };
-    Case {
-        group: "sim".into(),
-        what: format!(
-            "{} {} {}",
-            if integrating {
-                "integrating"
-            } else {
-                "self-regulating"
-            },
-            if sticky {
-                format!("{} S={s:.1} J={j:.1}", if he { "he" } else { "kano" })
-            } else {
-                "free valve".into()
-            },
-            SITUATIONS[situation]
-        ),
-        sticky,
-        oracle,
-        sp: Some(sim.sp),
-        pv: sim.pv,
-        op: sim.op,
-        ts: 10.0,
-        integrating,
-        outcomes: Vec::new(),
-        x: Vec::new(),
+    if sets.len() > 1 {
+        for (kind, keep) in &kinds {
+            let sub: Vec<&Case> = sets
+                .iter()
+                .flat_map(|(_, c)| c.iter())
+                .filter(|c| keep(c))
+                .collect();
+            print_row("every validation loop", kind, &figures_of(&sub, model)?);
+        }
     }
-    .evaluate()
+    Ok(())
+}
+
+fn print_model(model: &Model) {
+    println!(
+        "pub const NO_STICTION_AT: f64 = {};\npub const STICTION_AT: f64 = {};",
+        model.no_stiction_at, model.stiction_at
+    );
+    println!("pub const INTERCEPT: f64 = {:.4};", model.intercept);
+    println!(
+        "pub const WEIGHTS: [f64; {}] = [{}];",
+        model.weights.len(),
+        model
+            .weights
+            .iter()
+            .map(|w| format!("{w:.4}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    for (f, w) in FEATURES.iter().zip(&model.weights) {
+        println!("  {:16} {:>8.3}   ({}: {})", f.name, w, f.test, f.meaning);
+    }
 }
 
 /// Write each case as `sim-<index>.csv` (t, SP, PV, OP) under `dir`, with `index.csv` naming
-/// what each is (with the oracle likelihood ratio of the true valve position, empty where
-/// there is none).
+/// what each is.
 fn dump_cases(dir: &Path, cases: &[Case]) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut index = String::from("file,what,sticky,integrating,oracle_lr\n");
+    let mut index = String::from("file,what,sticky,judgeable,integrating\n");
     for (i, c) in cases.iter().enumerate() {
         let name = format!("sim-{i:03}.csv");
         let mut text = String::from("t,SP,PV,OP\n");
@@ -290,10 +435,9 @@ fn dump_cases(dir: &Path, cases: &[Case]) -> Result<()> {
             ));
         }
         std::fs::write(dir.join(&name), text).with_context(|| format!("writing {name}"))?;
-        let oracle = c.oracle.map_or(String::new(), |v| format!("{v:.2}"));
         index.push_str(&format!(
-            "{name},{},{},{},{oracle}\n",
-            c.what, c.sticky, c.integrating
+            "{name},\"{}\",{},{},{}\n",
+            c.what, c.sticky, c.judgeable, c.kind_integrating
         ));
     }
     std::fs::write(dir.join("index.csv"), index).context("writing index.csv")
@@ -336,9 +480,10 @@ fn plant_cases(dir: &Path) -> Result<(Vec<Case>, Vec<String>)> {
             .find(|c| c.is_ascii_alphabetic())
             .is_some_and(|c| c.eq_ignore_ascii_case(&'l'));
         cases.push(Case {
-            group: valve,
             what: file.to_string(),
             sticky,
+            judgeable: true,
+            kind_integrating: integrating,
             sp: d.sp.clone(),
             pv: d.require_pv()?.to_vec(),
             op: d.op.clone(),
@@ -347,6 +492,7 @@ fn plant_cases(dir: &Path) -> Result<(Vec<Case>, Vec<String>)> {
             outcomes: Vec::new(),
             x: Vec::new(),
             oracle: None,
+            kind_from_data: None,
         });
     }
     let cases = cases
@@ -356,50 +502,62 @@ fn plant_cases(dir: &Path) -> Result<(Vec<Case>, Vec<String>)> {
     Ok((cases, refused))
 }
 
+/// The logistic fit on the loops that can be judged.
 fn fit(cases: &[&Case], ridge: f64) -> Result<Model> {
+    let cases: Vec<&&Case> = cases.iter().filter(|c| c.judgeable).collect();
     let x: Vec<Vec<f64>> = cases.iter().map(|c| c.x.clone()).collect();
     let y: Vec<bool> = cases.iter().map(|c| c.sticky).collect();
     let w = vec![1.0; x.len()];
     let f = logistic::fit(&x, &y, &w, ridge).context("the logistic fit failed (singular)")?;
-    Ok(Model {
+    let mut model = Model {
         intercept: f.intercept,
         weights: f.weights,
-    })
+        stiction_at: STICTION_AT,
+        no_stiction_at: NO_STICTION_AT,
+    };
+    (model.no_stiction_at, model.stiction_at) = thresholds(&cases, &model)?;
+    Ok(model)
+}
+
+/// Most inconclusive share of the judgeable loops the verdict's thresholds may leave.
+const MAX_INCONCLUSIVE: f64 = 20.0;
+
+/// The verdict's thresholds `(no-stiction at or below, stiction at or above)` on a grid of
+/// 0.05 that decide the most of `cases` right among the conclusive while leaving at most
+/// [`MAX_INCONCLUSIVE`] % of them inconclusive (chosen on the training population).
+fn thresholds(cases: &[&&Case], model: &Model) -> Result<(f64, f64)> {
+    let scored: Vec<(&Case, Vec<TestOutcome>)> =
+        cases.iter().map(|c| (**c, c.outcomes.clone())).collect();
+    let mut best: Option<(f64, f64, f64)> = None;
+    for lo in 1..=10 {
+        for hi in 10..=19 {
+            let m = Model {
+                no_stiction_at: f64::from(lo) / 20.0,
+                stiction_at: f64::from(hi) / 20.0,
+                ..model.clone()
+            };
+            let (mut right, mut conclusive) = (0usize, 0usize);
+            for (c, outcomes) in &scored {
+                let d = combine(&c.registration()?, outcomes.clone(), &m).verdict;
+                if d != Verdict::Inconclusive {
+                    conclusive += 1;
+                    right += usize::from((d == Verdict::Stiction) == c.sticky);
+                }
+            }
+            let inconclusive = 100.0 * (1.0 - conclusive as f64 / scored.len().max(1) as f64);
+            let share = right as f64 / conclusive.max(1) as f64;
+            if inconclusive <= MAX_INCONCLUSIVE && best.is_none_or(|b| share > b.2) {
+                best = Some((m.no_stiction_at, m.stiction_at, share));
+            }
+        }
+    }
+    Ok(best.map_or((NO_STICTION_AT, STICTION_AT), |b| (b.0, b.1)))
 }
 
 /// Score and verdict of `case` under `model`.
 fn judge(case: &Case, model: &Model) -> Result<(f64, Verdict)> {
     let d = combine(&case.registration()?, case.outcomes.clone(), model);
     Ok((d.score, d.verdict))
-}
-
-/// The threshold on the score (midway between two scores) that decides the most of `v`
-/// right, stiction above it.
-fn best_threshold(v: &[(f64, bool)]) -> f64 {
-    let mut by_score = v.to_vec();
-    by_score.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let sticky_total = by_score.iter().filter(|(_, l)| *l).count();
-    let mut best = (sticky_total, by_score.first().map_or(0.5, |x| x.0 - 1e-9));
-    let mut free_below = 0;
-    let mut sticky_below = 0;
-    for (i, (s, l)) in by_score.iter().enumerate() {
-        if *l {
-            sticky_below += 1;
-        } else {
-            free_below += 1;
-        }
-        let Some(next) = by_score.get(i + 1).map(|x| x.0) else {
-            break;
-        };
-        if next == *s {
-            continue;
-        }
-        let right = free_below + sticky_total - sticky_below;
-        if right > best.0 {
-            best = (right, 0.5 * (s + next));
-        }
-    }
-    best.1
 }
 
 /// AUC (ties one half) of `(score, label)`, `None` without both classes.
@@ -453,13 +611,13 @@ fn test_aucs(cases: &[&Case]) -> Vec<(String, Option<f64>, usize)> {
 /// `cargo xtask detect-calibrate`.
 pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let mut sims = 240usize;
-    let mut plant_dir: PathBuf = root.join("../shared/data/plant");
+    let mut n_train = 320usize;
+    let mut n_valid = 80usize;
+    let mut plant_dir: Option<PathBuf> = Some(root.join("../shared/data/plant"));
     let mut ridge = 0.1;
-    let mut with_plant = false;
+    let mut paper = false;
     let mut dump: Option<PathBuf> = None;
-    let mut he = false;
-    let mut samples = 751;
+    let mut auto = true;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
         let mut value = |name: &str| {
@@ -467,29 +625,28 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
                 .with_context(|| format!("{name} needs a value\n{USAGE}"))
         };
         match a.as_str() {
-            "--sims" => sims = value("--sims")?.parse().context("--sims: a whole number")?,
-            "--plant" => plant_dir = PathBuf::from(value("--plant")?),
-            "--ridge" => ridge = value("--ridge")?.parse().context("--ridge: a number")?,
-            "--with-plant" => with_plant = true,
-            "--dump" => dump = Some(PathBuf::from(value("--dump")?)),
-            "--samples" => {
-                samples = value("--samples")?
+            "--train" => {
+                n_train = value("--train")?
                     .parse()
-                    .context("--samples: a whole number")?;
-                if samples < detection::MIN_SAMPLES {
-                    bail!(
-                        "--samples: at least {} (a shorter registration is not judged)",
-                        detection::MIN_SAMPLES
-                    );
+                    .context("--train: a whole number")?
+            }
+            "--valid" => {
+                n_valid = value("--valid")?
+                    .parse()
+                    .context("--valid: a whole number")?
+            }
+            "--plant" => plant_dir = Some(PathBuf::from(value("--plant")?)),
+            "--no-plant" => plant_dir = None,
+            "--ridge" => ridge = value("--ridge")?.parse().context("--ridge: a number")?,
+            "--paper" => paper = true,
+            "--integrating" => {
+                auto = match value("--integrating")?.as_str() {
+                    "auto" => true,
+                    "truth" => false,
+                    other => bail!("--integrating: `auto` or `truth`, not {other:?}"),
                 }
             }
-            "--valve" => {
-                he = match value("--valve")?.as_str() {
-                    "kano" => false,
-                    "he" => true,
-                    other => bail!("--valve: `kano` or `he`, not {other:?}"),
-                }
-            }
+            "--dump" => dump = Some(PathBuf::from(value("--dump")?)),
             "--help" | "-h" => {
                 println!("{USAGE}");
                 return Ok(());
@@ -498,271 +655,112 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
         }
     }
     let started = std::time::Instant::now();
-    let train: Vec<Case> = (0..sims)
-        .into_par_iter()
-        .map(|i| simulated(1, i, false, 751))
-        .collect::<Result<_>>()?;
-    let valid: Vec<Case> = (0..sims)
-        .into_par_iter()
-        .map(|i| simulated(1_000_001, i, he, samples))
-        .collect::<Result<_>>()?;
-    if let Some(dir) = &dump {
-        dump_cases(dir, &valid)?;
-        println!(
-            "wrote the {} validation loops to {}",
-            valid.len(),
-            dir.display()
-        );
-    }
-    let (plant, refused) = if plant_dir.join("labels.csv").exists() {
-        plant_cases(&plant_dir)?
-    } else {
-        println!(
-            "note: {} not found: calibrating on simulated loops only",
-            plant_dir.display()
-        );
-        (Vec::new(), Vec::new())
-    };
+    let train_set = training_set();
+    let (train, skipped) = population(&train_set, n_train, false)?;
     println!(
-        "data: {} simulated training loops, {} simulated validation loops, {} plant registrations ({} refused by the reader) [{:.1} s]",
+        "training population: {} loops ({skipped} skipped: no stabilising tuning) [{:.1} s]",
         train.len(),
-        valid.len(),
-        plant.len(),
-        refused.len(),
         started.elapsed().as_secs_f64()
     );
-    for r in &refused {
-        println!("  refused: {r}");
+    let mut valid: Vec<(&str, Vec<Case>)> = Vec::new();
+    for set in validation_sets() {
+        let (cases, skipped) = population(&set, n_valid, auto)?;
+        println!(
+            "validation population {:24} {} loops ({skipped} skipped) [{:.1} s]",
+            set.name,
+            cases.len(),
+            started.elapsed().as_secs_f64()
+        );
+        valid.push((set.name, cases));
+    }
+    if let Some(dir) = &dump {
+        dump_cases(dir, &valid[0].1)?;
+        println!("wrote the `in range` validation loops to {}", dir.display());
     }
 
-    // Leave one valve out.
-    let valves: Vec<String> = {
-        let mut v: Vec<String> = plant.iter().map(|c| c.group.clone()).collect();
-        v.dedup();
-        v.sort();
-        v.dedup();
-        v
-    };
-    let mut lovo: Vec<(f64, Verdict, bool)> = Vec::new();
-    let mut per_valve: BTreeMap<String, (bool, usize, f64, [usize; 3])> = BTreeMap::new();
-    for v in &valves {
-        let fit_on: Vec<&Case> = train
-            .iter()
-            .chain(plant.iter().filter(|c| with_plant && &c.group != v))
-            .collect();
-        let model = fit(&fit_on, ridge)?;
-        for c in plant.iter().filter(|c| &c.group == v) {
-            let (s, d) = judge(c, &model)?;
-            lovo.push((s, d, c.sticky));
-            let e = per_valve
-                .entry(v.clone())
-                .or_insert((c.sticky, 0, 0.0, [0; 3]));
-            e.1 += 1;
-            e.2 += s;
-            e.3[match d {
-                Verdict::Stiction => 0,
-                Verdict::NoStiction => 1,
-                _ => 2,
-            }] += 1;
-        }
-    }
-    // Final model and the simulated validation set.
-    let all: Vec<&Case> = train
+    println!(
+        "\nloop kind from the record (detection::kind; the tag's letter `L` only breaks a tie; the detector treats loops as {}):",
+        if auto { "this decides (`--integrating auto`)" } else { "they are (`--integrating truth`)" }
+    );
+    kind_table(&valid);
+
+    let today = Model::calibrated();
+    println!("\nthe model in detection/src/score.rs, as it is:");
+    table(&valid, &today)?;
+
+    let refs: Vec<&Case> = train.iter().collect();
+    let model = fit(&refs, ridge)?;
+    println!(
+        "\nfitted on the training population ({} loops, ridge {ridge}):",
+        refs.len()
+    );
+    print_model(&model);
+    println!("\ntraining population (in sample):");
+    table(&[("training", train)], &model)?;
+    println!("\nvalidation populations (never fitted on):");
+    table(&valid, &model)?;
+    VISIBLE_ONLY.set(true);
+    println!("\nthe same, the sticky loops whose stiction never showed (oracle LR < {REGION_LR}) left out of the AUC and the inconclusive share:");
+    table(&valid, &model)?;
+    VISIBLE_ONLY.set(false);
+
+    let hidden: Vec<&Case> = valid
         .iter()
-        .chain(plant.iter().filter(|_| with_plant))
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.sticky && c.oracle.is_none_or(|o| o < REGION_LR))
         .collect();
-    let model = fit(&all, ridge)?;
-    let sim_judged: Vec<(f64, Verdict, bool, &Case)> = valid
+    let sticky = valid
         .iter()
-        .map(|c| judge(c, &model).map(|(s, d)| (s, d, c.sticky, c)))
-        .collect::<Result<_>>()?;
-
-    println!(
-        "\nfinal model (simulated training loops{}, ridge {ridge}):",
-        if with_plant {
-            " + all plant registrations"
-        } else {
-            " only; the plant registrations validate"
-        }
-    );
-    println!("pub const INTERCEPT: f64 = {:.4};", model.intercept);
-    println!(
-        "pub const WEIGHTS: [f64; {}] = [{}];",
-        model.weights.len(),
-        model
-            .weights
-            .iter()
-            .map(|w| format!("{w:.4}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    for (f, w) in FEATURES.iter().zip(&model.weights) {
-        println!("  {:16} {:>8.3}   ({}: {})", f.name, w, f.test, f.meaning);
-    }
-
-    if !plant.is_empty() {
-        println!("\nplant registrations, leave one valve out:");
-        println!(
-            "valve            label        n  mean score  stiction  no-stiction  inconclusive"
-        );
-        for (v, (sticky, n, sum, c)) in &per_valve {
-            println!(
-                "{v:16} {:12} {n:>2}  {:>10.2}  {:>8}  {:>11}  {:>12}",
-                if *sticky { "stiction" } else { "no-stiction" },
-                sum / *n as f64,
-                c[0],
-                c[1],
-                c[2]
-            );
-        }
-        let sv: Vec<(f64, bool)> = lovo.iter().map(|(s, _, l)| (*s, *l)).collect();
-        let dv: Vec<(Verdict, bool)> = lovo.iter().map(|(_, d, l)| (*d, *l)).collect();
-        let (right, inconclusive, _) = rates(&dv);
-        println!(
-            "score: LOVO ROC AUC {}, verdict right on {right:.1} % of the conclusive, {inconclusive:.1} % inconclusive ({} registrations)",
-            fmt_auc(auc(&sv)),
-            lovo.len()
-        );
-        println!("\neach test's own statistic on the plant registrations (AUC where it has one; not fitted):");
-        let refs: Vec<&Case> = plant.iter().collect();
-        for (name, a, n) in test_aucs(&refs) {
-            let verdicts: Vec<(Verdict, bool)> = plant
-                .iter()
-                .filter_map(|c| {
-                    c.outcomes
-                        .iter()
-                        .find(|o| o.name == name)
-                        .map(|o| (o.verdict, c.sticky))
-                })
-                .collect();
-            let (right, inc, _) = rates(&verdicts);
-            println!(
-                "  {name:18} AUC {} over {n:>2}; own verdict right on {right:5.1} % of its conclusive, {inc:5.1} % inconclusive",
-                fmt_auc(a)
-            );
-        }
-    }
-
-    println!("\nsimulated validation loops (fresh seeds), final model:");
-    let sv: Vec<(f64, bool)> = sim_judged.iter().map(|(s, _, l, _)| (*s, *l)).collect();
-    let dv: Vec<(Verdict, bool)> = sim_judged.iter().map(|(_, d, l, _)| (*d, *l)).collect();
-    let (right, inconclusive, right_all) = rates(&dv);
-    println!(
-        "score ROC AUC {}; verdict right on {right_all:.1} % of all loops ({right:.1} % of the conclusive, {inconclusive:.1} % inconclusive)",
-        fmt_auc(auc(&sv))
-    );
-    for integrating in [false, true] {
-        for (k, situation) in SITUATIONS.iter().enumerate() {
-            let sub: Vec<(Verdict, bool)> = sim_judged
-                .iter()
-                .enumerate()
-                .filter(|(i, (_, _, _, c))| {
-                    c.integrating == integrating && (i / 4) % SITUATIONS.len() == k
-                })
-                .map(|(_, (_, d, l, _))| (*d, *l))
-                .collect();
-            let (r, inc, all) = rates(&sub);
-            println!(
-                "  {:16} {situation:20} n {:>3}: right {all:5.1} % of all ({r:5.1} % of conclusive, {inc:5.1} % inconclusive)",
-                if integrating { "integrating" } else { "self-regulating" },
-                sub.len()
-            );
-        }
-    }
-    // What the data can show at best: a sticky valve whose true position explains PV no better
-    // than OP does never stuck visibly in the record.
-    let hidden = |c: &Case| c.sticky && c.oracle.is_none_or(|lr| lr < REGION_LR);
-    let (seen, unseen): (Vec<_>, Vec<_>) = sim_judged.iter().partition(|(.., c)| !hidden(c));
-    let of = |v: &[&(f64, Verdict, bool, &Case)]| {
-        rates(&v.iter().map(|(_, d, l, _)| (*d, *l)).collect::<Vec<_>>())
-    };
-    let (r, inc, all) = of(&seen);
-    println!(
-        "  without the {} sticky loops whose true valve position explains the valve's proxy no better than OP (oracle LR < {REGION_LR}): right {all:.1} % of all {} ({r:.1} % of conclusive, {inc:.1} % inconclusive)",
-        unseen.len(),
-        seen.len()
-    );
-    let count = |v: Verdict| unseen.iter().filter(|(_, d, ..)| *d == v).count();
-    println!(
-        "    those {}: stiction {}, no-stiction {}, inconclusive {}",
-        unseen.len(),
-        count(Verdict::Stiction),
-        count(Verdict::NoStiction),
-        count(Verdict::Inconclusive)
-    );
-    // Why the undecided loops are undecided, in the order of `combine`'s rule.
-    let mut why = [[0usize; 2]; 4];
-    for (s, d, l, c) in &sim_judged {
-        if *d == Verdict::Inconclusive {
-            let k = if c.registration()?.check().is_err() {
-                0
-            } else if *s >= STICTION_AT {
-                1
-            } else if *s <= NO_STICTION_AT {
-                2
-            } else {
-                3
-            };
-            why[k][usize::from(*l)] += 1;
-        }
-    }
-    for (k, what) in [
-        "the record cannot be judged (too short, flat, OP or PV without motion)",
-        "score high, but no oscillation, no stick-slip, no sticky valve explaining PV",
-        "score low, but the likelihood region keeps a band of 2 % or more (HIDDEN_S)",
-        "score between the two thresholds",
-    ]
-    .iter()
-    .enumerate()
-    {
-        println!(
-            "  inconclusive: {what}: {} free, {} sticky",
-            why[k][0], why[k][1]
-        );
-    }
-    // The score alone with every loop decided at one threshold: chosen on the training loops
-    // (fair), and chosen on these validation loops (the ceiling of the score, optimistic).
-    let train_scores: Vec<(f64, bool)> = train
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.sticky)
+        .count();
+    let oracle_scores: Vec<(f64, bool)> = valid
         .iter()
-        .map(|c| judge(c, &model).map(|(s, _)| (s, c.sticky)))
-        .collect::<Result<_>>()?;
-    let right_at = |v: &[(f64, bool)], t: f64| v.iter().filter(|(s, l)| (*s > t) == *l).count();
-    let visible: Vec<(f64, bool)> = sim_judged
-        .iter()
-        .filter(|(.., c)| !hidden(c))
-        .map(|(s, _, l, _)| (*s, *l))
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.judgeable)
+        .map(|c| (c.oracle.unwrap_or(0.0), c.sticky))
         .collect();
-    for (how, t) in [
-        (
-            "chosen on the training loops",
-            best_threshold(&train_scores),
-        ),
-        ("chosen on these loops (optimistic)", best_threshold(&sv)),
-    ] {
-        println!(
-            "  the score alone at one threshold {t:.2}, {how}, every loop decided: right on {:.1} % of all ({:.1} % of the {} without the hidden sticky loops)",
-            100.0 * right_at(&sv, t) as f64 / sv.len().max(1) as f64,
-            100.0 * right_at(&visible, t) as f64 / visible.len().max(1) as f64,
-            visible.len()
-        );
-    }
-    let wrong: Vec<&(f64, Verdict, bool, &Case)> = sim_judged
+    println!(
+        "\nsticky validation loops whose true valve position explains the valve's proxy no better than OP (oracle LR < {REGION_LR}): {} of {sticky}; the oracle LR's own AUC (the true valve position known): {}",
+        hidden.len(),
+        fmt_auc(auc(&oracle_scores))
+    );
+    println!("\neach test's own statistic on every validation loop that can be judged (AUC; not fitted):");
+    let all: Vec<&Case> = valid
         .iter()
-        .filter(|(_, d, l, _)| *d != Verdict::Inconclusive && (*d == Verdict::Stiction) != *l)
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.judgeable)
         .collect();
-    for (s, d, _, c) in wrong.iter().take(12) {
-        println!(
-            "  wrong: {} -> {d} (score {s:.2}; oracle LR {})",
-            c.what,
-            c.oracle.map_or("-".into(), |v| format!("{v:.1}"))
-        );
-    }
-    println!("\neach test's own statistic on the simulated validation loops:");
-    let refs: Vec<&Case> = valid.iter().collect();
-    for (name, a, n) in test_aucs(&refs) {
+    for (name, a, n) in test_aucs(&all) {
         println!("  {name:18} AUC {} over {n:>3}", fmt_auc(a));
     }
-    paper_benchmark(&model)?;
+    let mut wrong = 0;
+    for c in &all {
+        let (s, d) = judge(c, &model)?;
+        if d != Verdict::Inconclusive && (d == Verdict::Stiction) != c.sticky && wrong < 16 {
+            wrong += 1;
+            println!("  wrong: {} -> {d} (score {s:.2})", c.what);
+        }
+    }
+    if paper {
+        paper_benchmark(&model)?;
+    }
+    if let Some(dir) = plant_dir.filter(|d| d.join("labels.csv").exists()) {
+        let (plant, refused) = plant_cases(&dir)?;
+        println!(
+            "\ntest set: {} plant registrations of {} ({} refused by the reader), never fitted on:",
+            plant.len(),
+            dir.display(),
+            refused.len()
+        );
+        for r in &refused {
+            println!("  refused: {r}");
+        }
+        for (what, m) in [("score.rs as it is", &today), ("fitted here", &model)] {
+            println!("model {what}:");
+            table(&[("plant", plant.clone())], m)?;
+        }
+    }
     println!("\n[{:.1} s]", started.elapsed().as_secs_f64());
     Ok(())
 }
@@ -791,10 +789,12 @@ fn paper_case(preset: PlantPreset, a: f64, s: f64, j: f64, seed: u64) -> Result<
     .simulate()
     .with_context(|| format!("paper benchmark {preset:?} a = {a} S = {s} seed {seed}"))?;
     Case {
-        group: "paper".into(),
         what: format!("{preset:?} a={a} S={s} J={j} seed {seed}"),
         sticky: s > 0.0,
+        judgeable: true,
+        kind_integrating: false,
         oracle: None,
+        kind_from_data: None,
         sp: Some(sim.sp),
         pv: sim.pv,
         op: sim.op,

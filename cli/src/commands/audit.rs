@@ -204,14 +204,15 @@ fn latest_page(
     }
     let path = Path::new(&latest.path);
     let d = datasets::read_path(path, &opts.read).map_err(|e| e.to_string())?;
-    let integrating = opts.integrating.applies(valve);
+    let kind = opts.integrating.decide(valve, Some(&d));
+    let integrating = kind.integrating;
     let used = if integrating {
         monitoring::registration::increments(&d)
     } else {
         d.clone()
     };
     let problem = monitoring::problem(&used).map_err(|e| e.to_string())?;
-    let det = monitoring::detect_loop(&d, integrating);
+    let det = monitoring::detect_decided(&d, kind);
     let (st, li) = (&latest.stiction_model, &latest.linear_model);
     let (page, causes) = match diagnose {
         Some(search) => {

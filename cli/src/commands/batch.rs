@@ -103,7 +103,8 @@ impl RunFlags {
 /// `--integrating`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum IntegratingFlag {
-    /// Level loops (tag letter `L`) are integrating, others not.
+    /// Decided from each record (whether PV's rate or level follows OP); a level tag (letter
+    /// `L`) breaks a tie.
     Auto,
     /// Every loop is integrating: identify MV → ΔPV.
     Yes,

@@ -16,8 +16,9 @@ use crate::{CmdResult, Failure, Streams};
 pub struct Args {
     /// CSV or MAT file with PV and OP columns (optional SP, time); `-` for standard input.
     file: PathBuf,
-    /// Whether the loop is integrating (a level): `auto` takes level loops by the tag's first
-    /// letter `L` (ISA-5.1) in the file name, as `trend` and `batch` do.
+    /// Whether the loop is integrating (a level): `auto` decides from the record (whether PV's
+    /// rate or PV's level follows OP); the tag's first letter `L` (ISA-5.1) in the file name
+    /// only breaks a tie. The output says which decided.
     #[arg(long, value_enum, default_value = "auto")]
     integrating: IntegratingFlag,
     #[command(flatten)]

@@ -61,6 +61,7 @@
 
 mod overrides;
 mod plant;
+pub mod population;
 
 pub use overrides::{OverrideError, Overrides, MAX_GAIN};
 pub use plant::{Plant, PlantPreset};

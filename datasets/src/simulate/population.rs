@@ -1,0 +1,552 @@
+//! Populations of simulated control loops randomised wide, for calibrating and validating a
+//! stiction detector on loops it was not tuned on.
+//!
+//! A [`PopulationSpec`] names the ranges (plant families, sampling time, record length) and a
+//! seed; [`PopulationSpec::generate`] gives loop `index` of the population, the same on every
+//! machine (one `ChaCha8Rng` per loop, seeded from the population's seed and the index; the
+//! loop itself is a [`Scenario`] simulated by [`Scenario::simulate`]).
+//!
+//! What a loop is made of (every choice drawn per loop):
+//! * **Process** ([`Family`]): flow (first order, τ 1-15 s, dead time 0-3 s), pressure (first or
+//!   second order, τ 5-120 s, dead time 0-10 s), composition (second order, τ 60-600 s, dead
+//!   time 10-120 s) — self-regulating, static gain 0.3-3 — and level (integrating: filling
+//!   time 60-1200 s per % of OP, an optional lag up to 30 s, dead time 0-10 s). Continuous
+//!   time constants are discretised at the loop's sampling time (zero-order hold; dead time
+//!   rounded to whole samples, at most [`MAX_DELAY`]).
+//! * **Sampling and length**: `Ts` log-uniform in [`PopulationSpec::sample_time`], `N`
+//!   log-uniform in [`PopulationSpec::samples`].
+//! * **Tuning**: SIMC/IMC-like PI with the closed-loop time constant a factor 0.3-4 of the
+//!   process's (aggressive to sluggish), scaled down until the closed loop is stable.
+//! * **Noise**: white noise through `(1 + c₁ q⁻¹)` at PV (the plant's `C = A (1 + c₁ q⁻¹)`),
+//!   `c₁` in [-0.3, 0.9], σ 0.02-0.5 % of span.
+//! * **Excitation**: each with its own chance — set-point moves (random walk), load steps,
+//!   a drift, an external oscillation (period 10 samples to a third of the record); sized in %
+//!   of the valve's travel through the plant's gain.
+//! * **Valve**: sticky ([`Label::Sticky`]: Kano, He, asymmetric Kano or Kano with an installed
+//!   equal-percentage characteristic; S log-uniform 0.5-10 %, J uniform in [0, S]; one in
+//!   eight "stuck for long stretches", S 10-25 % with small J) or free ([`Label::Healthy`],
+//!   linear or with a characteristic: a nonlinearity that is not stiction).
+//! * **Historian**: with a chance each, PV logged through swinging-door compression and PV/OP
+//!   quantised to a step of 0.01-0.2 % of span.
+//! * **OP that barely moves**: about one loop in sixteen is quiet (little noise, no set-point
+//!   move or disturbance, a sluggish controller). A loop whose OP spans less than
+//!   [`BARELY_MOVES`] % (1st to 99th percentile) is labelled [`Label::CannotJudge`] whatever
+//!   its valve: no record can show stiction the valve was never asked to cross.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use stiction_models::{He, Kano, KanoAsym, StictionModel};
+
+use super::{
+    swinging_door, Characteristic, Controller, Disturbance, Plant, PlantSpec, Scenario, Setpoint,
+    SimulatedLoop,
+};
+use crate::DataError;
+
+/// Longest dead time in samples (the stability check's polynomial grows with it).
+pub const MAX_DELAY: usize = 60;
+
+/// OP span (1st to 99th percentile, % of travel) under which a loop cannot be judged.
+pub const BARELY_MOVES: f64 = 0.5;
+
+/// The process behind a loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Family {
+    /// Fast, first order, little dead time.
+    Flow,
+    /// First or second order, seconds to minutes.
+    Pressure,
+    /// Integrating (a tank level).
+    Level,
+    /// Slow, second order, long dead time (an analyser, a temperature).
+    Composition,
+}
+
+impl Family {
+    /// Every family.
+    pub const ALL: [Family; 4] = [
+        Family::Flow,
+        Family::Pressure,
+        Family::Level,
+        Family::Composition,
+    ];
+
+    /// Lower-case name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Family::Flow => "flow",
+            Family::Pressure => "pressure",
+            Family::Level => "level",
+            Family::Composition => "composition",
+        }
+    }
+
+    /// Whether PV integrates the valve's flow.
+    pub fn integrating(self) -> bool {
+        self == Family::Level
+    }
+}
+
+/// What a loop's valve is, as a detector should answer it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Label {
+    /// The valve sticks (and OP moves enough to show it).
+    Sticky,
+    /// The valve is free.
+    Healthy,
+    /// OP barely moves: the record cannot show whether the valve sticks (expected
+    /// `inconclusive`).
+    CannotJudge,
+}
+
+/// The ranges of a population.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PopulationSpec {
+    /// Seed of the population (loop `i` is seeded from it and `i`).
+    pub seed: u64,
+    /// The plant families drawn from, in turn.
+    pub families: Vec<Family>,
+    /// Sampling time range, seconds (log-uniform; equal ends: fixed).
+    pub sample_time: [f64; 2],
+    /// Record length range, samples (log-uniform; equal ends: fixed).
+    pub samples: [usize; 2],
+}
+
+impl PopulationSpec {
+    /// The full ranges: every family, `Ts` 1-60 s, `N` 200-5000.
+    pub fn wide(seed: u64) -> PopulationSpec {
+        PopulationSpec {
+            seed,
+            families: Family::ALL.to_vec(),
+            sample_time: [1.0, 60.0],
+            samples: [200, 5000],
+        }
+    }
+
+    /// Loop `index` of the population.
+    pub fn generate(&self, index: usize) -> Result<PopulationLoop, DataError> {
+        generate(self, index)
+    }
+}
+
+/// One loop of a population.
+#[derive(Debug, Clone)]
+pub struct PopulationLoop {
+    /// Index in the population.
+    pub index: usize,
+    /// The process family.
+    pub family: Family,
+    /// Whether the process is integrating.
+    pub integrating: bool,
+    /// The label.
+    pub label: Label,
+    /// The valve's S (% of span; 0 for a free valve).
+    pub s: f64,
+    /// One line saying what the loop is.
+    pub what: String,
+    /// Seconds per sample.
+    pub sample_time: f64,
+    /// The simulation (PV and OP as logged: after compression and quantisation).
+    pub sim: SimulatedLoop,
+}
+
+fn log_uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    if hi <= lo {
+        return lo;
+    }
+    (lo.ln() + (hi.ln() - lo.ln()) * rng.random::<f64>()).exp()
+}
+
+fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.random::<f64>()
+}
+
+fn chance(rng: &mut ChaCha8Rng, p: f64) -> bool {
+    rng.random::<f64>() < p
+}
+
+/// `(1 - p q⁻¹)` products: the ZOH poles of the lags `taus` at `ts`.
+fn lag_poly(ts: f64, taus: &[f64]) -> (Vec<f64>, f64) {
+    let mut a = vec![1.0];
+    let mut gain = 1.0;
+    for &tau in taus {
+        let p = (-ts / tau).exp();
+        a = convolve(&a, &[1.0, -p]);
+        gain *= 1.0 - p;
+    }
+    (a, gain)
+}
+
+fn convolve(x: &[f64], y: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; x.len() + y.len() - 1];
+    for (i, a) in x.iter().enumerate() {
+        for (j, b) in y.iter().enumerate() {
+            out[i + j] += a * b;
+        }
+    }
+    out
+}
+
+fn percentile_span(x: &[f64]) -> f64 {
+    let mut v: Vec<f64> = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return 0.0;
+    }
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    at(0.99) - at(0.01)
+}
+
+fn quantise(x: &mut [f64], step: f64) {
+    for v in x {
+        *v = (*v / step).round() * step;
+    }
+}
+
+fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataError> {
+    if spec.families.is_empty() {
+        return Err(DataError::InvalidParameter {
+            name: "families".into(),
+            value: 0.0,
+            expected: "at least one plant family".into(),
+        });
+    }
+    let seed = spec
+        .seed
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add(index as u64);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let family = spec.families[(index / 2) % spec.families.len()];
+    let sticky = index.is_multiple_of(2);
+    let ts = log_uniform(&mut rng, spec.sample_time[0], spec.sample_time[1]);
+    let samples = log_uniform(
+        &mut rng,
+        spec.samples[0] as f64,
+        spec.samples[1] as f64 + 0.999,
+    )
+    .floor() as usize;
+    let quiet = chance(&mut rng, 1.0 / 16.0);
+
+    // Process, in continuous time (seconds), discretised at `ts`.
+    let (taus, dead, gain): (Vec<f64>, f64, f64) = match family {
+        Family::Flow => (
+            vec![uniform(&mut rng, 1.0, 15.0)],
+            uniform(&mut rng, 0.0, 3.0),
+            log_uniform(&mut rng, 0.3, 3.0),
+        ),
+        Family::Pressure => {
+            let t1 = log_uniform(&mut rng, 5.0, 120.0);
+            let taus = if chance(&mut rng, 0.5) {
+                vec![t1, t1 * uniform(&mut rng, 0.1, 0.5)]
+            } else {
+                vec![t1]
+            };
+            (
+                taus,
+                uniform(&mut rng, 0.0, 10.0),
+                log_uniform(&mut rng, 0.3, 3.0),
+            )
+        }
+        Family::Composition => {
+            let t1 = log_uniform(&mut rng, 60.0, 600.0);
+            (
+                vec![t1, t1 * uniform(&mut rng, 0.2, 1.0)],
+                uniform(&mut rng, 10.0, 120.0),
+                log_uniform(&mut rng, 0.3, 3.0),
+            )
+        }
+        Family::Level => {
+            let fill = log_uniform(&mut rng, 60.0, 1200.0);
+            let taus = if chance(&mut rng, 0.5) {
+                vec![uniform(&mut rng, 2.0, 30.0)]
+            } else {
+                Vec::new()
+            };
+            (taus, uniform(&mut rng, 0.0, 10.0), 1.0 / fill)
+        }
+    };
+    let delay = ((dead / ts).round() as usize).min(MAX_DELAY);
+    let (lags, lag_gain) = lag_poly(ts, &taus);
+    let (a, b1) = if family.integrating() {
+        // y(k) = y(k-1) + gain·Ts·u(k-1) through the lags.
+        (convolve(&lags, &[1.0, -1.0]), gain * ts * lag_gain)
+    } else {
+        (lags, gain * lag_gain)
+    };
+    let c1 = uniform(&mut rng, -0.3, 0.9);
+    let plant = Plant {
+        c: convolve(&a, &[1.0, c1]),
+        a,
+        b: vec![0.0, b1],
+        delay,
+    };
+    // Tuning: closed-loop time constant λ = factor × the process's.
+    let tau_sum: f64 = taus.iter().sum();
+    let theta = dead + ts / 2.0 + taus.iter().skip(1).sum::<f64>() / 2.0;
+    let factor = log_uniform(&mut rng, 0.3, 4.0);
+    let (mut kc, ti) = if family.integrating() {
+        let lambda = factor * (theta + tau_sum + 60.0);
+        (1.0 / (gain * (lambda + theta)), 4.0 * (lambda + theta))
+    } else {
+        let lambda = factor * (theta + 0.3 * tau_sum);
+        (
+            tau_sum.max(ts) / (gain * (lambda + theta)),
+            tau_sum.max(ts).min(4.0 * (lambda + theta)),
+        )
+    };
+    let mut ki = kc * ts / ti;
+    if quiet {
+        kc *= 0.1;
+        ki *= 0.1;
+    }
+    let mut stable = false;
+    for _ in 0..80 {
+        if plant.check_stability(kc, ki).is_ok() {
+            stable = true;
+            break;
+        }
+        kc *= 0.8;
+        ki *= 0.8;
+    }
+    if !stable {
+        return Err(DataError::InvalidParameter {
+            name: format!("population loop {index}: PI gains"),
+            value: kc,
+            expected: "a stabilising tuning".into(),
+        });
+    }
+    let tuning = if factor < 0.7 {
+        "aggressive"
+    } else if factor > 2.0 {
+        "sluggish"
+    } else {
+        "moderate"
+    };
+
+    // Noise and excitation (PV in % of span; disturbances in % of valve travel through B(1)).
+    let noise = if quiet {
+        log_uniform(&mut rng, 0.002, 0.01)
+    } else {
+        log_uniform(&mut rng, 0.02, 0.5)
+    };
+    let input_gain = b1;
+    let duration = samples as f64 * ts;
+    let mut parts = Vec::new();
+    let mut disturbances = Vec::new();
+    let mut setpoint = Setpoint::constant();
+    let r_sp = chance(&mut rng, 0.4);
+    let r_load = chance(&mut rng, 0.4);
+    let r_drift = chance(&mut rng, 0.3);
+    let r_sine = chance(&mut rng, 0.3);
+    let sp_step = log_uniform(&mut rng, 0.5, 5.0);
+    let sp_every = log_uniform(&mut rng, 20.0, 300.0);
+    let load_sigma = log_uniform(&mut rng, 0.5, 5.0);
+    let load_every_s = log_uniform(&mut rng, 0.05, 0.5) * duration;
+    let drift_total = uniform(&mut rng, -5.0, 5.0);
+    let sine_amp = log_uniform(&mut rng, 0.3, 3.0);
+    let sine_period = log_uniform(&mut rng, 10.0, (samples as f64 / 3.0).max(11.0));
+    if !quiet {
+        if r_sp {
+            setpoint = Setpoint {
+                step: 2.0 * sp_step,
+                switch_probability: 1.0 / sp_every,
+                steps: Vec::new(),
+            };
+            parts.push("set-point moves");
+        }
+        if r_load {
+            disturbances.push(Disturbance::RandomSteps {
+                probability: (ts / load_every_s).min(0.5),
+                sigma: load_sigma * input_gain,
+            });
+            parts.push("load steps");
+        }
+        if r_drift {
+            disturbances.push(Disturbance::Drift {
+                slope: drift_total / samples as f64 * input_gain,
+            });
+            parts.push("drift");
+        }
+        if r_sine {
+            disturbances.push(Disturbance::Sine {
+                amplitude: sine_amp * input_gain,
+                frequency: 2.0 * std::f64::consts::PI / sine_period,
+                phase: 0.0,
+            });
+            parts.push("external oscillation");
+        }
+    }
+    if parts.is_empty() {
+        parts.push(if quiet { "quiet" } else { "noise only" });
+    }
+
+    // Valve.
+    let kind = rng.random_range(0..4u32);
+    let stuck_long = chance(&mut rng, 1.0 / 8.0);
+    let (s, j) = if stuck_long {
+        let s = uniform(&mut rng, 10.0, 25.0);
+        (s, s * uniform(&mut rng, 0.0, 0.2))
+    } else {
+        let s = log_uniform(&mut rng, 0.5, 10.0);
+        (s, s * rng.random::<f64>())
+    };
+    let asym = uniform(&mut rng, 0.2, 1.0);
+    let rangeability = log_uniform(&mut rng, 10.0, 50.0);
+    let healthy_char = chance(&mut rng, 0.25);
+    let mut characteristic = None;
+    let (valve, valve_what): (Box<dyn StictionModel>, String) = if sticky {
+        match kind {
+            0 => (
+                Box::new(Kano::params().s(s).j(j).check()?),
+                format!("kano S={s:.1} J={j:.1}"),
+            ),
+            1 => (
+                Box::new(He::from_sj(s, j)?),
+                format!("he S={s:.1} J={j:.1}"),
+            ),
+            2 => {
+                // Direction-dependent slip: D = S - J, J_up = J, J_dn = asym·J.
+                let d = s - j;
+                (
+                    Box::new(KanoAsym::params().d(d).j_up(j).j_dn(asym * j).check()?),
+                    format!("asymmetric D={d:.1} J_up={j:.1} J_dn={:.1}", asym * j),
+                )
+            }
+            _ => {
+                characteristic = Some(Characteristic::EqualPercentage { rangeability });
+                (
+                    Box::new(Kano::params().s(s).j(j).check()?),
+                    format!("kano S={s:.1} J={j:.1} equal-percentage R={rangeability:.0}"),
+                )
+            }
+        }
+    } else {
+        if healthy_char {
+            characteristic = Some(Characteristic::EqualPercentage { rangeability });
+        }
+        (
+            Box::new(Kano::params().check()?),
+            if healthy_char {
+                format!("free, equal-percentage R={rangeability:.0}")
+            } else {
+                "free".to_string()
+            },
+        )
+    };
+
+    // Historian.
+    let compress = chance(&mut rng, 0.25).then(|| noise * uniform(&mut rng, 0.5, 3.0));
+    let quant = chance(&mut rng, 0.25).then(|| log_uniform(&mut rng, 0.01, 0.2));
+
+    let settle = (5.0 * (tau_sum + dead + 60.0) / ts).ceil() as usize;
+    let mut sim = Scenario {
+        plant: PlantSpec::Explicit(plant),
+        controller: Controller { kc, ki },
+        setpoint,
+        valve,
+        disturbances,
+        noise_sigma: noise,
+        samples,
+        warmup: settle.clamp(300, 5000),
+        seed,
+        sample_time: ts,
+        op_limits: Some([0.0, 100.0]),
+        characteristic,
+        ..Scenario::default()
+    }
+    .simulate()?;
+    let mut historian = Vec::new();
+    if let Some(dev) = compress {
+        sim.pv = swinging_door(&sim.pv, dev).0;
+        historian.push(format!("swinging door {dev:.3}"));
+    }
+    if let Some(step) = quant {
+        quantise(&mut sim.pv, step);
+        quantise(&mut sim.op, step);
+        historian.push(format!("quantised {step:.3}"));
+    }
+    let op_span = percentile_span(&sim.op);
+    let label = if op_span < BARELY_MOVES {
+        Label::CannotJudge
+    } else if sticky {
+        Label::Sticky
+    } else {
+        Label::Healthy
+    };
+    let what = format!(
+        "{} Ts={ts:.1}s N={samples} delay={delay} {tuning} | {} | {valve_what}{} | OP span {op_span:.2} %{}",
+        family.as_str(),
+        parts.join(" + "),
+        if sticky && stuck_long { " (stuck long)" } else { "" },
+        if historian.is_empty() {
+            String::new()
+        } else {
+            format!(" | {}", historian.join(", "))
+        }
+    );
+    Ok(PopulationLoop {
+        index,
+        family,
+        integrating: family.integrating(),
+        label,
+        s: if sticky { s } else { 0.0 },
+        what,
+        sample_time: ts,
+        sim,
+    })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_population_is_deterministic_and_spans_its_ranges() {
+        let spec = PopulationSpec::wide(7);
+        let loops: Vec<PopulationLoop> = (0..24).map(|i| spec.generate(i).unwrap()).collect();
+        let again = spec.generate(5).unwrap();
+        assert_eq!(again.sim.pv, loops[5].sim.pv);
+        assert_eq!(again.what, loops[5].what);
+        for l in &loops {
+            assert!((1.0..=60.0).contains(&l.sample_time), "{}", l.what);
+            assert!((200..=5000).contains(&l.sim.len()), "{}", l.what);
+            assert!(l.sim.op.iter().all(|v| (0.0..=100.0).contains(v)));
+            assert_eq!(l.integrating, l.family == Family::Level);
+        }
+        for f in Family::ALL {
+            assert!(loops.iter().any(|l| l.family == f));
+        }
+        assert!(loops.iter().any(|l| l.label == Label::Sticky));
+        assert!(loops.iter().any(|l| l.label == Label::Healthy));
+        // another seed, another population
+        let other = PopulationSpec::wide(8).generate(5).unwrap();
+        assert_ne!(other.sim.pv, loops[5].sim.pv);
+    }
+
+    #[test]
+    fn fixed_settings_are_kept_and_a_quiet_op_cannot_be_judged() {
+        let spec = PopulationSpec {
+            seed: 3,
+            families: vec![Family::Level],
+            sample_time: [60.0, 60.0],
+            samples: [400, 400],
+        };
+        for i in 0..6 {
+            let l = spec.generate(i).unwrap();
+            assert_eq!(l.sim.len(), 400);
+            assert_eq!(l.sample_time, 60.0);
+            assert!(l.integrating);
+            let span = percentile_span(&l.sim.op);
+            assert_eq!(
+                l.label == Label::CannotJudge,
+                span < BARELY_MOVES,
+                "{}",
+                l.what
+            );
+        }
+    }
+}
