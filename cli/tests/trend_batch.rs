@@ -317,6 +317,10 @@ fn trend_makes_no_maintenance_call_on_a_valve_the_detector_finds_healthy() {
             "--json",
             "--threshold",
             "0.5",
+            // a level (its tag's L): the test is about the trend's rule, so the loop kind is
+            // given rather than decided from each record
+            "--integrating",
+            "yes",
         ],
         b"",
     );
@@ -347,7 +351,17 @@ fn trend_makes_no_maintenance_call_on_a_valve_the_detector_finds_healthy() {
             && reason.contains("detector finds no stiction"),
         "{reason}"
     );
-    let text = run(&["trend", dir.to_str().unwrap(), "--threshold", "0.5"], b"");
+    let text = run(
+        &[
+            "trend",
+            dir.to_str().unwrap(),
+            "--threshold",
+            "0.5",
+            "--integrating",
+            "yes",
+        ],
+        b"",
+    );
     assert!(
         text.stdout.contains("verdict: watch: ")
             && text.stdout.contains("detector finds no stiction"),
@@ -381,7 +395,19 @@ fn plant_data_trend_and_batch() {
         assert!(!r["why"].as_array().unwrap().is_empty(), "{r}");
     }
 
-    let out = run(&["trend", d, "--valve", "2111LIC31102B", "--json"], b"");
+    // a level (its tag's L), given as such: the trend's verdict is under test, not the kind
+    let out = run(
+        &[
+            "trend",
+            d,
+            "--valve",
+            "2111LIC31102B",
+            "--json",
+            "--integrating",
+            "yes",
+        ],
+        b"",
+    );
     assert_eq!(out.code, 0, "{}", out.stderr);
     let doc: Value = serde_json::from_str(&out.stdout).unwrap();
     assert_eq!(doc["registrations"], 9);

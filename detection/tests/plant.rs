@@ -8,29 +8,12 @@
 //! breaking a tie).
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::auc;
+
 use std::path::Path;
 
 use detection::{detect, Registration, Verdict};
-
-/// ROC AUC of `score` for `sticky` (ties count one half).
-fn auc(v: &[(f64, bool)]) -> f64 {
-    let (mut pairs, mut wins) = (0.0, 0.0);
-    for &(a, pa) in v {
-        for &(b, pb) in v {
-            if pa && !pb {
-                pairs += 1.0;
-                wins += if a > b {
-                    1.0
-                } else if a == b {
-                    0.5
-                } else {
-                    0.0
-                };
-            }
-        }
-    }
-    wins / pairs
-}
 
 #[test]
 fn every_plant_registration_is_scored_and_its_figures_printed() {

@@ -5,28 +5,11 @@
 //! weights less a margin; a broken score (weights negated) fails them.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::auc;
+
 use datasets::simulate::population::{Family, Label, PopulationSpec};
 use detection::{detect, Registration, Verdict};
-
-/// ROC AUC of `score` for `sticky` (ties count one half).
-fn auc(v: &[(f64, bool)]) -> f64 {
-    let (mut pairs, mut wins) = (0.0, 0.0);
-    for &(a, pa) in v {
-        for &(b, pb) in v {
-            if pa && !pb {
-                pairs += 1.0;
-                wins += if a > b {
-                    1.0
-                } else if a == b {
-                    0.5
-                } else {
-                    0.0
-                };
-            }
-        }
-    }
-    wins / pairs
-}
 
 #[test]
 fn the_calibrated_score_holds_on_a_fresh_simulated_population() {
