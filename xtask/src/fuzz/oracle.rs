@@ -100,12 +100,16 @@ fn units_mismatch(d: &datasets::LoopData, pv: &[f64], det: &Detected) -> Option<
     let h = pv.len() as f64 + pv.first().copied().unwrap_or(0.0).abs();
     let a = 10f64.powi((h as i64 % 19) as i32 - 6);
     // An offset that keeps PV's variation representable (1e7 added to PV of spread 1e-76
-    // rounds it away: information lost, not a change of units).
-    let (lo, hi) = range(pv);
+    // rounds it away: information lost, not a change of units). The spread is the
+    // interquartile range, not the range: one cell of 1e25 among values near 100 made the
+    // offset 1e37 at a = 1e11, which rounded the other samples' variation away.
+    let mut sorted = pv.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let iqr = sorted[sorted.len() * 3 / 4] - sorted[sorted.len() / 4];
     let b = if h as i64 % 2 == 0 {
         0.0
     } else {
-        10.0 * a * (hi - lo)
+        10.0 * a * iqr
     };
     let pv2: Vec<f64> = pv.iter().map(|v| a * v + b).collect();
     let sp2: Option<Vec<f64>> = sp.map(|x| x.iter().map(|v| a * v + b).collect());
