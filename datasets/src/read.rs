@@ -129,10 +129,8 @@ pub struct ReadOptions {
 /// record is cut to its **latest** rows, the valve's present state, which is what maintenance is
 /// planned from (the trend of S over registrations), rather than decimated (which would
 /// change the sampling time the dynamics and the valve's stick-slip events are seen at) or
-/// split into segments analysed one by one (whose cost would still grow with the record).
-/// Measured on the simulated Kano S = 4, J = 1 loop (`stiction simulate --samples N`), release
-/// build, this 2-core machine: `quantify` 1.5 s at 30 000 rows and 5.9 s at 100 000 rows,
-/// `diagnose` 5.8 s at 30 000 rows: at 50 000 rows each command stays well under a minute.
+/// split into segments analysed one by one (whose cost would still grow with the record). The
+/// times behind 50 000 are in `docs/decisions/2026-11-27-long-records-and-fuzz.md`.
 pub const DEFAULT_WINDOW: usize = 50_000;
 
 impl Default for ReadOptions {

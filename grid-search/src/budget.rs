@@ -35,13 +35,9 @@ pub const DEFAULT_MAX_NODES: usize = 200_000;
 ///
 /// A node's cost grows with the record's length and, for the recursive identifiers, with the
 /// square of their orders, which the node budget alone does not see (`--linear armax --orders
-/// 50,50,50` on 3000 samples ran for minutes within it). Measured with ARMAX (release build,
-/// this 2-core machine): one unit is about 0.43 ns of CPU, so 5e10 units are about 21 s of
-/// CPU for one stage. The default plans stay far below it: Kano × ARX's coarse grid (861
-/// nodes) on the 50 000 rows of the reader's default window costs 1.7e9; ARMAX 10,10,10 on
-/// 3000 samples 2.3e9; ARMAX 50,50,50 on 3000 samples, 5.8e10, is refused. PARSIM-K keeps the
-/// default p² (484 for its default orders), which overstates its cost about 13 times: the
-/// budget refuses it early rather than late.
+/// 50,50,50` on 3000 samples ran for minutes within it). The default is about 20 s of CPU for
+/// one stage on a 2-core machine, far above the default plans (the calibration is in
+/// `docs/decisions/2026-11-27-long-records-and-fuzz.md`).
 pub const DEFAULT_MAX_WORK: f64 = 5e10;
 
 /// Check `nodes` evaluations of `identifier` on `samples` samples against `max_work`.

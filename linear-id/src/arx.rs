@@ -272,9 +272,8 @@ impl LinearIdentifier for Arx {
         self.n0() + self.n + self.m + 1
     }
     /// A grid search identifies an ARX from sums over the record ([`Arx::output_sums`]), linear
-    /// in its p = n + m parameters: measured against ARMAX's p² (one `quantify` of 1405 nodes
-    /// on 3000 samples: ARX at p = 4, 20, 60 took 0.06, 0.34, 1.22 s of CPU above the
-    /// detector's share, ARMAX at p = 30 1.65 s), about 10 p in the same units.
+    /// in its p = n + m parameters: about 10 p in the units of the default p² (measured:
+    /// `docs/decisions/2026-11-27-long-records-and-fuzz.md`).
     fn cost_per_sample(&self) -> f64 {
         10.0 * (self.n + self.m).max(1) as f64
     }

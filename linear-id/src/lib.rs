@@ -255,9 +255,8 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
     /// (`grid_search::budget`: nodes × samples × this cost must stay under it). The default is
     /// p² for p the sum of the integer orders other than `delay` (at least 1): a recursive
     /// least-squares update
-    /// and a Gram matrix both cost p² per sample. Measured with ARMAX (one `quantify` of 1405
-    /// nodes on 3000 samples, release build): p = 30, 60, 105 took 1.65, 6.0 and 19.2 s of
-    /// CPU, ratios 3.6 and 3.2 where p² gives 4.0 and 3.1.
+    /// and a Gram matrix both cost p² per sample (measured with ARMAX:
+    /// `docs/decisions/2026-11-27-long-records-and-fuzz.md`).
     fn cost_per_sample(&self) -> f64 {
         let p: usize = self
             .orders()
