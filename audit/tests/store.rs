@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use audit::{AuditError, Store, SCHEMA_VERSION};
 use datasets::simulate::Scenario;
 use monitoring::batch::BatchOptions;
-use monitoring::SearchArgs;
+use run::SearchArgs;
 use stiction_models::Kano;
 
 /// A fresh temporary directory.
@@ -221,7 +221,7 @@ fn the_schema_version_is_set_and_a_newer_or_foreign_database_is_refused() {
         ),
         "{e:?}"
     );
-    let line = monitoring::error_line(&e);
+    let line = run::error_line(&e);
     assert!(!line.contains('\n'));
     assert_eq!(
         line,
@@ -238,7 +238,7 @@ fn the_schema_version_is_set_and_a_newer_or_foreign_database_is_refused() {
     drop(c);
     let e = Store::open(&other).unwrap_err();
     assert!(
-        monitoring::error_line(&e).contains("not a stiction audit database"),
+        run::error_line(&e).contains("not a stiction audit database"),
         "{e}"
     );
     let mode: String = sqlite(&other)
@@ -253,7 +253,7 @@ fn the_schema_version_is_set_and_a_newer_or_foreign_database_is_refused() {
     .unwrap();
     let e = Store::open(&text).unwrap_err();
     assert!(
-        monitoring::error_line(&e).ends_with("not a stiction audit database (not an SQLite file)"),
+        run::error_line(&e).ends_with("not a stiction audit database (not an SQLite file)"),
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);

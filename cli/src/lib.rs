@@ -92,9 +92,9 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
 }
 
 impl Failure {
-    /// The error and its causes on one line (`monitoring::error_line`).
+    /// The error and its causes on one line (`run::error_line`).
     pub(crate) fn line(&self) -> String {
-        monitoring::error_line(self.error.as_ref())
+        run::error_line(self.error.as_ref())
     }
 }
 
@@ -208,10 +208,14 @@ where
 /// A library error that is the user's choice of options (a grid over the node budget, an
 /// option out of range): bad usage, exit 2, wherever it surfaced.
 fn is_usage_in_disguise(e: &anyhow::Error) -> bool {
-    use monitoring::MonitoringError::Search;
-    e.chain()
-        .any(|c| match c.downcast_ref::<monitoring::MonitoringError>() {
-            Some(Search(e)) => e.is_usage(),
+    use monitoring::MonitoringError::Run;
+    use run::RunError::Search;
+    e.chain().any(|c| {
+        match (
+            c.downcast_ref::<monitoring::MonitoringError>(),
+            c.downcast_ref::<run::RunError>(),
+        ) {
+            (Some(Run(Search(e))), _) | (_, Some(Search(e))) => e.is_usage(),
             _ => {
                 c.downcast_ref::<grid_search::SearchError>()
                     .is_some_and(|e| e.is_usage())
@@ -220,7 +224,8 @@ fn is_usage_in_disguise(e: &anyhow::Error) -> bool {
                         Some(datasets::DataError::OpRange { .. })
                     )
             }
-        })
+        }
+    })
 }
 
 /// A closed stdout (`stiction ... | head`) ends the run quietly, as other Unix tools do.

@@ -195,10 +195,7 @@ const WARM_GRID_BOX: f64 = 4.0;
 /// Every node of an identifier without a sums path (EARX, EARMAX: a recursion over the record)
 /// costs 5-10 times an ARX node; the full grid took 100-350 ms of a diagnosis
 /// (docs/decisions/2026-11-27-diagnose-speed.md).
-fn warm_grid(
-    ctx: &Context<'_>,
-    combination: monitoring::Combination,
-) -> Result<Extension, DiagnoseError> {
+fn warm_grid(ctx: &Context<'_>, combination: run::Combination) -> Result<Extension, DiagnoseError> {
     let started = Instant::now();
     let entry = ctx.baseline_spec.stiction;
     let linear = combination.linear;
@@ -308,7 +305,7 @@ fn warm_grid(
 /// selection already is, which is where the joint model's valve is expected.
 fn local_disturbance(
     ctx: &Context<'_>,
-    combination: monitoring::Combination,
+    combination: run::Combination,
     also_from: Option<&[f64]>,
 ) -> Result<Extension, DiagnoseError> {
     let started = Instant::now();

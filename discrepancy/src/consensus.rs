@@ -3,7 +3,7 @@
 //! registrations are the valve's, and every registration that names other causes is listed
 //! with the likelihood ratios that made it differ.
 
-pub use monitoring::{Consensus, Disagreement};
+pub use run::{Consensus, Disagreement};
 
 use crate::Diagnosis;
 

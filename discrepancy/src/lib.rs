@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use stiction_models::ModelEntry;
 
-pub use monitoring::{Combination, FitSummary, Fitted};
+pub use run::{Combination, FitSummary, Fitted};
 
 pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
 pub use characteristic::ValveCharacteristic;
@@ -66,9 +66,9 @@ pub enum DiagnoseError {
         /// The stiction model searched.
         model: String,
     },
-    /// The workflow library refused (a setting, a write, ...).
+    /// The run library refused (a setting, a write, ...).
     #[error(transparent)]
-    Monitoring(monitoring::MonitoringError),
+    Run(run::RunError),
     /// An option is out of range.
     #[error("invalid option {name} = {value}: expected {expected}")]
     InvalidOption {
@@ -98,14 +98,14 @@ pub enum DiagnoseError {
     },
 }
 
-impl From<monitoring::MonitoringError> for DiagnoseError {
-    fn from(e: monitoring::MonitoringError) -> Self {
+impl From<run::RunError> for DiagnoseError {
+    fn from(e: run::RunError) -> Self {
         match e {
-            monitoring::MonitoringError::Stiction(e) => DiagnoseError::Stiction(e),
-            monitoring::MonitoringError::Identification(e) => DiagnoseError::Identifier(e),
-            monitoring::MonitoringError::Search(e) => DiagnoseError::Search(e),
-            monitoring::MonitoringError::Setting { message, .. } => DiagnoseError::Setting(message),
-            other => DiagnoseError::Monitoring(other),
+            run::RunError::Stiction(e) => DiagnoseError::Stiction(e),
+            run::RunError::Identification(e) => DiagnoseError::Identifier(e),
+            run::RunError::Search(e) => DiagnoseError::Search(e),
+            run::RunError::Setting { message, .. } => DiagnoseError::Setting(message),
+            other => DiagnoseError::Run(other),
         }
     }
 }
@@ -119,13 +119,13 @@ pub type Baseline = Combination;
 /// time itself) and its orders in full (defaults filled in), so that an extension with another
 /// identifier inherits the orders they share. The CLI and the Python package both start here.
 pub fn baseline(
-    args: &monitoring::SearchArgs,
+    args: &run::SearchArgs,
     stiction: &str,
     linear: &str,
 ) -> Result<Baseline, DiagnoseError> {
     let delay = match args.delay {
-        monitoring::DelayArg::Samples(d) => d,
-        monitoring::DelayArg::Auto => {
+        run::DelayArg::Samples(d) => d,
+        run::DelayArg::Auto => {
             return Err(DiagnoseError::Setting(
                 "--delay auto: diagnose tests the dead time itself (cause time-delay); give the baseline's fixed dead time".into(),
             ))
@@ -139,7 +139,7 @@ pub fn baseline(
 /// The diagnosis's options for a record whose OP spans `span`, with the causes `without` left
 /// out.
 pub fn options_for(
-    args: &monitoring::SearchArgs,
+    args: &run::SearchArgs,
     span: f64,
     without: &[String],
 ) -> Result<DiagnoseOptions, DiagnoseError> {

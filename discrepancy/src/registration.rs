@@ -1,71 +1,23 @@
-//! The diagnosis of one registration of a valve's trend, in one sentence
-//! ([`monitoring::registration::Diagnoser`]): what the model misses in that record and what the
-//! extension changes. `stiction trend` asks it for each registration, for the weak and outlying
-//! ones' evidence and for the causes the valve's registrations agree on ([`consensus`]).
+//! The diagnosis of one registration of a valve's trend, in one sentence: what the model
+//! misses in that record and what the extension changes. `monitoring::trend` asks it, with the
+//! data it has read, for each registration, for the weak and outlying ones' evidence and for
+//! the causes the valve's registrations agree on ([`consensus`]).
 
-use datasets::ReadOptions;
+use datasets::LoopData;
 use grid_search::Problem;
-use monitoring::registration::{increments, Diagnoser, Registration};
-use monitoring::{span_of, Combination, Delay};
+use run::{span_of, Combination, Delay};
 
 use rayon::prelude::*;
 
 use crate::{consensus, diagnose, Consensus, DiagnoseOptions, Diagnosis};
 
-/// Diagnoses a registration with one combination as baseline: its orders in full (defaults
-/// filled in), dead time 0, its grid and search options (`discrepancy::diagnose`, as
-/// `stiction diagnose`).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct RegistrationDiagnosis;
-
-impl Diagnoser for RegistrationDiagnosis {
-    fn diagnose(
-        &self,
-        reg: &Registration,
-        combination: &Combination,
-        read: &ReadOptions,
-    ) -> Result<String, String> {
-        diagnosis(reg, combination, read).map(|d| sentence(&d))
-    }
-
-    fn diagnose_all(
-        &self,
-        registrations: &[&Registration],
-        labels: &[String],
-        combination: &Combination,
-        read: &ReadOptions,
-    ) -> (Vec<Result<String, String>>, Consensus) {
-        let found: Vec<Result<Diagnosis, String>> = registrations
-            .par_iter()
-            .map(|reg| diagnosis(reg, combination, read))
-            .collect();
-        let diagnosed: Vec<(&str, &Diagnosis)> = labels
-            .iter()
-            .zip(&found)
-            .filter_map(|(label, d)| d.as_ref().ok().map(|d| (label.as_str(), d)))
-            .collect();
-        let agreed = consensus(&diagnosed);
-        let sentences = found
-            .iter()
-            .map(|d| d.as_ref().map(sentence).map_err(Clone::clone))
-            .collect();
-        (sentences, agreed)
-    }
-}
-
-/// The diagnosis of `reg` with `combination` as baseline (see [`RegistrationDiagnosis`]).
-fn diagnosis(
-    reg: &Registration,
-    combination: &Combination,
-    read: &ReadOptions,
-) -> Result<Diagnosis, String> {
-    let d = datasets::read_path(&reg.path, read).map_err(|e| e.to_string())?;
-    let d = if reg.integrating { increments(&d) } else { d };
+/// The diagnosis of the record `d` (as searched: the increments of an integrating loop) with
+/// `combination` as baseline: its orders in full (defaults filled in), dead time 0, its grid
+/// and search options ([`diagnose`], as `stiction diagnose`); or why it failed, in words.
+pub fn diagnosis(d: &LoopData, combination: &Combination) -> Result<Diagnosis, String> {
     let pv = d.require_pv().map_err(|e| e.to_string())?;
     let span = span_of(&d.op);
-    let identifier = combination
-        .identifier(0)
-        .map_err(|e| monitoring::error_line(&e))?;
+    let identifier = combination.identifier(0).map_err(|e| run::error_line(&e))?;
     let baseline = Combination {
         orders: crate::orders_without_delay(identifier.as_ref()),
         delay: Delay::Fixed(0),
@@ -81,6 +33,37 @@ fn diagnosis(
         mv: d.mv.as_deref(),
     };
     diagnose(problem, &baseline, &options).map_err(|e| e.to_string())
+}
+
+/// The diagnosis of the record `d` with `combination` as baseline ([`diagnosis`]) in one
+/// sentence, or why it failed.
+pub fn diagnose_one(d: &LoopData, combination: &Combination) -> Result<String, String> {
+    diagnosis(d, combination).map(|dg| sentence(&dg))
+}
+
+/// Diagnose each of `records` once with `combination` as baseline (in parallel): each one's
+/// sentence (or why its diagnosis failed), in order, and what the diagnosed ones agree on,
+/// each labelled by `labels` (same order).
+pub fn diagnose_all(
+    records: &[&LoopData],
+    labels: &[String],
+    combination: &Combination,
+) -> (Vec<Result<String, String>>, Consensus) {
+    let found: Vec<Result<Diagnosis, String>> = records
+        .par_iter()
+        .map(|d| diagnosis(d, combination))
+        .collect();
+    let diagnosed: Vec<(&str, &Diagnosis)> = labels
+        .iter()
+        .zip(&found)
+        .filter_map(|(label, d)| d.as_ref().ok().map(|d| (label.as_str(), d)))
+        .collect();
+    let agreed = consensus(&diagnosed);
+    let sentences = found
+        .iter()
+        .map(|d| d.as_ref().map(sentence).map_err(Clone::clone))
+        .collect();
+    (sentences, agreed)
 }
 
 /// The diagnosis in one sentence.

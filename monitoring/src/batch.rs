@@ -44,13 +44,11 @@ use datasets::{format_epoch, ReadOptions};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::record::null_as_nan;
 use crate::registration::{
     evaluate, unread, FitEvidence, Integrating, Plan, Registration, RegistrationError,
 };
-use crate::{
-    on_grid, roc, Combination, MonitoringError, QuantifyRecord, Roc, Settings, TimeSource,
-};
+use crate::{roc, MonitoringError, Roc, TimeSource};
+use run::{null_as_nan, on_grid, Combination, QuantifyRecord, Settings};
 
 /// Default minimum validation F_PV (%) below which the evidence says "poor fit".
 pub const DEFAULT_MIN_FIT: f64 = grid_search::trust::WEAK_FIT;
@@ -441,6 +439,7 @@ fn run_planned(path: &Path, opts: &BatchOptions, combinations: &[Combination]) -
         read: &opts.read,
         integrating: opts.integrating,
         explainer: &explainer,
+        keep_data: false,
     };
     rows_of(&evaluate(path, &plan), &opts.fingerprint())
 }

@@ -13,7 +13,7 @@ use detection::{Detection, DetectionError, Verdict};
 use serde::Serialize;
 
 use crate::registration::{file_name, Integrating, KindDecision};
-use crate::stats::median;
+use run::sample_time;
 
 /// Why the detector could not run on a record.
 #[derive(Debug, thiserror::Error)]
@@ -90,17 +90,6 @@ pub struct DetectionRecord {
     pub score: Option<f64>,
     /// Why, in one sentence.
     pub reason: String,
-}
-
-/// Seconds per sample of a record: the median step of its time column, else 1 s.
-pub fn sample_time(d: &LoopData) -> f64 {
-    d.t.as_ref()
-        .map(|t| {
-            let dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-            median(&dts)
-        })
-        .filter(|v| v.is_finite() && *v > 0.0)
-        .unwrap_or(1.0)
 }
 
 /// Run every detection test on the record `d` (PV, OP, SP when there is one, the sampling

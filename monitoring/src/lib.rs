@@ -1,46 +1,30 @@
-//! A control loop's analysis as typed values, in one place: the stiction × linear
-//! [`Combination`] and its [`Fitted`] result with its serialisable [`QuantifyRecord`]; the
-//! [`Settings`] a run shares between its combinations; registrations read and searched with
-//! the evidence behind a doubtful estimate ([`registration`]); the batch over many loops, its
+//! The workflow over files, as typed values: registrations read, searched with every
+//! combination of the `run` crate and given the evidence behind a doubtful estimate
+//! ([`registration`]); the batch over many loops, its
 //! rows and labels ([`batch`]); the trend of a valve over repeated registrations with its
 //! maintenance verdict ([`trend`](mod@trend)); the detection crate's verdict on each record read
 //! ([`detect`]); ROC and robust statistics ([`stats`]).
 //!
-//! The CLI parses arguments, calls this crate and prints; `discrepancy` extends the
-//! combinations it runs; `xtask reproduce` runs the paper's study through them. This crate
-//! never prints; its only IO is reading registrations and labels and writing a batch's rows.
+//! The trend diagnoses its registrations with `discrepancy` on the data it has read. The CLI
+//! parses arguments, calls this crate and prints. This crate never prints; its only IO is
+//! reading registrations and labels and writing a batch's rows.
 
 pub mod batch;
-mod combination;
-mod consensus;
 pub mod detect;
-pub mod identify;
-mod record;
 pub mod registration;
-mod settings;
 pub mod stats;
 pub mod trend;
 
 use std::path::PathBuf;
 
-pub use combination::{
-    build_identifier, paper_example, problem, span_of, Combination, Delay, FitSummary, Fitted,
-    MAX_AUTO_DELAY,
-};
-pub use consensus::{Consensus, Disagreement};
 pub use detect::{
-    detect_decided, detect_document, detect_file, detect_loop, sample_time, DetectError, Detected,
+    detect_decided, detect_document, detect_file, detect_loop, DetectError, Detected,
     DetectionRecord,
-};
-pub use record::{
-    models_record, on_grid, CompareError, CompareRecord, DelayScore, GridRecord, IntervalRecord,
-    OtherFit, QuantifyRecord,
 };
 pub use registration::{
     Evidence, ExplainFit, FitEvidence, Integrating, KindDecision, KindSource, Registration,
     RegistrationError, TimeSource,
 };
-pub use settings::{identifier_for, parse_orders, DelayArg, Orders, SearchArgs, Settings};
 pub use stats::{median, roc, theil_sen, Roc};
 pub use trend::{maintenance, trend, with_detection, Flag, Maintenance, Point, Trend};
 
@@ -48,26 +32,12 @@ pub use trend::{maintenance, trend, with_detection, Flag, Maintenance, Point, Tr
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MonitoringError {
-    /// A stiction model name or parameter was rejected.
+    /// A combination's run failed, or its settings were refused.
     #[error(transparent)]
-    Stiction(#[from] stiction_models::StictionError),
-    /// An identifier name or order was rejected, or the identification failed.
-    #[error(transparent)]
-    Identification(#[from] linear_id::IdError),
-    /// The search failed.
-    #[error(transparent)]
-    Search(#[from] grid_search::SearchError),
+    Run(#[from] run::RunError),
     /// The data were refused.
     #[error(transparent)]
     Data(#[from] datasets::DataError),
-    /// More positional orders than the identifier has.
-    #[error("{identifier} takes at most {} positional orders ({})", .positional.len(), .positional.join(", "))]
-    TooManyOrders {
-        /// The identifier.
-        identifier: &'static str,
-        /// Its orders without the dead time.
-        positional: Vec<&'static str>,
-    },
     /// A file or directory that is not there.
     #[error("{}: no such file or directory", .0.display())]
     NoSuchPath(PathBuf),
@@ -85,22 +55,6 @@ pub enum MonitoringError {
         /// The JSONL output.
         path: PathBuf,
     },
-    /// A file could not be created.
-    #[error("cannot create {}", .path.display())]
-    Create {
-        /// The file.
-        path: PathBuf,
-        /// What failed.
-        source: std::io::Error,
-    },
-    /// A file could not be written to the end.
-    #[error("cannot write {}", .path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// What failed.
-        source: std::io::Error,
-    },
     /// A CSV file could not be read or written.
     #[error("{}: {source}", .path.display())]
     Csv {
@@ -116,15 +70,6 @@ pub enum MonitoringError {
         path: PathBuf,
         /// The column.
         column: &'static str,
-    },
-    /// A search setting that cannot work (the message is the whole sentence, naming the CLI's
-    /// flag).
-    #[error("{message}")]
-    Setting {
-        /// The CLI flag, e.g. `--orders`.
-        flag: &'static str,
-        /// The sentence.
-        message: String,
     },
     /// A trend was asked for a valve with no registration among the files.
     #[error("no registration of valve {valve} (found: {})", .found.join(", "))]
@@ -153,22 +98,4 @@ pub enum MonitoringError {
         /// The value.
         value: String,
     },
-}
-
-/// An error and its causes on one line, joined with `": "`, leaving out a cause whose text the
-/// line already says.
-pub fn error_line(e: &(dyn std::error::Error + 'static)) -> String {
-    let mut msg = String::new();
-    let mut next = Some(e);
-    while let Some(cause) = next {
-        let text = cause.to_string().replace('\n', " ");
-        if !(text.is_empty() || msg.contains(&text)) {
-            if !msg.is_empty() {
-                msg.push_str(": ");
-            }
-            msg.push_str(&text);
-        }
-        next = cause.source();
-    }
-    msg
 }

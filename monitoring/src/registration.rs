@@ -21,7 +21,8 @@ use grid_search::{Problem, Quantification};
 use serde::{Deserialize, Serialize};
 
 use crate::detect::{detect_decided, Detected};
-use crate::{error_line, Combination, MonitoringError, QuantifyRecord};
+use crate::MonitoringError;
+use run::{error_line, Combination, QuantifyRecord};
 
 /// File extensions read from a directory.
 pub const EXTENSIONS: [&str; 4] = ["csv", "tsv", "txt", "mat"];
@@ -340,7 +341,7 @@ pub enum RegistrationError {
         /// The loop's source (its path).
         file: String,
         /// What failed.
-        error: MonitoringError,
+        error: run::RunError,
     },
     /// The options are invalid (an unknown model, a bad order): nothing was run.
     #[error("{}", error_line(.0))]
@@ -374,7 +375,7 @@ pub enum Evidence {
     /// The reader made up or left out samples, cut a closed-loop segment or saw flat
     /// stretches.
     Data(Note),
-    /// The diagnosis of the registration, in one sentence (see [`Diagnoser`]).
+    /// The diagnosis of the registration, in one sentence (`discrepancy::registration`).
     Diagnosis(String),
 }
 
@@ -430,7 +431,7 @@ pub struct ComboFit {
     pub j_range: [f64; 2],
     /// The grid's finest step (numbers in rows are rounded to its resolution, [`on_grid`]).
     ///
-    /// [`on_grid`]: crate::on_grid
+    /// [`on_grid`]: run::on_grid
     pub step: f64,
     /// Validation F_PV of the ranking criterion, %.
     pub fit_val: f64,
@@ -472,6 +473,9 @@ pub struct Registration {
     /// the sampling time and [`Registration::integrating`]); `None` when the file could not be
     /// read.
     pub detection: Option<Detected>,
+    /// The record as searched (the increments of an integrating loop), kept when the plan
+    /// asks for it ([`Plan::keep_data`]) and the file could be read.
+    pub data: Option<LoopData>,
 }
 
 impl Registration {
@@ -505,6 +509,9 @@ pub struct Plan<'a> {
     pub integrating: Integrating,
     /// The evidence for each fit.
     pub explainer: &'a (dyn ExplainFit + Sync),
+    /// Keep the record as searched in [`Registration::data`] (for a diagnosis after the
+    /// search).
+    pub keep_data: bool,
 }
 
 /// Read and search one registration with every combination of `plan`, and run the detection
@@ -547,6 +554,7 @@ pub(crate) fn unread(path: &Path, integrating: Integrating) -> Registration {
         notes: Vec::new(),
         outcome: Ok(Vec::new()),
         detection: None,
+        data: None,
     }
 }
 
@@ -590,6 +598,9 @@ fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
         })
         .collect();
     reg.outcome = Ok(combos);
+    if plan.keep_data {
+        reg.data = Some(used);
+    }
     reg
 }
 
@@ -733,31 +744,6 @@ impl ExplainFit for FitEvidence {
         }
         why
     }
-}
-
-/// The diagnosis of one registration with one combination as baseline, in one sentence (what
-/// the model misses in that record and what the extension changes), and what a valve's
-/// registrations agree on. The trend asks it for its doubtful registrations and for the causes
-/// of the valve; `discrepancy` implements it (this crate cannot depend on it).
-pub trait Diagnoser {
-    /// The sentence, or why the diagnosis failed.
-    fn diagnose(
-        &self,
-        registration: &Registration,
-        combination: &Combination,
-        read: &ReadOptions,
-    ) -> Result<String, String>;
-
-    /// Diagnose each of `registrations` once with `combination` as baseline: each one's
-    /// sentence (or why its diagnosis failed), in order, and what the diagnosed ones agree on,
-    /// each labelled by `labels` (same order).
-    fn diagnose_all(
-        &self,
-        registrations: &[&Registration],
-        labels: &[String],
-        combination: &Combination,
-        read: &ReadOptions,
-    ) -> (Vec<Result<String, String>>, crate::Consensus);
 }
 
 /// Share of the variance of `r` carried by its moving average over `len/10` samples.

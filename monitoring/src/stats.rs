@@ -1,19 +1,6 @@
 //! Small robust statistics the workflow needs: median, Theil-Sen slope, ROC.
 
-/// Median of a slice (`NaN` when empty).
-pub fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
-}
+pub use run::median;
 
 /// Theil–Sen slope of `(x, y)`: the median of pairwise slopes (distinct x).
 pub fn theil_sen(points: &[(f64, f64)]) -> Option<f64> {

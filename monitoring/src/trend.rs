@@ -6,18 +6,20 @@ use std::fmt;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use datasets::format_epoch;
+use datasets::{format_epoch, LoopData};
+use discrepancy::registration::{diagnose_all, diagnose_one};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::batch::BatchOptions;
 use crate::detect::DetectionRecord;
 use crate::registration::{
-    evaluate, file_name, Diagnoser, Evidence, FitEvidence, Plan, Registration, TimeSource,
+    evaluate, file_name, Evidence, FitEvidence, Plan, Registration, TimeSource,
 };
 use crate::stats::{median, theil_sen};
-use crate::{MonitoringError, QuantifyRecord};
+use crate::MonitoringError;
 use detection::Verdict;
+use run::QuantifyRecord;
 
 /// How one registration counts in a trend.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -320,7 +322,7 @@ pub struct ValveTrend {
     pub reason: String,
     /// What the registrations' diagnoses agree on, with the first combination as baseline
     /// (`None` without a diagnoser).
-    pub causes: Option<crate::Consensus>,
+    pub causes: Option<run::Consensus>,
 }
 
 /// The registration files of `files` grouped by valve (file-name prefix before `_`).
@@ -362,13 +364,15 @@ pub fn select(
 
 /// Follow `valve` over its registration `files`: search each one with every combination (in
 /// parallel), order them in time, flag weak and outlying registrations, and give the verdict.
-/// With a `diagnoser`, each weak or outlying registration's evidence starts with its
-/// diagnosis. `progress` receives `(registrations done, registrations)`.
+/// With `diagnose`, each weak or outlying registration's evidence starts with its diagnosis
+/// (`discrepancy::registration`, on the record as searched), and the diagnoses of every
+/// fitted registration give the causes they agree on. `progress` receives
+/// `(registrations done, registrations)`.
 pub fn follow(
     valve: &str,
     files: &[PathBuf],
     options: &TrendOptions,
-    diagnoser: Option<&(dyn Diagnoser + Sync)>,
+    diagnose: bool,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<ValveTrend, MonitoringError> {
     let run = &options.run;
@@ -381,6 +385,7 @@ pub fn follow(
         read: &run.read,
         integrating: run.integrating,
         explainer: &explainer,
+        keep_data: diagnose,
     };
     let done = AtomicUsize::new(0);
     let mut regs: Vec<Registration> = files
@@ -419,12 +424,14 @@ pub fn follow(
         })
         .collect();
     let mut causes = None;
-    if let Some(diagnoser) = diagnoser {
+    if diagnose {
         // Every registration with a fit of the first combination is diagnosed once: its
         // sentence serves that combination's doubtful registrations, and the diagnoses give
         // the causes the valve's registrations agree on.
         let fitted: Vec<usize> = (0..regs.len())
-            .filter(|&k| !combinations.is_empty() && regs[k].fit(0).is_some())
+            .filter(|&k| {
+                !combinations.is_empty() && regs[k].fit(0).is_some() && regs[k].data.is_some()
+            })
             .collect();
         let mut first: Vec<Option<String>> = vec![None; regs.len()];
         if !fitted.is_empty() {
@@ -433,8 +440,8 @@ pub fn follow(
                 .iter()
                 .map(|r| r.start.map(format_epoch).unwrap_or_else(|| r.file.clone()))
                 .collect();
-            let (sentences, consensus) =
-                diagnoser.diagnose_all(&refs, &labels, &combinations[0], &run.read);
+            let records: Vec<&LoopData> = refs.iter().filter_map(|r| r.data.as_ref()).collect();
+            let (sentences, consensus) = diagnose_all(&records, &labels, &combinations[0]);
             for (&k, sentence) in fitted.iter().zip(sentences) {
                 first[k] = Some(sentence.unwrap_or_else(|e| format!("diagnosis failed: {e}")));
             }
@@ -458,8 +465,12 @@ pub fn follow(
             .map(|&(k, c)| {
                 let why = match (c, &first[k]) {
                     (0, Some(sentence)) => sentence.clone(),
-                    _ => diagnoser
-                        .diagnose(&regs[k], &combinations[c], &run.read)
+                    _ => regs[k]
+                        .data
+                        .as_ref()
+                        .map_or(Err("the record was not kept".to_string()), |d| {
+                            diagnose_one(d, &combinations[c])
+                        })
                         .unwrap_or_else(|e| format!("diagnosis failed: {e}")),
                 };
                 ((k, c), why)
@@ -471,6 +482,9 @@ pub fn follow(
                     f.evidence.insert(0, Evidence::Diagnosis(why));
                 }
             }
+        }
+        for r in &mut regs {
+            r.data = None;
         }
     }
     let mean_of = |f: &dyn Fn(&Trend) -> Option<f64>| {
@@ -605,7 +619,7 @@ pub struct TrendRecord {
     pub combinations: Vec<CombinationRecord>,
     /// What the registrations' diagnoses agree on (first combination as baseline; `null`
     /// without diagnoses).
-    pub causes: Option<crate::Consensus>,
+    pub causes: Option<run::Consensus>,
 }
 
 impl ValveTrend {
@@ -644,7 +658,7 @@ impl ValveTrend {
                     .zip(&t.trend.flags)
                     .map(|(r, flag)| {
                         let fit = r.fit(c);
-                        let g = |x: f64| fit.map_or(x, |f| crate::on_grid(x, f.step));
+                        let g = |x: f64| fit.map_or(x, |f| run::on_grid(x, f.step));
                         RegistrationRecord {
                             file: r.file.clone(),
                             time: r.start.map(format_epoch),

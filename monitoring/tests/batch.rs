@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use datasets::simulate::Scenario;
 use grid_search::GridPlan;
 use monitoring::batch::{self, BatchOptions, Label, Labels, Row, Status};
-use monitoring::Settings;
+use run::Settings;
 use stiction_models::Kano;
 
 fn temp_dir(name: &str) -> PathBuf {

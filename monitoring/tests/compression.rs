@@ -3,7 +3,7 @@
 
 use datasets::simulate::Scenario;
 use grid_search::{Doubt, Problem};
-use monitoring::Settings;
+use run::Settings;
 use stiction_models::Kano;
 
 fn search(compression: Option<f64>) -> (f64, Vec<Doubt>, bool) {

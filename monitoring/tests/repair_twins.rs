@@ -7,7 +7,7 @@
 #![allow(clippy::unwrap_used)]
 
 use datasets::simulate::{Scenario, SimulatedLoop};
-use monitoring::Combination;
+use run::Combination;
 
 /// The twin population: two plants, a range of tunings and valves, several seeds.
 fn population() -> Vec<(String, Scenario)> {
@@ -69,7 +69,7 @@ fn predicted_and_true(sc: &Scenario) -> Result<(f64, f64), String> {
     d.mv = None; // the valve position is not logged
     let fitted = Combination::paper()
         .unwrap()
-        .run(monitoring::problem(&d).unwrap(), None)
+        .run(run::problem(&d).unwrap(), None)
         .map_err(|e| e.to_string())?;
     let r = fitted.repair(&d, false).map_err(|e| e.to_string())?;
     let from = d.len() - r.samples;
@@ -116,7 +116,7 @@ fn a_healthy_loop_gets_no_reduction() {
         d.mv = None;
         let fitted = Combination::paper()
             .unwrap()
-            .run(monitoring::problem(&d).unwrap(), None)
+            .run(run::problem(&d).unwrap(), None)
             .unwrap();
         match fitted.repair(&d, false) {
             Ok(r) => {
@@ -173,7 +173,7 @@ fn an_integrating_loop_is_replayed_on_its_increments() {
         let used = monitoring::registration::increments(&d);
         let fitted = Combination::paper()
             .unwrap()
-            .run(monitoring::problem(&used).unwrap(), None)
+            .run(run::problem(&used).unwrap(), None)
             .unwrap();
         total += 1;
         match fitted.repair(&d, true) {

@@ -31,5 +31,5 @@ pub(crate) fn audit_append(
         let mut store = ::audit::Store::open(&db)?;
         store.append(&rows, &hash)
     })
-    .map_err(|e| data_err(monitoring::error_line(&e)))
+    .map_err(|e| data_err(run::error_line(&e)))
 }

@@ -11,7 +11,7 @@ use monitoring::MonitoringError;
 use super::{data_err, interruptible, names, read_args, search_settings, usage_err};
 
 /// The batch options of a settings JSON (`stiction`, `linear`, `integrating`, `min_fit` and
-/// the [`monitoring::SearchArgs`]) and the reader's options, as the JSON a worker gets
+/// the [`run::SearchArgs`]) and the reader's options, as the JSON a worker gets
 /// (`monitoring::batch::BatchOptions`); what cannot work is a [`UsageError`] here.
 #[pyfunction]
 #[pyo3(signature = (settings_json, reader = None))]
@@ -206,15 +206,8 @@ pub(crate) fn trend(
             MonitoringError::SeveralValves(_) => usage_err(e.to_string()),
             other => data_err(other.to_string()),
         })?;
-        let diagnoser = discrepancy::registration::RegistrationDiagnosis;
-        let vt = monitoring::trend::follow(
-            &valve,
-            &files,
-            &options,
-            diagnose.then_some(&diagnoser as _),
-            None,
-        )
-        .map_err(usage_err)?;
+        let vt = monitoring::trend::follow(&valve, &files, &options, diagnose, None)
+            .map_err(usage_err)?;
         serde_json::to_string(&vt.record()).map_err(data_err)
     })
 }

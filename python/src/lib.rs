@@ -23,7 +23,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use datasets::{LoopData, OpRange, ReadOptions};
-use monitoring::{MonitoringError, SearchArgs, Settings};
+use run::RunError;
+use run::{SearchArgs, Settings};
 use stiction_models::{find_model, run_valve, Initialization};
 
 create_exception!(
@@ -309,10 +310,10 @@ fn search_settings(
 }
 
 /// A failed search: bad usage (node budget, invalid option) or refused data, with the source.
-fn search_err(source: &str, e: MonitoringError) -> PyErr {
+fn search_err(source: &str, e: RunError) -> PyErr {
     match &e {
-        MonitoringError::Search(s) if s.is_usage() => usage_err(format!("{source}: {e}")),
-        MonitoringError::Setting { .. } => usage_err(format!("{source}: {e}")),
+        RunError::Search(s) if s.is_usage() => usage_err(format!("{source}: {e}")),
+        RunError::Setting { .. } => usage_err(format!("{source}: {e}")),
         _ => data_err(format!("{source}: {e}")),
     }
 }
@@ -323,12 +324,12 @@ fn quantify_record(
     stiction: &str,
     linear: &str,
     req: &Request,
-) -> Result<monitoring::QuantifyRecord, PyErr> {
+) -> Result<run::QuantifyRecord, PyErr> {
     let combination = req
         .settings
         .combination(stiction, linear)
         .map_err(|e| search_err(&d.source, e))?;
-    let problem = monitoring::problem(d).map_err(data_err)?;
+    let problem = run::problem(d).map_err(data_err)?;
     let fitted = combination
         .run(problem, None)
         .map_err(|e| search_err(&d.source, e))?;
@@ -353,8 +354,8 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
     let usage_of = |e: DiagnoseError| usage_err(e.to_string());
     let baseline =
         discrepancy::baseline(&req.args, &req.stiction[0], &req.linear[0]).map_err(usage_of)?;
-    let problem = monitoring::problem(d).map_err(data_err)?;
-    let span = monitoring::span_of(&d.op);
+    let problem = run::problem(d).map_err(data_err)?;
+    let span = run::span_of(&d.op);
     let options = discrepancy::options_for(&req.args, span, &req.without).map_err(usage_of)?;
     let dg = discrepancy::diagnose(problem, &baseline, &options).map_err(|e| match e {
         e @ DiagnoseError::UnknownCause { .. } => usage_err(e.to_string()),
@@ -381,17 +382,16 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
 /// the record has it, else from OP, to PV.
 fn identify_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
     let delay = match req.args.delay {
-        monitoring::DelayArg::Samples(n) => n,
-        monitoring::DelayArg::Auto => {
+        run::DelayArg::Samples(n) => n,
+        run::DelayArg::Auto => {
             return Err(usage_err("identify: delay must be a number of samples"))
         }
     };
     let orders = req.args.orders.as_deref().unwrap_or("");
-    let (identifier, _) =
-        monitoring::identifier_for(&req.linear[0], orders, delay).map_err(usage_err)?;
-    let input = monitoring::identify::input_of(d, None);
+    let (identifier, _) = run::identifier_for(&req.linear[0], orders, delay).map_err(usage_err)?;
+    let input = run::identify::input_of(d, None);
     let y = d.require_pv().map_err(data_err)?;
-    let id = monitoring::identify::identify(
+    let id = run::identify::identify(
         identifier.as_ref(),
         &d.source,
         input,
@@ -422,7 +422,7 @@ fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
             }
         }
         "compare" => {
-            let mut doc = monitoring::CompareRecord::new(&d.source);
+            let mut doc = run::CompareRecord::new(&d.source);
             for st in &req.stiction {
                 for li in &req.linear {
                     let r = quantify_record(d, st, li, req)

@@ -10,7 +10,8 @@ use datasets::LoopData;
 use detection::Detection;
 use discrepancy::Diagnosis;
 use grid_search::{Criterion, Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
-use monitoring::{Detected, Fitted};
+use monitoring::Detected;
+use run::Fitted;
 use stiction_models::ModelEntry;
 
 use crate::figures::{self, Figure, LoopSignals};
@@ -670,7 +671,7 @@ pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, Report
 /// registration the tests judged ([`monitoring::detect::registration`]).
 pub fn detection_blocks(d: &LoopData, det: &Detection) -> Result<Vec<Block>, ReportError> {
     let mut blocks = Vec::new();
-    let ts = monitoring::sample_time(d);
+    let ts = run::sample_time(d);
     blocks.push(Block::Paragraph(format!(
         "The loop: {}; {} loop; {} samples every {ts} s.",
         match det.period_s {

@@ -10,9 +10,10 @@ use discrepancy::Diagnosis;
 use grid_search::Criterion;
 use linear_id::Structure;
 use monitoring::batch::{self, BatchRun, OkRow, Row};
-use monitoring::identify::Identification;
 use monitoring::trend::ValveTrend;
-use monitoring::{Detected, Evidence, Fitted, Flag, Roc, Trend};
+use monitoring::{Detected, Evidence, Flag, Roc, Trend};
+use run::identify::Identification;
+use run::Fitted;
 
 use crate::pages::{self, opt2};
 
@@ -417,7 +418,7 @@ pub fn baseline_of(vt: &ValveTrend) -> String {
 
 /// What a valve's diagnosed registrations agree on: the first line says which causes hold on
 /// most registrations (or that none does), one more line per registration that disagrees.
-pub fn causes_lines(c: &monitoring::Consensus, baseline: &str) -> Vec<String> {
+pub fn causes_lines(c: &run::Consensus, baseline: &str) -> Vec<String> {
     let n = c.registrations;
     let head = if c.causes.is_empty() {
         let none = n - c.disagreeing.len();
@@ -507,7 +508,7 @@ pub fn score_and_tests(det: &Detection) -> String {
 pub fn detect(d: &LoopData, det: &Detection) -> Result<String, fmt::Error> {
     let mut text = String::new();
     let out = &mut text;
-    let (source, ts) = (&d.source, monitoring::sample_time(d));
+    let (source, ts) = (&d.source, run::sample_time(d));
     writeln!(
         out,
         "{source}: {} ({}): {}",

@@ -236,13 +236,13 @@ fn run_job(job: &Job) -> Result<Outcome> {
     };
     let sim = scenario.simulate()?;
     // The paper's combination: Kano × the job's identifier, default grid for the span.
-    let combination = monitoring::Combination {
+    let combination = run::Combination {
         orders: job.orders.clone(),
         search: SearchOptions {
             criterion: job.criterion,
             ..SearchOptions::default()
         },
-        ..monitoring::Combination::named("kano", &job.model)?
+        ..run::Combination::named("kano", &job.model)?
     };
     let q = combination
         .run(

@@ -16,11 +16,12 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The library crates the rules apply to.
-pub const LIBRARIES: [&str; 10] = [
+pub const LIBRARIES: [&str; 11] = [
     "stiction-models",
     "linear-id",
     "grid-search",
     "datasets",
+    "run",
     "monitoring",
     "detection",
     "discrepancy",

@@ -90,7 +90,7 @@ fn write_fleet(
     dir: &Path,
     db: &Path,
     opts: &BatchOptions,
-    diagnose: Option<&monitoring::SearchArgs>,
+    diagnose: Option<&run::SearchArgs>,
     s: &mut Streams<'_>,
 ) -> CmdResult {
     let started = Instant::now();
@@ -197,7 +197,7 @@ fn latest_page(
     valve: &str,
     latest: &RegistrationSummary,
     opts: &BatchOptions,
-    diagnose: Option<&monitoring::SearchArgs>,
+    diagnose: Option<&run::SearchArgs>,
 ) -> Result<LatestPage, String> {
     if !latest.ok {
         return Err(latest.error.clone().unwrap_or_else(|| "no estimate".into()));
@@ -211,13 +211,13 @@ fn latest_page(
     } else {
         d.clone()
     };
-    let problem = monitoring::problem(&used).map_err(|e| e.to_string())?;
+    let problem = run::problem(&used).map_err(|e| e.to_string())?;
     let det = monitoring::detect_decided(&d, kind);
     let (st, li) = (&latest.stiction_model, &latest.linear_model);
     let (page, causes) = match diagnose {
         Some(search) => {
             let baseline = discrepancy::baseline(search, st, li).map_err(|e| e.to_string())?;
-            let span = monitoring::span_of(&used.op);
+            let span = run::span_of(&used.op);
             let options = discrepancy::options_for(search, span, &[]).map_err(|e| e.to_string())?;
             let dg =
                 discrepancy::diagnose(problem, &baseline, &options).map_err(|e| e.to_string())?;

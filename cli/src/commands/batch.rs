@@ -66,7 +66,7 @@ pub(crate) struct RunFlags {
 
 impl RunFlags {
     /// The search flags as the library's arguments (what `diagnose` takes).
-    pub(crate) fn search_args(&self) -> monitoring::SearchArgs {
+    pub(crate) fn search_args(&self) -> run::SearchArgs {
         self.search.args()
     }
 

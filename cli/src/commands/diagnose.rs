@@ -41,9 +41,9 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let file = args.source.file.as_deref();
     let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "diagnose", s);
     let d = args.source.load(&args.data, s).map_err(|f| refused(f, s))?;
-    let problem = monitoring::problem(&d)?;
-    let options = discrepancy::options_for(&search, monitoring::span_of(&d.op), &args.without)
-        .map_err(usage)?;
+    let problem = run::problem(&d)?;
+    let options =
+        discrepancy::options_for(&search, run::span_of(&d.op), &args.without).map_err(usage)?;
     let started = std::time::Instant::now();
     let bar = crate::progress::Progress::since(s.progress, "diagnose", "steps", started);
     let tick = |done: usize, total: usize, _what: &str| bar.update(done, total);

@@ -45,15 +45,14 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         )));
     }
     let orders = args.orders.as_deref().unwrap_or("");
-    let (identifier, _) =
-        monitoring::identifier_for(&args.linear, orders, args.delay).map_err(usage)?;
+    let (identifier, _) = run::identifier_for(&args.linear, orders, args.delay).map_err(usage)?;
     let flags = args
         .data
         .with_columns(args.input.as_ref(), args.output.as_ref());
     let d = load(&args.file, &flags, true, identifier.min_samples().max(3), s)?;
-    let input = monitoring::identify::input_of(&d, args.input.as_deref());
+    let input = run::identify::input_of(&d, args.input.as_deref());
     let output = (d.require_pv()?, args.output.as_deref().unwrap_or("PV"));
-    let id = monitoring::identify::identify(&*identifier, &d.source, input, output, args.split)?;
+    let id = run::identify::identify(&*identifier, &d.source, input, output, args.split)?;
     if !id.fit.is_stable() {
         writeln!(
             s.stderr,

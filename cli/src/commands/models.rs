@@ -12,7 +12,7 @@ pub struct Args {
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     if args.json {
-        return s.json(&monitoring::models_record());
+        return s.json(&run::models_record());
     }
     s.text(report::text::models())
 }

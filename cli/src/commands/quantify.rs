@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::anyhow;
 use datasets::LoopData;
-use monitoring::Fitted;
+use run::Fitted;
 use serde_json::json;
 use stiction_models::find_model;
 
@@ -38,7 +38,7 @@ impl LoopFlags {
     /// Read the file (notes on stderr), or simulate the example.
     pub(crate) fn load(&self, flags: &DataFlags, s: &mut Streams<'_>) -> Result<LoopData, Failure> {
         match (&self.file, self.example) {
-            (_, Some(Example::Paper)) => Ok(monitoring::paper_example()?),
+            (_, Some(Example::Paper)) => Ok(run::paper_example()?),
             (Some(f), None) => load(f, flags, true, 30, s),
             (None, None) => Err(usage(anyhow!("give a FILE or --example"))),
         }
@@ -114,7 +114,7 @@ pub(crate) fn run_one(
 ) -> Result<Fitted, Failure> {
     let mut combination = flags.combination(stiction, linear)?;
     combination.search.node_fits = node_fits;
-    let problem = monitoring::problem(d)?;
+    let problem = run::problem(d)?;
     let label = format!(
         "{step}{} + {}",
         combination.stiction.name, combination.linear.name
@@ -214,7 +214,7 @@ pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResu
         find_model(name).map_err(usage)?;
     }
     for name in &args.linear {
-        monitoring::identifier_for(name, "", 0).map_err(usage)?;
+        run::identifier_for(name, "", 0).map_err(usage)?;
     }
     let file = args.source.file.as_deref();
     let d = (args.source.load(&args.data, s))
@@ -244,7 +244,7 @@ pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResu
         report::pages::compare_page(&d, &view, criterion)
     })?;
     if args.json {
-        let mut doc = monitoring::CompareRecord::new(&d.source);
+        let mut doc = run::CompareRecord::new(&d.source);
         for (st, li, r) in &view {
             doc.push(
                 st,

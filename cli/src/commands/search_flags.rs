@@ -2,7 +2,7 @@
 //! orders, the dead time, the grid and the search.
 
 use grid_search::Criterion;
-use monitoring::{Combination, DelayArg, SearchArgs, Settings};
+use run::{Combination, DelayArg, SearchArgs, Settings};
 use stiction_models::Initialization;
 
 use super::valve::parse_init;

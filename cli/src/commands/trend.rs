@@ -66,9 +66,13 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         horizon,
     };
     let bar = crate::progress::Progress::new(s.progress, &format!("trend {valve}"));
-    let diagnoser = discrepancy::registration::RegistrationDiagnosis;
-    let diagnoser = (!args.no_diagnose).then_some(&diagnoser as _);
-    let vt = trend::follow(&valve, &files, &options, diagnoser, Some(&bar.tick()));
+    let vt = trend::follow(
+        &valve,
+        &files,
+        &options,
+        !args.no_diagnose,
+        Some(&bar.tick()),
+    );
     bar.finish();
     let vt = vt.map_err(usage)?;
     reporting::write(&args.report, s, || report::pages::trend_page(&vt))?;

@@ -188,7 +188,7 @@ fn combination_section(
 }
 
 /// What the registrations' diagnoses agree on, and the registrations that differ.
-fn causes_section(vt: &ValveTrend, c: &monitoring::Consensus) -> Section {
+fn causes_section(vt: &ValveTrend, c: &run::Consensus) -> Section {
     {
         let lines = crate::text::causes_lines(c, &crate::text::baseline_of(vt));
         let mut sec = Section::new("Causes the registrations agree on".to_string());

@@ -38,7 +38,7 @@ pub(crate) fn rounded(x: f64, digits: i32) -> Option<f64> {
 }
 
 /// Reads `null` as NaN (the writer's non-finite number).
-pub(crate) fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+pub fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 

@@ -1,5 +1,5 @@
 //! What a valve's diagnosed registrations agree on, as plain data: the diagnosis builds it
-//! (`discrepancy::consensus`), the trend carries it ([`crate::trend::ValveTrend::causes`]).
+//! (`discrepancy::consensus`), the trend carries it (`monitoring::trend::ValveTrend::causes`).
 
 use serde::ser::SerializeSeq;
 use serde::{Serialize, Serializer};

@@ -8,7 +8,7 @@ use linear_id::{find_identifier, IdentifierEntry, LinearIdentifier, OrderSpec, O
 use serde::{Deserialize, Serialize};
 use stiction_models::find_model;
 
-use crate::{Combination, Delay, MonitoringError};
+use crate::{Combination, Delay, RunError};
 
 /// The orders of a linear identifier as given: each value by its name (`n=3`) or by its
 /// position among the identifier's orders without the dead time (`3,2` is `n=3, m=2` for arx,
@@ -39,10 +39,7 @@ impl Orders {
     /// one, [`linear_id::OrderSpec::accept`]); a given `delay` is left out (the dead time is the
     /// combination's [`Delay`]); a name the identifier does not know is kept (the identifier
     /// refuses it when built).
-    pub fn resolve(
-        &self,
-        entry: &IdentifierEntry,
-    ) -> Result<Vec<(String, OrderValue)>, MonitoringError> {
+    pub fn resolve(&self, entry: &IdentifierEntry) -> Result<Vec<(String, OrderValue)>, RunError> {
         let positional: Vec<&'static str> = entry
             .orders
             .iter()
@@ -55,7 +52,7 @@ impl Orders {
                 Some(n) => n.clone(),
                 None => positional
                     .get(i)
-                    .ok_or_else(|| MonitoringError::TooManyOrders {
+                    .ok_or_else(|| RunError::TooManyOrders {
                         identifier: entry.name,
                         positional: positional.clone(),
                     })?
@@ -75,7 +72,7 @@ impl Orders {
 ///
 /// ```
 /// use linear_id::OrderValue::Int;
-/// use monitoring::{Delay, Orders, Settings};
+/// use run::{Delay, Orders, Settings};
 /// let settings = Settings {
 ///     orders: Orders::named([("n", Int(3)), ("m", Int(2))]),
 ///     delay: Delay::Fixed(1),
@@ -83,7 +80,7 @@ impl Orders {
 /// };
 /// let c = settings.combination("kano", "arx")?;
 /// assert_eq!(c.identifier(1)?.orders(), vec![("n", Int(3)), ("m", Int(2)), ("delay", Int(1))]);
-/// # Ok::<(), monitoring::MonitoringError>(())
+/// # Ok::<(), run::RunError>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -115,11 +112,7 @@ impl Settings {
     /// The combination of the registered stiction model `stiction` and identifier `linear`
     /// with these settings. Checks the names, the orders and that the identifier can take the
     /// fixed dead time.
-    pub fn combination(
-        &self,
-        stiction: &str,
-        linear: &str,
-    ) -> Result<Combination, MonitoringError> {
+    pub fn combination(&self, stiction: &str, linear: &str) -> Result<Combination, RunError> {
         let stiction = find_model(stiction)?;
         let linear = find_identifier(linear)?;
         let combination = Combination {
@@ -255,8 +248,8 @@ impl Default for SearchArgs {
     }
 }
 
-fn setting(flag: &'static str, message: String) -> MonitoringError {
-    MonitoringError::Setting { flag, message }
+fn setting(flag: &'static str, message: String) -> RunError {
+    RunError::Setting { flag, message }
 }
 
 /// The items of `--orders` text: `(name, value text)`, name `None` for a positional value.
@@ -286,15 +279,12 @@ fn spec<'a>(entry: &'a IdentifierEntry, name: &str) -> Option<&'a OrderSpec> {
 ///
 /// ```
 /// let ss = linear_id::find_identifier("ss")?;
-/// assert!(monitoring::parse_orders("n=3,center=0", Some(ss)).is_ok());
-/// let e = monitoring::parse_orders("n=2.5", Some(ss)).unwrap_err();
+/// assert!(run::parse_orders("n=3,center=0", Some(ss)).is_ok());
+/// let e = run::parse_orders("n=2.5", Some(ss)).unwrap_err();
 /// assert_eq!(e.to_string(), r#"--orders: n = "2.5" is not a non-negative integer"#);
 /// # Ok::<(), linear_id::IdError>(())
 /// ```
-pub fn parse_orders(
-    text: &str,
-    entry: Option<&IdentifierEntry>,
-) -> Result<Orders, MonitoringError> {
+pub fn parse_orders(text: &str, entry: Option<&IdentifierEntry>) -> Result<Orders, RunError> {
     let positional: Vec<&OrderSpec> = entry
         .map(|e| e.orders.iter().filter(|o| o.name != "delay").collect())
         .unwrap_or_default();
@@ -338,16 +328,16 @@ pub fn parse_orders(
 /// has no dead-time option), and the orders as given.
 ///
 /// ```
-/// let (arx, _) = monitoring::identifier_for("arx", "3,2", 1)?;
+/// let (arx, _) = run::identifier_for("arx", "3,2", 1)?;
 /// assert_eq!(arx.orders()[0], ("n", linear_id::OrderValue::Int(3)));
-/// assert!(monitoring::identifier_for("ss", "", 1).is_err());
-/// # Ok::<(), monitoring::MonitoringError>(())
+/// assert!(run::identifier_for("ss", "", 1).is_err());
+/// # Ok::<(), run::RunError>(())
 /// ```
 pub fn identifier_for(
     linear: &str,
     orders: &str,
     delay: usize,
-) -> Result<(Box<dyn LinearIdentifier>, Orders), MonitoringError> {
+) -> Result<(Box<dyn LinearIdentifier>, Orders), RunError> {
     let entry = find_identifier(linear)?;
     let orders = parse_orders(orders, Some(entry))?;
     if delay != 0 && !entry.orders.iter().any(|o| o.name == "delay") {
@@ -364,7 +354,7 @@ pub fn identifier_for(
 impl SearchArgs {
     /// The settings for a run over the identifiers `linear` (each is checked: its name, the
     /// orders for it, the dead time it can take).
-    pub fn settings(&self, linear: &[&str]) -> Result<Settings, MonitoringError> {
+    pub fn settings(&self, linear: &[&str]) -> Result<Settings, RunError> {
         let text = self.orders.as_deref().unwrap_or("");
         let mut orders = None;
         for name in linear {
@@ -430,7 +420,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn positional_orders_follow_each_identifier() -> Result<(), MonitoringError> {
+    fn positional_orders_follow_each_identifier() -> Result<(), RunError> {
         use OrderValue::{Bool, Int, Real};
         let orders = Orders(vec![
             (None, Int(3)),
@@ -456,23 +446,23 @@ mod tests {
         );
         let wrong = Orders::named([("n", Real(2.0))]).resolve(find_identifier("arx")?);
         assert!(
-            matches!(wrong, Err(MonitoringError::Identification(_))),
+            matches!(wrong, Err(RunError::Identification(_))),
             "{wrong:?}"
         );
         let too_many = Orders(vec![(None, Int(1)); 3]).resolve(find_identifier("arx")?);
         assert!(
-            matches!(too_many, Err(MonitoringError::TooManyOrders { .. })),
+            matches!(too_many, Err(RunError::TooManyOrders { .. })),
             "{too_many:?}"
         );
         Ok(())
     }
 
     #[test]
-    fn search_args_give_the_settings_or_the_flag_s_message() -> Result<(), MonitoringError> {
+    fn search_args_give_the_settings_or_the_flag_s_message() -> Result<(), RunError> {
         let args: SearchArgs = serde_json::from_str(
             r#"{"orders": "3,2", "delay": "auto", "step": 0.5}"#,
         )
-        .map_err(|e| MonitoringError::Setting {
+        .map_err(|e| RunError::Setting {
             flag: "json",
             message: e.to_string(),
         })?;

@@ -12,7 +12,7 @@ use linear_id::{find_identifier, IdError, IdentifierEntry, LinearIdentifier, Ord
 use serde::{Deserialize, Serialize};
 use stiction_models::{find_model, ModelEntry};
 
-use crate::MonitoringError;
+use crate::RunError;
 
 /// Largest dead time `Delay::Auto` scans by default, samples.
 pub const MAX_AUTO_DELAY: usize = 10;
@@ -59,7 +59,7 @@ pub struct Combination {
 impl Combination {
     /// `stiction` × `linear` by their registered names, the paper's orders, dead time 0, the
     /// default grid and search options.
-    pub fn named(stiction: &str, linear: &str) -> Result<Combination, MonitoringError> {
+    pub fn named(stiction: &str, linear: &str) -> Result<Combination, RunError> {
         Ok(Combination {
             stiction: find_model(stiction)?,
             linear: find_identifier(linear)?,
@@ -71,7 +71,7 @@ impl Combination {
     }
 
     /// Kano + ARX(2, 2), dead time 0: the paper's default.
-    pub fn paper() -> Result<Combination, MonitoringError> {
+    pub fn paper() -> Result<Combination, RunError> {
         Combination::named("kano", "arx")
     }
 
@@ -127,7 +127,7 @@ impl Combination {
         &self,
         problem: Problem<'_>,
         progress: Option<&(dyn Fn(usize, usize) + Sync)>,
-    ) -> Result<Fitted, MonitoringError> {
+    ) -> Result<Fitted, RunError> {
         let started = Instant::now();
         let options = self.options(span_of(problem.op));
         let (delay, delay_scan) = match self.delay {
@@ -250,12 +250,12 @@ impl Fitted {
     /// Write the fit over the whole grid as CSV (`quantify --surface`): the model's
     /// parameters, S, J, the four fits, F_MV, the first valid sample, and the reason of a
     /// skipped node.
-    pub fn write_surface(&self, path: &std::path::Path) -> Result<(), MonitoringError> {
-        let file = std::fs::File::create(path).map_err(|source| MonitoringError::Create {
+    pub fn write_surface(&self, path: &std::path::Path) -> Result<(), RunError> {
+        let file = std::fs::File::create(path).map_err(|source| RunError::Create {
             path: path.to_path_buf(),
             source,
         })?;
-        let csv_err = |source| MonitoringError::Csv {
+        let csv_err = |source| RunError::Csv {
             path: path.to_path_buf(),
             source,
         };
@@ -301,7 +301,7 @@ impl Fitted {
             }
             w.write_record(&row).map_err(csv_err)?;
         }
-        w.flush().map_err(|source| MonitoringError::Write {
+        w.flush().map_err(|source| RunError::Write {
             path: path.to_path_buf(),
             source,
         })
@@ -370,7 +370,7 @@ pub fn problem(d: &datasets::LoopData) -> Result<Problem<'_>, datasets::DataErro
 
 /// The paper's benchmark loop (eq. 10, PI 0.5/0.5, σ = 0.1) with a Kano valve S = 9, J = 3,
 /// 3000 samples, seed 1 (paper §3.2, Tables 1-2): the CLI's `--example paper`.
-pub fn paper_example() -> Result<datasets::LoopData, MonitoringError> {
+pub fn paper_example() -> Result<datasets::LoopData, RunError> {
     let scenario = datasets::simulate::Scenario {
         valve: Box::new(stiction_models::Kano::params().s(9.0).j(3.0).check()?),
         ..datasets::simulate::Scenario::default()
@@ -400,7 +400,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_paper_example_is_a_searchable_problem() -> Result<(), MonitoringError> {
+    fn the_paper_example_is_a_searchable_problem() -> Result<(), RunError> {
         let d = paper_example()?;
         assert_eq!(d.len(), 3000);
         assert!(d.source.starts_with("example paper"));
