@@ -42,6 +42,10 @@ pub struct Headline {
     /// The causes that hold in the final model, each with the step that added it
     /// (`None`: found outside the forward selection).
     pub causes: Vec<(String, Option<usize>)>,
+    /// After a change of the process: per cause named, the stationary stretches `[from, to)`
+    /// on which it gains ([`Diagnosis::stretches`]; empty when no change was named).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub holds_on: Vec<(String, Vec<[usize; 2]>)>,
     /// What limits the statement, when something does (a change of the process, a weak fit).
     pub caution: Option<String>,
 }
@@ -99,6 +103,17 @@ impl Diagnosis {
             .iter()
             .map(|c| (c.clone(), self.standing(c).and_then(|s| s.step)))
             .collect();
+        let holds_on: Vec<(String, Vec<[usize; 2]>)> = self
+            .stretches
+            .as_ref()
+            .map(|check| {
+                self.causes
+                    .iter()
+                    .filter(|c| *c != UNEXPLAINED)
+                    .map(|c| (c.clone(), check.holds_on(c)))
+                    .collect()
+            })
+            .unwrap_or_default();
         let (action, reason) = if no_stiction {
             (
                 "look elsewhere".to_string(),
@@ -163,6 +178,7 @@ impl Diagnosis {
             j: q.j,
             model,
             causes,
+            holds_on,
             caution: (!cautions.is_empty()).then(|| cautions.join("; ")),
         }
     }
@@ -186,9 +202,24 @@ impl Headline {
         } else {
             self.causes
                 .iter()
-                .map(|(c, step)| match step {
-                    Some(k) => format!("{c} (step {k})"),
-                    None => c.clone(),
+                .map(|(c, step)| {
+                    let on = self
+                        .holds_on
+                        .iter()
+                        .find(|(name, _)| name == c)
+                        .map(|(_, spans)| {
+                            spans
+                                .iter()
+                                .map(|s| format!("samples {}-{}", s[0], s[1]))
+                                .collect::<Vec<_>>()
+                                .join(" and ")
+                        });
+                    match (step, on) {
+                        (Some(k), Some(on)) => format!("{c} (step {k}; holds on {on})"),
+                        (None, Some(on)) => format!("{c} (holds on {on})"),
+                        (Some(k), None) => format!("{c} (step {k})"),
+                        (None, None) => c.clone(),
+                    }
                 })
                 .collect::<Vec<_>>()
                 .join(", ")

@@ -25,6 +25,7 @@ mod eval;
 mod headline;
 pub mod registration;
 mod residuals;
+mod stretches;
 
 use std::fmt;
 use std::time::Instant;
@@ -43,6 +44,7 @@ pub use compression::Compression;
 pub use consensus::{consensus, Consensus, Disagreement};
 pub use headline::{Headline, Standing};
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
+pub use stretches::{locate_change, StretchTest, Stretches, MIN_STRETCH};
 
 /// Re-exported so that plugin crates use the same `inventory` as the registry.
 pub use inventory;
@@ -654,6 +656,10 @@ pub struct Diagnosis {
     /// How the final model's orders were chosen (`None` when the orders were given, or the
     /// cause is `no-stiction`).
     pub order_selection: Option<OrderSelection>,
+    /// After a change of the process (`unexplained`): every cause tested again on each
+    /// stationary stretch alone, and where each holds (`None` when no change was named).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stretches: Option<Stretches>,
     /// One paragraph for the engineer.
     pub summary: String,
     /// Wall time of the whole diagnosis, ms.
@@ -1014,41 +1020,86 @@ pub fn diagnose_with_progress(
         || (open.is_some()
             && chosen.is_some_and(|i| findings[i].cause != "no-stiction")
             && open_set(problem, &base, options).is_some_and(|f| f.significant));
+    // Each cause on its own evidence (see `stretches`): the change located, every cause tested
+    // again on each stationary stretch alone; a cause of the forward selection that gains on
+    // no stretch gained from the change and is dropped. When the change was seen on the baseline only (the chosen causes absorbed it),
+    // the drops stand only if it is significant on the model that remains (the open set is
+    // tested again on it).
+    let mut stretch_check = None;
     if changed {
-        if let Some(i) = chosen.filter(|&i| findings[i].cause != "no-stiction") {
-            let drops = backward_under_change(problem, &base, &findings, i, &steps, &picks);
-            // the causes stay dropped only if the change is still significant on the model
-            // that remains (the open set is tested again on it)
-            let kept = picks.len() + 1 - drops.len();
-            let remaining = match kept {
-                0 => None,
-                1 => findings[i].fitted.as_ref(),
-                k => steps[k - 2][picks[k - 2]].fitted.as_ref(),
+        // located on the baseline (its linear part is fitted once per candidate sample)
+        if let Some(mut check) = stretches::retest(problem, span, baseline, &base, options) {
+            let chain = causes.clone();
+            check.chosen_on_record = chain.clone();
+            let prefix = chain.iter().take_while(|c| check.holds(c)).count();
+            // a cause is named where it gains on a stretch; a cause the whole record did not
+            // choose is not named for a gain on a stretch alone (measured on the suite's
+            // process-change loops: short stretches before the change gave `disturbance` LR
+            // 46-100 on loops with no disturbance, docs/decisions/2026-11-27-stretches.md)
+            let kept: Vec<&'static str> =
+                chain.iter().copied().filter(|c| check.holds(c)).collect();
+            let first_round = chosen.filter(|&i| findings[i].cause != "no-stiction");
+            let again = if kept == chain {
+                None
+            } else {
+                // the forward selection's model of the causes that hold, in its order
+                let remaining = match (first_round, prefix) {
+                    (None, _) | (_, 0) => None,
+                    (Some(i), 1) => findings[i].fitted.as_ref(),
+                    (Some(_), k) => steps[k - 2][picks[k - 2]].fitted.as_ref(),
+                };
+                open_set(problem, remaining.unwrap_or(&base), options)
+                    .filter(|f| f.significant)
+                    .map(Some)
+                    // named on the final model already: the change stands as found there
+                    .or_else(|| open.as_ref().is_some_and(|f| f.significant).then_some(None))
             };
-            let again = (!drops.is_empty())
-                .then(|| open_set(problem, remaining.unwrap_or(&base), options))
-                .flatten();
-            if let Some(again) = again.filter(|f| f.significant) {
-                for (k, start, lr) in drops {
-                    let f = if k == 0 {
-                        &mut findings[i]
-                    } else {
-                        &mut steps[k - 1][picks[k - 1]]
-                    };
-                    f.significant = false;
-                    f.evidence = format!(
-                        "{} Not named: the process changed during the record (unexplained), and with both linear parts identified on the last third of the identification window alone (from sample {start}) the extension gains likelihood ratio {lr:.0} (threshold {:.0}): its gain on the whole window came from the change.",
-                        f.evidence, f.threshold
-                    );
+            if kept == chain {
+                if open.as_ref().is_some_and(|f| f.significant) {
+                    stretch_check = Some(check);
                 }
-                open = Some(again);
-                causes.truncate(kept);
-                picks.truncate(kept.saturating_sub(1));
-                // the step that picked the first dropped cause stays, with that pick marked
-                steps.truncate(kept);
-                if kept == 0 {
-                    chosen = None;
+            } else if let Some(again) = again {
+                {
+                    let at = check.change_at;
+                    let spans = check
+                        .stretches
+                        .iter()
+                        .map(|s| format!("samples {}-{}", s[0], s[1]))
+                        .collect::<Vec<_>>()
+                        .join(" and ");
+                    for (k, c) in chain.iter().enumerate() {
+                        if check.holds(c) {
+                            continue;
+                        }
+                        let f = match (k, chosen) {
+                            (0, Some(i)) => &mut findings[i],
+                            (0, None) => continue,
+                            (k, _) => &mut steps[k - 1][picks[k - 1]],
+                        };
+                        f.significant = false;
+                        f.evidence = format!(
+                            "{} Not named: the process changed during the record (unexplained, located at sample {at}), and on its stationary stretches alone ({spans}) the extension gains nothing significant: its gain on the whole record came from the change.",
+                            f.evidence
+                        );
+                    }
+                    // the steps that held, and the step that picked the first dropped cause
+                    // with that pick marked
+                    let held_steps = if first_round.is_some() { prefix } else { 0 };
+                    picks.truncate(held_steps.saturating_sub(1));
+                    steps.truncate(held_steps);
+                    if held_steps == 0 {
+                        picks.clear();
+                        steps.clear();
+                    }
+                    causes = kept;
+                    chosen = causes
+                        .first()
+                        .and_then(|c| findings.iter().position(|f| f.cause == *c));
                 }
+                if let Some(again) = again {
+                    open = Some(again);
+                }
+                stretch_check = Some(check);
             }
         }
     }
@@ -1061,10 +1112,12 @@ pub fn diagnose_with_progress(
         .as_ref()
         .filter(|f| f.significant)
         .and_then(|f| f.window_from);
+    // the refit is on the samples after the change: the causes that hold there
     let chain: Vec<&'static str> = causes
         .iter()
         .copied()
         .filter(|c| *c != UNEXPLAINED)
+        .filter(|c| stretch_check.as_ref().is_none_or(|s| s.holds_now(c)))
         .collect();
     let (refined, order_selection) = if cause == "no-stiction" {
         (None, None)
@@ -1117,6 +1170,9 @@ pub fn diagnose_with_progress(
                 summary = format!("{} {summary}", f.evidence);
             } else {
                 summary = format!("{summary} {}", f.evidence);
+            }
+            if let Some(check) = &stretch_check {
+                summary = format!("{summary} {}", check.describe());
             }
         }
         findings.push(f);
@@ -1178,6 +1234,7 @@ pub fn diagnose_with_progress(
         gain_fit_pv_val: gain,
         refined,
         order_selection,
+        stretches: stretch_check,
         summary,
         elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
     })
@@ -1610,67 +1667,6 @@ fn recent_fit(pv: &[f64], m: &Fitted, from: usize) -> Option<(usize, linear_id::
     sse.is_finite().then_some((from, fit, sse))
 }
 
-/// The causes chosen on a process that the open set finds changed, tested again from the last
-/// backwards: each extension against the model it was added to, both linear parts identified
-/// on the last third of the identification window alone, where the process is the changed
-/// one (`LR = n_val · ln(SSE_reference / SSE_extension)`, the cause's own threshold). A cause
-/// whose gain does not hold there gained on the whole window from the change itself, not
-/// from what it models: it is dropped with every cause added after it, and the first cause
-/// that holds ends the check (the final model stays a prefix of the forward selection).
-/// `findings[first]` is the first cause's finding, `steps` / `picks` the forward selection's.
-/// Returns the dropped causes, last first, as (position in the chain: 0 the first cause, `k`
-/// the `k`-th pick; the window's first sample; the LR there). A cause whose recent refit
-/// fails cannot be checked and stands.
-///
-/// Measured on the suite's process-change loops (docs/decisions/2026-11-26-diagnose-logbook.md, item 6): a slow plant
-/// that becomes the faster paper plant gains significantly with `disturbance` or
-/// `valve-characteristic` on the whole window, and not on the recent third.
-fn backward_under_change(
-    problem: Problem<'_>,
-    base: &Fitted,
-    findings: &[Finding],
-    first: usize,
-    steps: &[Vec<Finding>],
-    picks: &[usize],
-) -> Vec<(usize, usize, f64)> {
-    let pv = problem.pv;
-    let ni = base.result.split_index;
-    let n_val = pv.len().saturating_sub(ni) as f64;
-    // the model after the k-th cause of the chain (k = 0: the first cause's extension)
-    let model = |k: usize| -> Option<&Fitted> {
-        if k == 0 {
-            findings[first].fitted.as_ref()
-        } else {
-            steps[k - 1][picks[k - 1]].fitted.as_ref()
-        }
-    };
-    let mut drops = Vec::new();
-    for k in (0..=picks.len()).rev() {
-        let finding = if k == 0 {
-            &findings[first]
-        } else {
-            &steps[k - 1][picks[k - 1]]
-        };
-        let reference = if k == 0 { Some(base) } else { model(k - 1) };
-        let (Some(ext), Some(reference)) = (model(k), reference) else {
-            break;
-        };
-        // the same window for both: the later of their valves' settling samples
-        let start = (2 * ni / 3)
-            .max(ext.result.fits.valid_from)
-            .max(reference.result.fits.valid_from);
-        let lr = match (recent_fit(pv, reference, start), recent_fit(pv, ext, start)) {
-            (Some((_, _, r)), Some((_, _, m))) if m > 0.0 => n_val * (r / m).ln(),
-            _ => break,
-        };
-        if lr > finding.threshold {
-            break;
-        }
-        drops.push((k, start, lr));
-    }
-    drops
-}
-
 /// The finding of a cause that reframed the diagnosis ([`Cause::reframe`]): the baseline
 /// under the caller's search options (e.g. ranked by one-step prediction) against the
 /// reframed baseline `base`, compared by the reframed criterion's validation fit.
@@ -1912,7 +1908,7 @@ impl Diagnosis {
         let extended = self
             .final_fit()
             .map_or(Value::Null, |x| json!(x.record(init)));
-        json!({
+        let mut doc = json!({
             "source": source,
             "headline": serde_json::to_value(self.headline()).unwrap_or_default(),
             "baseline": self.baseline_fit.record(init),
@@ -1926,6 +1922,14 @@ impl Diagnosis {
             "summary": self.summary,
             "residuals": serde_json::to_value(&self.residuals).unwrap_or_default(),
             "elapsed_ms": self.elapsed_ms,
-        })
+        });
+        // after a change of the process: where each cause holds
+        if let (Some(check), Some(map)) = (&self.stretches, doc.as_object_mut()) {
+            map.insert(
+                "stretches".into(),
+                serde_json::to_value(check).unwrap_or_default(),
+            );
+        }
+        doc
     }
 }

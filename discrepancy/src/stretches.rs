@@ -1,0 +1,326 @@
+//! Each cause on its own evidence after a change of the process.
+//!
+//! When the open set finds that the process changed during the record (`unexplained`), a cause
+//! chosen on the whole record may have gained from the change rather than from what it models:
+//! a model that fits neither process well gains from any extra freedom. So the change is
+//! located ([`locate_change`]), the record is split into its stationary stretches (before and
+//! after the change; a stretch shorter than [`MIN_STRETCH`] samples is not tested), and every
+//! cause is tested again on each stretch alone: the baseline refitted on that stretch, the
+//! cause's extension on it, the same likelihood-ratio test with the validation split inside
+//! the stretch ([`retest`]). A cause is named only where it gains on a stretch.
+
+use grid_search::Problem;
+use rayon::prelude::*;
+use serde::Serialize;
+use stiction_models::{Direction, InitialState, Initialization};
+
+use crate::{
+    causes, diagnosis_combination, registry, test_cause, Baseline, Context, DiagnoseOptions,
+    Fitted, ResidualAnalysis,
+};
+
+/// The shortest stretch tested, in samples: with the validation split inside the stretch
+/// (a third), 500 samples leave about 330 to identify the model and 170 to judge it.
+pub const MIN_STRETCH: usize = 500;
+
+/// Candidate change points are this many samples apart.
+const CHANGE_STEP: usize = 25;
+
+/// Samples left out on either side of the located change: the transient from one process to
+/// the other, and the location's error.
+const CHANGE_GUARD: usize = 100;
+
+/// Samples at the start of each segment left out of its prediction error (the regression's
+/// start-up: the one-step predictor needs past samples).
+const SEGMENT_SKIP: usize = 10;
+
+/// One cause tested on one stationary stretch.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StretchTest {
+    /// The cause.
+    pub cause: &'static str,
+    /// The stretch's first sample.
+    pub from: usize,
+    /// One past its last sample.
+    pub to: usize,
+    /// The likelihood ratio of the extension against the baseline refitted on the stretch,
+    /// on the stretch's own validation samples (for `no-stiction`: minus the cost of removing
+    /// the stiction).
+    pub lr: f64,
+    /// The threshold it had to pass (the cause's own rule).
+    pub threshold: f64,
+    /// Whether the cause gains significantly on this stretch.
+    pub holds: bool,
+    /// Why the test could not be made (the stretch's baseline or the extension failed).
+    pub error: Option<String>,
+}
+
+/// The causes tested again on the stationary stretches of a record whose process changed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stretches {
+    /// The sample where the change was located.
+    pub change_at: usize,
+    /// The stretches tested, `[from, to)`.
+    pub stretches: Vec<[usize; 2]>,
+    /// Every cause tested on every stretch.
+    pub tests: Vec<StretchTest>,
+    /// The causes the diagnosis chose on the whole record (the forward selection's), before
+    /// the stretches were tested: each is named only where it holds on a stretch.
+    pub chosen_on_record: Vec<&'static str>,
+}
+
+impl Stretches {
+    /// Whether `cause` gains significantly on at least one stretch.
+    pub fn holds(&self, cause: &str) -> bool {
+        self.tests.iter().any(|t| t.cause == cause && t.holds)
+    }
+
+    /// The stretches on which `cause` gains significantly.
+    pub fn holds_on(&self, cause: &str) -> Vec<[usize; 2]> {
+        self.tests
+            .iter()
+            .filter(|t| t.cause == cause && t.holds)
+            .map(|t| [t.from, t.to])
+            .collect()
+    }
+
+    /// Whether `cause` holds on the last stretch (the process as it is now).
+    pub fn holds_now(&self, cause: &str) -> bool {
+        let last = self.stretches.last().map_or(0, |s| s[0]);
+        self.tests
+            .iter()
+            .any(|t| t.cause == cause && t.holds && t.from == last)
+    }
+
+    /// In words: where the change is, the stretches, and for each cause chosen on the whole
+    /// record (and each that gains on a stretch) where it holds.
+    pub fn describe(&self) -> String {
+        let named = &self.chosen_on_record;
+        let spans: Vec<String> = self
+            .stretches
+            .iter()
+            .map(|s| format!("{}-{}", s[0], s[1]))
+            .collect();
+        let mut names: Vec<&'static str> = Vec::new();
+        for t in &self.tests {
+            if !names.contains(&t.cause) {
+                names.push(t.cause);
+            }
+        }
+        let per_cause: Vec<String> = names
+            .iter()
+            .filter(|c| named.contains(c) || self.holds(c))
+            .map(|c| {
+                let tests: Vec<String> = self
+                    .tests
+                    .iter()
+                    .filter(|t| t.cause == *c)
+                    .map(|t| match &t.error {
+                        Some(_) => format!("samples {}-{}: not fitted", t.from, t.to),
+                        None => format!(
+                            "samples {}-{}: LR {:.0}{}",
+                            t.from,
+                            t.to,
+                            t.lr,
+                            if t.holds { ", holds" } else { "" }
+                        ),
+                    })
+                    .collect();
+                let verdict = match (named.contains(c), self.holds(c)) {
+                    (true, true) => "",
+                    (true, false) => " gains on no stretch (not named)",
+                    _ => " not chosen on the whole record (not named)",
+                };
+                format!("{c}{verdict} ({})", tests.join("; "))
+            })
+            .collect();
+        let causes = if per_cause.is_empty() {
+            "no cause gains on a stretch".to_string()
+        } else {
+            per_cause.join(", ")
+        };
+        format!(
+            "The change of the process located at sample {}; the causes tested again on each stationary stretch alone (samples {}; the baseline refitted on the stretch, validated on its last third; a cause is named where it gains on a stretch): {causes}.",
+            self.change_at,
+            spans.join(" and "),
+        )
+    }
+}
+
+/// Where the process changed: the sample `k` (a multiple of [`CHANGE_STEP`], at least
+/// [`MIN_STRETCH`] samples from either end) at which the model's linear part identified
+/// separately on `[0, k)` and `[k, N)` leaves the smallest total one-step prediction error,
+/// with the valve of `model` run from each of its four initial states (In.3's starts; the
+/// one that fits best decides) or the measured MV when there is one. `None` when the record
+/// is shorter than two stretches or nothing could be fitted.
+pub fn locate_change(problem: Problem<'_>, model: &Fitted) -> Option<usize> {
+    let (op, pv) = (problem.op, problem.pv);
+    let n = pv.len();
+    if n < 2 * MIN_STRETCH {
+        return None;
+    }
+    let runs: Vec<Vec<f64>> = match problem.mv {
+        Some(mv) => vec![mv.to_vec()],
+        None => [Direction::Up, Direction::Down]
+            .into_iter()
+            .flat_map(|direction| {
+                [true, false].map(|stuck| InitialState {
+                    direction,
+                    stuck,
+                    stuck_at: None,
+                    position: None,
+                })
+            })
+            .filter_map(|state| {
+                stiction_models::run_valve(
+                    model.result.stiction.as_ref(),
+                    op,
+                    &Initialization::In1(state),
+                )
+                .ok()
+                .map(|r| r.mv)
+            })
+            .collect(),
+    };
+    let identifier = model.identifier.as_ref();
+    let sse = |mv: &[f64], a: usize, b: usize| -> Option<f64> {
+        let fit = identifier.identify(&mv[a..b], &pv[a..b]).ok()?;
+        let p = fit.predict_one_step(&mv[a..b], &pv[a..b]).ok()?;
+        let s: f64 = p
+            .iter()
+            .zip(&pv[a..b])
+            .skip(SEGMENT_SKIP)
+            .map(|(e, y)| (e - y) * (e - y))
+            .sum();
+        s.is_finite().then_some(s)
+    };
+    let candidates: Vec<(usize, usize)> = (0..runs.len())
+        .flat_map(|r| {
+            (MIN_STRETCH..=n - MIN_STRETCH)
+                .step_by(CHANGE_STEP)
+                .map(move |k| (r, k))
+        })
+        .collect();
+    candidates
+        .into_par_iter()
+        .filter_map(|(r, k)| {
+            let mv = &runs[r];
+            Some((k, sse(mv, 0, k)? + sse(mv, k, n)?))
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        // the first of equal errors: the same answer on any number of threads
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+        .map(|(k, _)| k)
+}
+
+/// Every cause that is not disabled tested on each stationary stretch of the record: the
+/// change located on `model` (the model the open set found the change on), the stretches
+/// `[0, k)` and `[k, N)` of at least [`MIN_STRETCH`] samples, on each the baseline refitted
+/// with the diagnosis's grid and split, and each cause that applies to it extended and judged
+/// by its own rule against that baseline. `None` when the change cannot be located.
+pub(crate) fn retest(
+    problem: Problem<'_>,
+    span: f64,
+    baseline: &Baseline,
+    model: &Fitted,
+    options: &DiagnoseOptions,
+) -> Option<Stretches> {
+    let n = problem.op.len();
+    let at = locate_change(problem, model)?;
+    let stretches: Vec<[usize; 2]> = [[0, at.saturating_sub(CHANGE_GUARD)], [at + CHANGE_GUARD, n]]
+        .into_iter()
+        .filter(|s| s[1] - s[0] >= MIN_STRETCH)
+        .collect();
+    let tests: Vec<StretchTest> = stretches
+        .par_iter()
+        .map(|s| test_stretch(problem, span, baseline, options, *s))
+        .collect::<Vec<_>>()
+        .into_iter()
+        .flatten()
+        .collect();
+    Some(Stretches {
+        change_at: at,
+        stretches,
+        tests,
+        chosen_on_record: Vec::new(),
+    })
+}
+
+/// The causes tested on the stretch `[from, to)` alone.
+fn test_stretch(
+    problem: Problem<'_>,
+    span: f64,
+    baseline: &Baseline,
+    options: &DiagnoseOptions,
+    [from, to]: [usize; 2],
+) -> Vec<StretchTest> {
+    let data = Problem {
+        op: &problem.op[from..to],
+        pv: &problem.pv[from..to],
+        mv: problem.mv.map(|m| &m[from..to]),
+    };
+    let entries: Vec<_> = registry()
+        .into_iter()
+        .filter(|e| !options.disabled.iter().any(|d| d == e.name))
+        .collect();
+    let base = diagnosis_combination(
+        baseline,
+        options,
+        baseline.stiction,
+        baseline.linear,
+        baseline.fixed_delay(),
+    )
+    .run(data, None);
+    let base = match base {
+        Ok(b) => b,
+        Err(e) => {
+            // the stretch cannot be fitted: no cause holds on it
+            let error = crate::DiagnoseError::from(e).to_string();
+            return entries
+                .iter()
+                .filter(|e| e.name != "compression")
+                .map(|e| StretchTest {
+                    cause: e.name,
+                    from,
+                    to,
+                    lr: f64::NAN,
+                    threshold: f64::NAN,
+                    holds: false,
+                    error: Some(error.clone()),
+                })
+                .collect();
+        }
+    };
+    let q = &base.result;
+    let residuals = ResidualAnalysis::new(data.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
+    let own_cycle = causes::OwnCycle::default();
+    let ctx = Context {
+        problem: data,
+        span,
+        baseline_spec: baseline,
+        baseline: &base,
+        residuals: &residuals,
+        options,
+        own_cycle: &own_cycle,
+    };
+    entries
+        .into_par_iter()
+        .filter_map(|entry| {
+            let cause = (entry.build)();
+            if !cause.applies(&ctx) {
+                return None;
+            }
+            let (f, _) = test_cause(&ctx, cause.as_ref(), entry.name, base.fit_val(), (q.s, q.j));
+            Some(StretchTest {
+                cause: entry.name,
+                from,
+                to,
+                lr: f.lr,
+                threshold: f.threshold,
+                holds: f.significant && f.error.is_none(),
+                error: f.error,
+            })
+        })
+        .collect()
+}
