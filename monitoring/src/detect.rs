@@ -12,7 +12,7 @@ use datasets::{DataError, LoopData};
 use detection::{Detection, DetectionError, Verdict};
 use serde::Serialize;
 
-use crate::registration::{file_name, Integrating, KindDecision};
+use crate::kind::{file_name, Integrating, KindDecision};
 use run::sample_time;
 
 /// Why the detector could not run on a record.

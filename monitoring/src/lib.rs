@@ -2,7 +2,7 @@
 //! combination of the `run` crate and given the evidence behind a doubtful estimate
 //! ([`registration`]); the batch over many loops, its
 //! rows and labels ([`batch`]); the trend of a valve over repeated registrations with its
-//! maintenance verdict ([`trend`](mod@trend)); the detection crate's verdict on each record read
+//! maintenance verdict ([`trend`](mod@trend)); which loops are integrating ([`kind`]); the detection crate's verdict on each record read
 //! ([`detect`]); ROC and robust statistics ([`stats`]).
 //!
 //! The trend diagnoses its registrations with `discrepancy` on the data it has read. The CLI
@@ -11,6 +11,7 @@
 
 pub mod batch;
 pub mod detect;
+pub mod kind;
 pub mod registration;
 pub mod stats;
 pub mod trend;
@@ -21,9 +22,9 @@ pub use detect::{
     detect_decided, detect_document, detect_file, detect_loop, DetectError, Detected,
     DetectionRecord,
 };
+pub use kind::{Integrating, KindDecision, KindSource};
 pub use registration::{
-    Evidence, ExplainFit, FitEvidence, Integrating, KindDecision, KindSource, Registration,
-    RegistrationError, TimeSource,
+    Evidence, ExplainFit, FitEvidence, Registration, RegistrationError, TimeSource,
 };
 pub use stats::{median, roc, theil_sen, Roc};
 pub use trend::{maintenance, trend, with_detection, Flag, Maintenance, Point, Trend};

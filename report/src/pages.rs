@@ -1,20 +1,20 @@
 //! The HTML page of each command, from the typed results: `quantify`, `compare`, `diagnose`,
-//! `trend`, `detect`, and the page of a loop the reader refused. Also the sentences they share
-//! with the text output (the verdict on an estimate), the numbers of one run ([`facts`]) and
-//! the detection tests' section of `quantify`, `diagnose` and `detect`
-//! ([`detection_section`]).
+//! `trend`, `detect`, and the page of a loop the reader refused. Also the numbers of one run
+//! ([`facts`]) and the detection tests' section of `quantify`, `diagnose` and `detect`
+//! ([`detection_section`]). The verdict sentences they share with the text output are
+//! [`crate::verdict`]'s.
 
 use std::path::Path;
 
 use datasets::LoopData;
 use detection::Detection;
 use discrepancy::Diagnosis;
-use grid_search::{Criterion, Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
+use grid_search::Criterion;
 use monitoring::Detected;
 use run::Fitted;
-use stiction_models::ModelEntry;
 
 use crate::figures::{self, Figure, LoopSignals};
+use crate::verdict::{f2, opt2, own_params, verdict, verdict_line};
 use crate::{Block, Report, ReportError, Section};
 
 mod trend;
@@ -52,116 +52,6 @@ pub fn signals<'a>(d: &'a LoopData, name: &'a str) -> Option<LoopSignals<'a>> {
 /// `kano × arx`.
 pub fn combo(r: &Fitted) -> String {
     format!("{} × {}", r.stiction.name, r.linear)
-}
-
-pub(crate) fn f2(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x:.2}")
-    } else {
-        "-".into()
-    }
-}
-
-pub(crate) fn opt2(x: Option<f64>) -> String {
-    x.map_or_else(|| "-".into(), f2)
-}
-
-/// One sentence on what a quantification says about the valve, with how far to trust it. The
-/// levels are [`grid_search::trust`]'s, the only place they are defined: "the valve sticks"
-/// only for S >= [`HARMFUL_S`] with no doubt; a slight S or a doubtful estimate says so.
-pub fn verdict(q: &Quantification, label: &str) -> String {
-    let (_, val) = q.fits.rank(q.criterion);
-    let fit = format!(
-        "validation F_PV {:.1} % ({})",
-        val,
-        match q.criterion {
-            grid_search::Criterion::Prediction => "one-step prediction",
-            grid_search::Criterion::Simulation => "free-run simulation",
-        }
-    );
-    let v = q.verdict();
-    let region = format!(
-        "S = {:.2} % of valve span (deadband + stickband; {:.0} % region {:.2}-{:.2}), J = {:.2} % (region {:.2}-{:.2})",
-        q.s,
-        100.0 * q.interval.confidence,
-        q.interval.s[0],
-        q.interval.s[1],
-        q.j,
-        q.interval.j[0],
-        q.interval.j[1]
-    );
-    let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
-    match v.severity {
-        Severity::Negligible if doubts.is_empty() => format!(
-            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %); {fit}.",
-            q.s
-        ),
-        Severity::Negligible => format!(
-            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %), but the evidence is weak: {}; {fit}.",
-            q.s,
-            doubts.join("; ")
-        ),
-        _ if !doubts.is_empty() => format!(
-            "{label}: estimated {region}, but the evidence is weak: {}; {fit}. Do not act on this estimate alone: look at the figures, or repeat the registration.",
-            doubts.join("; ")
-        ),
-        Severity::Slight => format!(
-            "{label}: slight stiction, {region}; {fit}. Below the {HARMFUL_S} % at which stiction degrades control."
-        ),
-        Severity::Harmful => {
-            let maintenance = if q.s >= MAINTENANCE_S {
-                format!(
-                    " It is at or above the {MAINTENANCE_S} % maintenance threshold of `stiction trend`."
-                )
-            } else {
-                String::new()
-            };
-            format!(
-                "{label}: the valve sticks, {region}; {fit}. Stiction of {HARMFUL_S} % or more degrades control.{maintenance}"
-            )
-        }
-    }
-}
-
-/// The verdict in a few words, for the text output (`verdict: ...`).
-pub fn verdict_line(q: &Quantification) -> String {
-    let v = q.verdict();
-    if !v.doubts.is_empty() && v.severity != Severity::Negligible {
-        let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
-        return format!(
-            "S = {:.2} % is not to be trusted alone: {}",
-            q.s,
-            doubts.join("; ")
-        );
-    }
-    match v.severity {
-        Severity::Negligible => format!("no stiction found (S at most {NEGLIGIBLE_S} %)"),
-        Severity::Slight => {
-            format!("slight stiction (S between {NEGLIGIBLE_S} and {HARMFUL_S} %)")
-        }
-        Severity::Harmful if q.s >= MAINTENANCE_S => format!(
-            "the valve sticks (S of {HARMFUL_S} % or more degrades control; at or above the {MAINTENANCE_S} % maintenance threshold)"
-        ),
-        Severity::Harmful => {
-            format!("the valve sticks (S of {HARMFUL_S} % or more degrades control)")
-        }
-    }
-}
-
-/// The best model's own parameters and derived values, `name = value` (3 decimals).
-pub fn own_params(entry: &ModelEntry, q: &Quantification) -> Vec<String> {
-    entry
-        .params
-        .iter()
-        .zip(q.stiction.param_values())
-        .map(|(p, v)| format!("{} = {v:.3}", p.name))
-        .chain(
-            q.stiction
-                .derived_values()
-                .into_iter()
-                .map(|(k, v)| format!("{k} = {v:.3}")),
-        )
-        .collect()
 }
 
 /// The numbers of one run as name/value pairs.

@@ -9,7 +9,7 @@ use std::time::Instant;
 use ::audit::{RegistrationSummary, Store, ValveHistory};
 use anyhow::anyhow;
 use monitoring::batch::{BatchOptions, Labels, DEFAULT_MIN_FIT};
-use monitoring::registration::file_name;
+use monitoring::kind::file_name;
 use rayon::prelude::*;
 use report::fleet::{FleetRegistration, FleetValve};
 
