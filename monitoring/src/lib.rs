@@ -3,7 +3,7 @@
 //! ([`registration`]); the batch over many loops, its
 //! rows and labels ([`batch`]); the trend of a valve over repeated registrations with its
 //! maintenance verdict ([`trend`](mod@trend)); which loops are integrating ([`kind`]); the detection crate's verdict on each record read
-//! ([`detect`]); ROC and robust statistics ([`stats`]).
+//! ([`detect`]); the commands' JSON documents ([`document`]); ROC and robust statistics ([`stats`]).
 //!
 //! The trend diagnoses its registrations with `discrepancy` on the data it has read. The CLI
 //! parses arguments, calls this crate and prints. This crate never prints; its only IO is
@@ -11,6 +11,7 @@
 
 pub mod batch;
 pub mod detect;
+pub mod document;
 pub mod kind;
 pub mod registration;
 pub mod stats;
@@ -19,8 +20,8 @@ pub mod trend;
 use std::path::PathBuf;
 
 pub use detect::{
-    detect_decided, detect_document, detect_file, detect_loop, DetectError, Detected,
-    DetectionRecord,
+    detect_decided, detect_file, detect_loop, detect_view, DetectError, Detected, DetectionFigures,
+    DetectionRecord, DetectionView,
 };
 pub use kind::{Integrating, KindDecision, KindSource};
 pub use registration::{

@@ -10,7 +10,7 @@ use datasets::LoopData;
 use detection::Detection;
 use discrepancy::Diagnosis;
 use grid_search::Criterion;
-use monitoring::Detected;
+use monitoring::{Detected, DetectionFigures, DetectionView};
 use run::Fitted;
 
 use crate::figures::{self, Figure, LoopSignals};
@@ -153,7 +153,7 @@ pub fn run_figures(
 pub fn quantify_page(
     d: &LoopData,
     r: &Fitted,
-    det: &Detected,
+    det: &DetectionView,
     repair: &Result<repair::Repair, repair::NoRepair>,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
@@ -337,7 +337,7 @@ fn repair_paragraph(repair: &Result<repair::Repair, repair::NoRepair>) -> Block 
 pub fn diagnose_page(
     d: &LoopData,
     dg: &Diagnosis,
-    det: &Detected,
+    det: &DetectionView,
     repair: &Result<repair::Repair, repair::NoRepair>,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
@@ -532,9 +532,9 @@ pub fn diagnose_page(
 /// The detection tests' section of the `quantify` and `diagnose` pages: the detector's line
 /// (verdict, score, reason, as the text output ends), then what [`detection_blocks`] shows, or
 /// why the detector could not run.
-pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, ReportError> {
+pub fn detection_section(d: &LoopData, view: &DetectionView) -> Result<Section, ReportError> {
     let mut sec = Section::new("Detection: is it the valve?");
-    let line = crate::text::detection_line(det);
+    let line = crate::text::detection_line(&view.detected);
     let mut chars = line.chars();
     let line: String = chars
         .next()
@@ -544,8 +544,8 @@ pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, Report
         "{line}. The detection tests judge the time series alone, independently of the model \
          fitted above."
     )));
-    match det {
-        Detected::Ran(x) => sec.blocks.extend(detection_blocks(d, x)?),
+    match &view.detected {
+        Detected::Ran(x) => sec.blocks.extend(detection_blocks(d, x, &view.figures)?),
         Detected::Failed(_) => {
             sec.push(Block::Note(
                 "No test ran, so there is nothing to draw.".into(),
@@ -557,9 +557,14 @@ pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, Report
 
 /// What the detection tests saw and said on `d`: the loop in one sentence, the table of the
 /// tests (name, statistic, verdict, evidence), the PV-OP plot with the fitted ellipse and the
-/// OP-PV cross-correlation (figures `detection-pv-op` and `detection-xcorr`), drawn from the
-/// registration the tests judged ([`monitoring::detect::registration`]).
-pub fn detection_blocks(d: &LoopData, det: &Detection) -> Result<Vec<Block>, ReportError> {
+/// OP-PV cross-correlation (figures `detection-pv-op` and `detection-xcorr`), drawn from what
+/// the detector computed on the registration the tests judged (`figures`,
+/// [`monitoring::detect_view`]).
+pub fn detection_blocks(
+    d: &LoopData,
+    det: &Detection,
+    figures: &Result<DetectionFigures, String>,
+) -> Result<Vec<Block>, ReportError> {
     let mut blocks = Vec::new();
     let ts = run::sample_time(d);
     blocks.push(Block::Paragraph(format!(
@@ -598,39 +603,36 @@ pub fn detection_blocks(d: &LoopData, det: &Detection) -> Result<Vec<Block>, Rep
     let Some(sig) = signals(d, &name) else {
         return Ok(blocks);
     };
-    let reg = match monitoring::detect::registration(d, det.integrating) {
-        Ok(reg) => reg,
+    let drawn = match figures {
+        Ok(drawn) => drawn,
         Err(e) => {
             blocks.push(Block::Note(format!("No detection figures: {e}.")));
             return Ok(blocks);
         }
     };
-    let ellipse = detection::figures::pv_op_ellipse(&reg);
     blocks.push(Block::Figure(figures::pv_op_plot(
         &sig,
-        ellipse.as_ref(),
+        drawn.ellipse.as_ref(),
         "detection-pv-op",
     )?));
-    match detection::figures::cross_correlation(&reg) {
-        Some(cc) => blocks.push(Block::Figure(figures::cross_correlation(
+    match &drawn.cross_correlation {
+        Ok(cc) => blocks.push(Block::Figure(figures::cross_correlation(
             &sig,
-            &cc,
+            cc,
             "detection-xcorr",
         )?)),
-        None => blocks.push(Block::Note(format!(
-            "No cross-correlation: {}.",
-            reg.check().err().map_or_else(
-                || "the record cannot be judged".to_string(),
-                |e| e.to_string()
-            )
-        ))),
+        Err(why) => blocks.push(Block::Note(format!("No cross-correlation: {why}."))),
     }
     Ok(blocks)
 }
 
 /// The report of `detect`: the verdict with its score and reason, then the tests' table and
-/// figures ([`detection_blocks`]).
-pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError> {
+/// figures ([`detection_blocks`]) drawn from `figures`.
+pub fn detect_page(
+    d: &LoopData,
+    det: &Detection,
+    figures: &Result<DetectionFigures, String>,
+) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let mut first = Section::new("Verdict");
     first.push(Block::Verdict(format!(
@@ -647,7 +649,7 @@ pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError>
         det.reason
     )));
     let mut tests = Section::new("The tests");
-    tests.blocks = detection_blocks(d, det)?;
+    tests.blocks = detection_blocks(d, det, figures)?;
     Ok(Report {
         title: format!("detect: loop {name}"),
         subtitle: format!("{} · {} samples · stiction detect", d.source, d.len()),
