@@ -345,66 +345,7 @@ pub fn diagnose_page(
     let base_label = combo(base);
     let head = dg.headline();
     let final_fit = dg.final_fit();
-    let mut findings = Section::new("Causes tested");
-    findings.push(Block::Paragraph(format!(
-        "Each cause is tested by fitting the model extended for it and comparing its \
-         validation fit by a likelihood ratio (LR) that must pass the threshold: in step 1 \
-         against the baseline {base_label}, in step k on top of the causes added before it. A \
-         cause is held when a step added it to the final model; its row shows that step's test."
-    )));
-    let cause_rows = crate::text::cause_rows(dg);
-    let rows = cause_rows
-        .iter()
-        .map(|row| {
-            let f = row.finding;
-            let (ext, s_, j_) = match &f.extended {
-                Some(e) => (
-                    format!("{} × {} d={}", e.stiction_model, e.linear_model, e.delay),
-                    format!("{:.2}", e.s),
-                    format!("{:.2}", e.j),
-                ),
-                None => (
-                    f.error.clone().unwrap_or_else(|| "-".into()),
-                    "-".into(),
-                    "-".into(),
-                ),
-            };
-            vec![
-                f.cause.to_string(),
-                crate::text::held_cell(row),
-                crate::text::finite_or_dash(f.statistic, 2, false),
-                crate::text::finite_or_dash(f.lr, 1, false),
-                crate::text::finite_or_dash(f.threshold.abs(), 1, false),
-                ext,
-                s_,
-                j_,
-                crate::text::finite_or_dash(f.gain_fit_pv_val, 2, true),
-            ]
-        })
-        .collect();
-    findings.push(Block::Table {
-        header: [
-            "cause",
-            "held",
-            "statistic",
-            "LR",
-            "needed",
-            "extension",
-            "S",
-            "J",
-            "ΔF_PV val",
-        ]
-        .map(String::from)
-        .to_vec(),
-        rows,
-    });
-    findings.push(Block::Details {
-        summary: "The evidence for each cause".into(),
-        paragraphs: cause_rows
-            .iter()
-            .map(|r| format!("{}: {}", r.finding.cause, r.finding.evidence))
-            .collect(),
-    });
+    let findings = causes_section(dg, &base_label);
     let mut first = Section::new("Verdict");
     first.push(Block::Verdict(format!(
         "{}.",
@@ -474,44 +415,7 @@ pub fn diagnose_page(
         later.push(baseline);
     }
     if let Some(sig) = &sig {
-        let mut res = Section::new("Residuals");
-        let r = &dg.residuals;
-        let ext = final_fit.map(|x| (x, format!("{} (final model)", combo(x))));
-        let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
-        res.push(Block::Figure(figures::residual_trends(
-            sig,
-            (&base.result, &base_label),
-            ext_ref,
-            "residuals",
-        )?));
-        res.push(Block::Figure(figures::residual_spectrum(
-            sig,
-            (&base.result, &base_label),
-            ext_ref,
-            "spectrum",
-        )?));
-        res.push(Block::Facts(vec![
-            (
-                "Ljung-Box Q (limit)".into(),
-                format!("{:.1} ({:.1})", r.ljung_box_q, r.ljung_box_limit),
-            ),
-            (
-                "cross-correlation with past MV".into(),
-                format!("z = {:.2} at lag {}", r.cross_mv_z, r.cross_mv_lag),
-            ),
-            (
-                "low-frequency share of the simulation residual".into(),
-                format!("{:.2}", r.low_frequency_ratio),
-            ),
-            (
-                "mean residual moving up / down".into(),
-                format!(
-                    "{:.3} / {:.3} (t = {:.2})",
-                    r.mean_up, r.mean_down, r.direction_t
-                ),
-            ),
-        ]));
-        later.push(res);
+        later.push(residuals_section(sig, dg, &base_label)?);
     }
     later.push(detection_section(d, det)?);
     // The verdict and the model to use first; then how it was reached.
@@ -527,6 +431,121 @@ pub fn diagnose_page(
         summary: Vec::new(),
         sections,
     })
+}
+
+/// The causes section of the `diagnose` page: each cause's test against the model before it
+/// (the table) and its evidence.
+fn causes_section(dg: &Diagnosis, base_label: &str) -> Section {
+    let mut findings = Section::new("Causes tested");
+    findings.push(Block::Paragraph(format!(
+        "Each cause is tested by fitting the model extended for it and comparing its \
+         validation fit by a likelihood ratio (LR) that must pass the threshold: in step 1 \
+         against the baseline {base_label}, in step k on top of the causes added before it. A \
+         cause is held when a step added it to the final model; its row shows that step's test."
+    )));
+    let cause_rows = crate::text::cause_rows(dg);
+    let rows = cause_rows
+        .iter()
+        .map(|row| {
+            let f = row.finding;
+            let (ext, s_, j_) = match &f.extended {
+                Some(e) => (
+                    format!("{} × {} d={}", e.stiction_model, e.linear_model, e.delay),
+                    format!("{:.2}", e.s),
+                    format!("{:.2}", e.j),
+                ),
+                None => (
+                    f.error.clone().unwrap_or_else(|| "-".into()),
+                    "-".into(),
+                    "-".into(),
+                ),
+            };
+            vec![
+                f.cause.to_string(),
+                crate::text::held_cell(row),
+                crate::text::finite_or_dash(f.statistic, 2, false),
+                crate::text::finite_or_dash(f.lr, 1, false),
+                crate::text::finite_or_dash(f.threshold.abs(), 1, false),
+                ext,
+                s_,
+                j_,
+                crate::text::finite_or_dash(f.gain_fit_pv_val, 2, true),
+            ]
+        })
+        .collect();
+    findings.push(Block::Table {
+        header: [
+            "cause",
+            "held",
+            "statistic",
+            "LR",
+            "needed",
+            "extension",
+            "S",
+            "J",
+            "ΔF_PV val",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    });
+    findings.push(Block::Details {
+        summary: "The evidence for each cause".into(),
+        paragraphs: cause_rows
+            .iter()
+            .map(|r| format!("{}: {}", r.finding.cause, r.finding.evidence))
+            .collect(),
+    });
+    findings
+}
+
+/// The residuals section of the `diagnose` page: the baseline's (and the final model's)
+/// residuals over time and their spectrum, with the residual statistics.
+fn residuals_section(
+    sig: &LoopSignals<'_>,
+    dg: &Diagnosis,
+    base_label: &str,
+) -> Result<Section, ReportError> {
+    let base = &dg.baseline_fit;
+    let final_fit = dg.final_fit();
+    let mut res = Section::new("Residuals");
+    let r = &dg.residuals;
+    let ext = final_fit.map(|x| (x, format!("{} (final model)", combo(x))));
+    let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
+    res.push(Block::Figure(figures::residual_trends(
+        sig,
+        (&base.result, base_label),
+        ext_ref,
+        "residuals",
+    )?));
+    res.push(Block::Figure(figures::residual_spectrum(
+        sig,
+        (&base.result, base_label),
+        ext_ref,
+        "spectrum",
+    )?));
+    res.push(Block::Facts(vec![
+        (
+            "Ljung-Box Q (limit)".into(),
+            format!("{:.1} ({:.1})", r.ljung_box_q, r.ljung_box_limit),
+        ),
+        (
+            "cross-correlation with past MV".into(),
+            format!("z = {:.2} at lag {}", r.cross_mv_z, r.cross_mv_lag),
+        ),
+        (
+            "low-frequency share of the simulation residual".into(),
+            format!("{:.2}", r.low_frequency_ratio),
+        ),
+        (
+            "mean residual moving up / down".into(),
+            format!(
+                "{:.3} / {:.3} (t = {:.2})",
+                r.mean_up, r.mean_down, r.direction_t
+            ),
+        ),
+    ]));
+    Ok(res)
 }
 
 /// The detection tests' section of the `quantify` and `diagnose` pages: the detector's line
