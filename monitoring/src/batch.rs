@@ -44,9 +44,8 @@ use datasets::{format_epoch, ReadOptions};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::registration::{
-    evaluate, unread, FitEvidence, Integrating, Plan, Registration, RegistrationError,
-};
+use crate::kind::Integrating;
+use crate::registration::{evaluate, unread, FitEvidence, Plan, Registration, RegistrationError};
 use crate::{roc, MonitoringError, Roc, TimeSource};
 use run::{null_as_nan, on_grid, Combination, QuantifyRecord, Settings};
 

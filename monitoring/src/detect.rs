@@ -9,10 +9,11 @@
 use std::path::Path;
 
 use datasets::{DataError, LoopData};
+use detection::figures::{CrossCorrelation, PvOpEllipse};
 use detection::{Detection, DetectionError, Verdict};
 use serde::Serialize;
 
-use crate::registration::{file_name, Integrating, KindDecision};
+use crate::kind::{file_name, Integrating, KindDecision};
 use run::sample_time;
 
 /// Why the detector could not run on a record.
@@ -115,14 +116,73 @@ pub fn detect_decided(d: &LoopData, kind: KindDecision) -> Detected {
     }
 }
 
-/// [`detect_loop`] on the record of `file` (`None` for a made-up record, e.g. an example),
+/// What the detection figures draw, computed once on the registration the tests judged: the
+/// report draws them and computes nothing.
+#[derive(Debug, Clone)]
+pub struct DetectionFigures {
+    /// The PV-OP ellipse of the bicoherence test; `None` without a regular oscillation.
+    pub ellipse: Option<PvOpEllipse>,
+    /// The OP-PV cross-correlation, or why there is none (the record cannot be judged).
+    pub cross_correlation: Result<CrossCorrelation, String>,
+}
+
+/// The detector's answer on a record shown to a user (`stiction detect`, the detection
+/// section of the `quantify` and `diagnose` pages and outputs), with what its figures draw.
+#[derive(Debug)]
+pub struct DetectionView {
+    /// The answer.
+    pub detected: Detected,
+    /// The figures, or why there are none (the detector could not take the record).
+    pub figures: Result<DetectionFigures, String>,
+}
+
+/// [`detect_decided`] with the figures of the registration the tests judged.
+pub fn detect_view(d: &LoopData, kind: KindDecision) -> DetectionView {
+    match registration(d, kind.integrating) {
+        Ok(reg) => {
+            let mut det = detection::detect(&reg);
+            det.integrating_by = Some(kind.note());
+            DetectionView {
+                detected: Detected::Ran(det),
+                figures: Ok(figures_of(&reg)),
+            }
+        }
+        Err(e) => DetectionView {
+            figures: Err(e.to_string()),
+            detected: Detected::Failed(e),
+        },
+    }
+}
+
+/// The detection figures of the record `d` for a loop that is `integrating` or not, or why
+/// there are none.
+pub fn detection_figures(d: &LoopData, integrating: bool) -> Result<DetectionFigures, String> {
+    registration(d, integrating)
+        .map(|reg| figures_of(&reg))
+        .map_err(|e| e.to_string())
+}
+
+fn figures_of(reg: &detection::Registration<'_>) -> DetectionFigures {
+    let cross_correlation = detection::figures::cross_correlation(reg).ok_or_else(|| {
+        reg.check().err().map_or_else(
+            || "the record cannot be judged".to_string(),
+            |e| e.to_string(),
+        )
+    });
+    DetectionFigures {
+        ellipse: detection::figures::pv_op_ellipse(reg),
+        cross_correlation,
+    }
+}
+
+/// [`detect_view`] on the record of `file` (`None` for a made-up record, e.g. an example),
 /// integrating as `integrating` decides from the file's valve tag (the file name up to the
 /// first `_`), as `trend` and `batch` do.
-pub fn detect_file(d: &LoopData, file: Option<&Path>, integrating: Integrating) -> Detected {
+pub fn detect_file(d: &LoopData, file: Option<&Path>, integrating: Integrating) -> DetectionView {
     let valve = file
         .map(|f| datasets::parse_registration_name(&file_name(f)).valve)
         .unwrap_or_default();
-    detect_decided(d, integrating.decide(&valve, Some(d)))
+    detect_view(d, integrating.decide(&valve, Some(d)))
 }
 
 fn try_detect(d: &LoopData, integrating: bool) -> Result<Detection, DetectError> {
@@ -130,8 +190,8 @@ fn try_detect(d: &LoopData, integrating: bool) -> Result<Detection, DetectError>
 }
 
 /// The detection registration [`detect_loop`] judges the record `d` on: PV, OP, SP when there
-/// is one, the sampling time of [`sample_time`], `integrating` or not (for the report's
-/// detection figures, `detection::figures`, drawn from what the tests saw).
+/// is one, the sampling time of [`sample_time`], `integrating` or not (and the figures of
+/// [`detect_view`]).
 pub fn registration(
     d: &LoopData,
     integrating: bool,
@@ -142,37 +202,6 @@ pub fn registration(
         reg = reg.with_sp(sp)?;
     }
     Ok(reg)
-}
-
-/// The `detect --json` document of `d`'s detection: `source`, `score`, `verdict`, `reason`,
-/// `oscillating`, `period_s`, `integrating`, `sample_time_s`, `tests` (array of `{name,
-/// statistic, verdict, evidence}`).
-pub fn detect_document(d: &LoopData, det: &Detection) -> serde_json::Value {
-    use serde_json::json;
-    let tests: Vec<serde_json::Value> = det
-        .tests
-        .iter()
-        .map(|t| {
-            json!({
-                "name": t.name,
-                "statistic": t.statistic.filter(|v| v.is_finite()),
-                "verdict": t.verdict.as_str(),
-                "evidence": t.evidence,
-            })
-        })
-        .collect();
-    json!({
-        "source": d.source,
-        "score": det.score,
-        "verdict": det.verdict.as_str(),
-        "reason": det.reason,
-        "oscillating": det.oscillating,
-        "period_s": det.period_s,
-        "integrating": det.integrating,
-        "integrating_by": det.integrating_by,
-        "sample_time_s": sample_time(d),
-        "tests": tests,
-    })
 }
 
 #[cfg(test)]

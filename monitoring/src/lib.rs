@@ -2,8 +2,8 @@
 //! combination of the `run` crate and given the evidence behind a doubtful estimate
 //! ([`registration`]); the batch over many loops, its
 //! rows and labels ([`batch`]); the trend of a valve over repeated registrations with its
-//! maintenance verdict ([`trend`](mod@trend)); the detection crate's verdict on each record read
-//! ([`detect`]); ROC and robust statistics ([`stats`]).
+//! maintenance verdict ([`trend`](mod@trend)); which loops are integrating ([`kind`]); the detection crate's verdict on each record read
+//! ([`detect`]); the commands' JSON documents ([`document`]); ROC and robust statistics ([`stats`]).
 //!
 //! The trend diagnoses its registrations with `discrepancy` on the data it has read. The CLI
 //! parses arguments, calls this crate and prints. This crate never prints; its only IO is
@@ -11,6 +11,8 @@
 
 pub mod batch;
 pub mod detect;
+pub mod document;
+pub mod kind;
 pub mod registration;
 pub mod stats;
 pub mod trend;
@@ -18,12 +20,12 @@ pub mod trend;
 use std::path::PathBuf;
 
 pub use detect::{
-    detect_decided, detect_document, detect_file, detect_loop, DetectError, Detected,
-    DetectionRecord,
+    detect_decided, detect_file, detect_loop, detect_view, DetectError, Detected, DetectionFigures,
+    DetectionRecord, DetectionView,
 };
+pub use kind::{Integrating, KindDecision, KindSource};
 pub use registration::{
-    Evidence, ExplainFit, FitEvidence, Integrating, KindDecision, KindSource, Registration,
-    RegistrationError, TimeSource,
+    Evidence, ExplainFit, FitEvidence, Registration, RegistrationError, TimeSource,
 };
 pub use stats::{median, roc, theil_sen, Roc};
 pub use trend::{maintenance, trend, with_detection, Flag, Maintenance, Point, Trend};

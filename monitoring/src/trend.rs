@@ -13,9 +13,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::batch::BatchOptions;
 use crate::detect::DetectionRecord;
-use crate::registration::{
-    evaluate, file_name, Evidence, FitEvidence, Plan, Registration, TimeSource,
-};
+use crate::kind::file_name;
+use crate::registration::{evaluate, Evidence, FitEvidence, Plan, Registration, TimeSource};
 use crate::stats::{median, theil_sen};
 use crate::MonitoringError;
 use detection::Verdict;

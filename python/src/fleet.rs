@@ -72,7 +72,7 @@ pub(crate) fn batch_files(
         monitoring::registration::expand(&paths, &exclude, &op).map_err(usage_err)?;
     if let Some(v) = valve {
         files.retain(|f| {
-            datasets::parse_registration_name(&monitoring::registration::file_name(f)).valve == v
+            datasets::parse_registration_name(&monitoring::kind::file_name(f)).valve == v
         });
     }
     Ok((

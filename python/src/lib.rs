@@ -346,6 +346,7 @@ fn detected(d: &LoopData) -> monitoring::Detected {
         Some(std::path::Path::new(&d.source)),
         monitoring::Integrating::Auto,
     )
+    .detected
 }
 
 /// The `diagnose --json` document (`discrepancy::baseline`, `options_for`, `diagnose`).
@@ -362,20 +363,15 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
         DiagnoseError::Search(e) if e.is_usage() => usage_err(format!("{}: {e}", d.source)),
         other => data_err(format!("{}: {other}", d.source)),
     })?;
-    let mut v = dg.record(&d.source, &req.settings.search.init);
-    v["detection"] = serde_json::json!(detected(d).record());
     // what a repair would buy, in the final model (as `stiction diagnose --json`)
-    match dg.final_fit().unwrap_or(&dg.baseline_fit).repair(d, false) {
-        Ok(r) => {
-            v["repair"] = serde_json::json!(r);
-            v["repair_reason"] = serde_json::Value::Null;
-        }
-        Err(e) => {
-            v["repair"] = serde_json::Value::Null;
-            v["repair_reason"] = serde_json::json!(e.to_string());
-        }
-    }
-    Ok(v)
+    let repair = dg.final_fit().unwrap_or(&dg.baseline_fit).repair(d, false);
+    Ok(monitoring::document::diagnose(
+        &d.source,
+        &dg,
+        &req.settings.search.init,
+        &detected(d),
+        &repair,
+    ))
 }
 
 /// The `identify --json` document: the identifier with its orders and dead time, from MV when
@@ -407,15 +403,12 @@ fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
     let doc = match command {
         "quantify" => {
             let r = quantify_record(d, &req.stiction[0], &req.linear[0], req)?;
-            let mut v = serde_json::to_value(r).map_err(data_err)?;
-            v["source"] = serde_json::json!(d.source);
-            v["detection"] = serde_json::json!(detected(d).record());
-            v
+            monitoring::document::quantify(&d.source, &r, &detected(d)).map_err(data_err)?
         }
         "detect" => {
             d.require_pv().map_err(data_err)?;
             match detected(d) {
-                monitoring::Detected::Ran(det) => monitoring::detect_document(d, &det),
+                monitoring::Detected::Ran(det) => monitoring::document::detect(d, &det),
                 monitoring::Detected::Failed(e) => {
                     return Err(data_err(format!("{}: {e}", d.source)))
                 }

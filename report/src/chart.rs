@@ -342,11 +342,8 @@ enum Glyph {
     Rule,
 }
 
-fn draw_panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>,
-    panel: &Panel,
-    x_label: &str,
-) -> Result<(), ReportError> {
+/// The x and y ranges of `panel`: its own, else its data, bars and rules padded.
+fn ranges(panel: &Panel) -> ((f64, f64), (f64, f64)) {
     let all = || panel.series.iter().flat_map(|s| s.points.iter());
     let bars = || panel.series.iter().flat_map(|s| s.bars.iter());
     let x_range = panel
@@ -360,12 +357,6 @@ fn draw_panel(
             )
         })
         .unwrap_or((0.0, 1.0));
-    let entries = panel.rules.len()
-        + panel
-            .series
-            .iter()
-            .filter(|s| s.points.iter().any(|p| p.0.is_finite() && p.1.is_finite()))
-            .count();
     let y_range = panel
         .y_range
         .or_else(|| {
@@ -377,6 +368,62 @@ fn draw_panel(
             )
         })
         .unwrap_or((0.0, 1.0));
+    (x_range, y_range)
+}
+
+/// The legend box of `panel`'s `entries` (name, colour, glyph) in the strip right of its plot.
+fn draw_legend(
+    legend_area: &DrawingArea<SVGBackend<'_>, Shift>,
+    panel: &Panel,
+    entries: Vec<(String, RGBColor, Glyph)>,
+) -> Result<(), ReportError> {
+    // A chart without axes in the strip right of the plot holds the legend box, top
+    // aligned with the plotting area.
+    let top = 8 + if panel.caption.is_empty() { 0 } else { 24 };
+    let mut lc = ChartBuilder::on(legend_area)
+        .margin_top(top)
+        .margin_left(4)
+        .margin_right(8)
+        .build_cartesian_2d(0f64..1f64, 0f64..1f64)
+        .map_err(|e| err("legend", e))?;
+    for (name, c, glyph) in entries {
+        lc.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+            .map_err(|e| err("legend", e))?
+            .label(name)
+            .legend(move |(x, y)| {
+                let (r, path, w) = match glyph {
+                    Glyph::Dot => (3, vec![(0, 0), (0, 0)], 1),
+                    Glyph::Line => (0, vec![(0, 0), (18, 0)], 2),
+                    Glyph::Rule => (0, vec![(0, 0), (18, 0)], 1),
+                };
+                let dx = if glyph == Glyph::Dot { 9 } else { 0 };
+                EmptyElement::at((x, y))
+                    + Circle::new((dx, 0), r, c.filled())
+                    + PathElement::new(path, style(c, w))
+            });
+    }
+    lc.configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(160, 160, 160))
+        .label_font((FONT, LABEL_PX))
+        .draw()
+        .map_err(|e| err("legend", e))?;
+    Ok(())
+}
+
+fn draw_panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    panel: &Panel,
+    x_label: &str,
+) -> Result<(), ReportError> {
+    let (x_range, y_range) = ranges(panel);
+    let entries = panel.rules.len()
+        + panel
+            .series
+            .iter()
+            .filter(|s| s.points.iter().any(|p| p.0.is_finite() && p.1.is_finite()))
+            .count();
     // The legend sits in a strip right of the plotting area, never on the data: wide enough
     // for the longest label (15 px text, about 8.2 px a character, plus the glyph).
     let longest = panel
@@ -501,38 +548,7 @@ fn draw_panel(
         }
     }
     if !entries.is_empty() {
-        // A chart without axes in the strip right of the plot holds the legend box, top
-        // aligned with the plotting area.
-        let top = 8 + if panel.caption.is_empty() { 0 } else { 24 };
-        let mut lc = ChartBuilder::on(&legend_area)
-            .margin_top(top)
-            .margin_left(4)
-            .margin_right(8)
-            .build_cartesian_2d(0f64..1f64, 0f64..1f64)
-            .map_err(|e| err("legend", e))?;
-        for (name, c, glyph) in entries {
-            lc.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-                .map_err(|e| err("legend", e))?
-                .label(name)
-                .legend(move |(x, y)| {
-                    let (r, path, w) = match glyph {
-                        Glyph::Dot => (3, vec![(0, 0), (0, 0)], 1),
-                        Glyph::Line => (0, vec![(0, 0), (18, 0)], 2),
-                        Glyph::Rule => (0, vec![(0, 0), (18, 0)], 1),
-                    };
-                    let dx = if glyph == Glyph::Dot { 9 } else { 0 };
-                    EmptyElement::at((x, y))
-                        + Circle::new((dx, 0), r, c.filled())
-                        + PathElement::new(path, style(c, w))
-                });
-        }
-        lc.configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(160, 160, 160))
-            .label_font((FONT, LABEL_PX))
-            .draw()
-            .map_err(|e| err("legend", e))?;
+        draw_legend(&legend_area, panel, entries)?;
     }
     Ok(())
 }

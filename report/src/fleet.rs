@@ -504,6 +504,99 @@ fn dv(x: Option<f64>) -> String {
     x.map_or_else(String::new, |v| format!("{v}"))
 }
 
+/// One valve's row of the fleet table, ranked `rank`.
+fn valve_row(h: &mut String, rank: usize, v: &FleetValve) {
+    let a = area(&v.valve);
+    let date = v
+        .registrations
+        .last()
+        .and_then(|r| r.date.clone())
+        .unwrap_or_default();
+    let (badge, verdict) = match v.verdict.as_str() {
+        "stiction" => ("stiction", "stiction"),
+        "no-stiction" => ("no-stiction", "no stiction"),
+        "inconclusive" => ("inconclusive", "inconclusive"),
+        "" if v.error.is_some() => ("error", "error"),
+        "" => ("unknown", "unknown"),
+        _ => ("unknown", v.verdict.as_str()),
+    };
+    let _ = write!(
+        h,
+        "<tr data-rank=\"{rank}\" data-tag=\"{tag}\" data-area=\"{ae}\" data-priority=\"{}\">\
+         <td class=\"n\" data-value=\"{rank}\">{rank}</td>\
+         <td class=\"tag\" data-value=\"{tag}\">{tag}</td>\
+         <td data-value=\"{ae}\">{ae}</td>\
+         <td data-value=\"{de}\">{dh}</td>\
+         <td data-value=\"{ve}\"><span class=\"badge b-{badge}\">{ve}</span></td>\
+         <td class=\"n\" data-value=\"{}\">{}</td>\
+         <td class=\"n\" data-value=\"{}\">{}</td>",
+        priority(v),
+        dv(finite(v.score)),
+        finite(v.score).map_or_else(|| "-".to_string(), |s| format!("{s:.2}")),
+        dv(finite(v.s)),
+        s_text(v),
+        tag = escape(&v.valve),
+        ae = escape(&a),
+        de = escape(&date),
+        // Wrap between the day and the time, never inside the day.
+        dh = date
+            .split(' ')
+            .map(|p| format!("<span class=\"nw\">{}</span>", escape(p)))
+            .collect::<Vec<_>>()
+            .join(" "),
+        ve = escape(verdict),
+    );
+    match unit(v.reduction) {
+        Some(r) => {
+            let _ = write!(
+                h,
+                "<td class=\"n\" data-value=\"{r}\"><span class=\"ben\">{}\
+                 <span class=\"bar\"><i style=\"width:{:.0}%\"></i></span></span></td>",
+                pct(r),
+                r * 100.0
+            );
+        }
+        None => {
+            let why = v
+                .repair_reason
+                .as_deref()
+                .or(v.error.as_deref())
+                .unwrap_or("no repair estimate");
+            let _ = write!(
+                h,
+                "<td class=\"n\" data-value=\"\"><span class=\"missing\" title=\"{}\">n/a</span></td>",
+                escape(why)
+            );
+        }
+    }
+    let _ = write!(h, "<td class=\"causes\">{}</td>", causes_html(v));
+    let npts = v
+        .registrations
+        .iter()
+        .filter(|r| finite(r.s).is_some())
+        .count();
+    match sparkline(v) {
+        Some(svg) => {
+            let _ = write!(h, "<td data-value=\"{npts}\">{svg}</td>");
+        }
+        None => {
+            let text = if npts == 1 { "1 reg." } else { "no S" };
+            let _ = write!(h, "<td class=\"range\" data-value=\"{npts}\">{text}</td>");
+        }
+    }
+    match v.link.as_deref().and_then(safe_link) {
+        Some(l) => {
+            let _ = write!(
+                h,
+                "<td><a class=\"latest\" href=\"{}\">latest</a></td>",
+                escape(l)
+            );
+        }
+        None => h.push_str("<td></td>"),
+    }
+    h.push_str("</tr>\n");
+}
+
 /// The whole self-contained page, rows already ranked.
 pub fn fleet_page(title: &str, valves: &[FleetValve]) -> String {
     let rows = ranked(valves);
@@ -584,96 +677,7 @@ pub fn fleet_page(title: &str, valves: &[FleetValve]) -> String {
     h.push_str("</tr></thead>\n<tbody>\n");
 
     for (i, v) in rows.iter().enumerate() {
-        let rank = i + 1;
-        let a = area(&v.valve);
-        let date = v
-            .registrations
-            .last()
-            .and_then(|r| r.date.clone())
-            .unwrap_or_default();
-        let (badge, verdict) = match v.verdict.as_str() {
-            "stiction" => ("stiction", "stiction"),
-            "no-stiction" => ("no-stiction", "no stiction"),
-            "inconclusive" => ("inconclusive", "inconclusive"),
-            "" if v.error.is_some() => ("error", "error"),
-            "" => ("unknown", "unknown"),
-            _ => ("unknown", v.verdict.as_str()),
-        };
-        let _ = write!(
-            h,
-            "<tr data-rank=\"{rank}\" data-tag=\"{tag}\" data-area=\"{ae}\" data-priority=\"{}\">\
-             <td class=\"n\" data-value=\"{rank}\">{rank}</td>\
-             <td class=\"tag\" data-value=\"{tag}\">{tag}</td>\
-             <td data-value=\"{ae}\">{ae}</td>\
-             <td data-value=\"{de}\">{dh}</td>\
-             <td data-value=\"{ve}\"><span class=\"badge b-{badge}\">{ve}</span></td>\
-             <td class=\"n\" data-value=\"{}\">{}</td>\
-             <td class=\"n\" data-value=\"{}\">{}</td>",
-            priority(v),
-            dv(finite(v.score)),
-            finite(v.score).map_or_else(|| "-".to_string(), |s| format!("{s:.2}")),
-            dv(finite(v.s)),
-            s_text(v),
-            tag = escape(&v.valve),
-            ae = escape(&a),
-            de = escape(&date),
-            // Wrap between the day and the time, never inside the day.
-            dh = date
-                .split(' ')
-                .map(|p| format!("<span class=\"nw\">{}</span>", escape(p)))
-                .collect::<Vec<_>>()
-                .join(" "),
-            ve = escape(verdict),
-        );
-        match unit(v.reduction) {
-            Some(r) => {
-                let _ = write!(
-                    h,
-                    "<td class=\"n\" data-value=\"{r}\"><span class=\"ben\">{}\
-                     <span class=\"bar\"><i style=\"width:{:.0}%\"></i></span></span></td>",
-                    pct(r),
-                    r * 100.0
-                );
-            }
-            None => {
-                let why = v
-                    .repair_reason
-                    .as_deref()
-                    .or(v.error.as_deref())
-                    .unwrap_or("no repair estimate");
-                let _ = write!(
-                    h,
-                    "<td class=\"n\" data-value=\"\"><span class=\"missing\" title=\"{}\">n/a</span></td>",
-                    escape(why)
-                );
-            }
-        }
-        let _ = write!(h, "<td class=\"causes\">{}</td>", causes_html(v));
-        let npts = v
-            .registrations
-            .iter()
-            .filter(|r| finite(r.s).is_some())
-            .count();
-        match sparkline(v) {
-            Some(svg) => {
-                let _ = write!(h, "<td data-value=\"{npts}\">{svg}</td>");
-            }
-            None => {
-                let text = if npts == 1 { "1 reg." } else { "no S" };
-                let _ = write!(h, "<td class=\"range\" data-value=\"{npts}\">{text}</td>");
-            }
-        }
-        match v.link.as_deref().and_then(safe_link) {
-            Some(l) => {
-                let _ = write!(
-                    h,
-                    "<td><a class=\"latest\" href=\"{}\">latest</a></td>",
-                    escape(l)
-                );
-            }
-            None => h.push_str("<td></td>"),
-        }
-        h.push_str("</tr>\n");
+        valve_row(&mut h, i + 1, v);
     }
     h.push_str("</tbody>\n</table>\n");
     let _ = write!(

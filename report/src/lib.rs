@@ -17,6 +17,7 @@
 //! * [`fleet`]: one page for a whole plant: every valve once, ranked by the repair benefit to
 //!   expect (benefit × detector score), with sorting and filters in a small inline script.
 //! * [`text`]: the plain-text output of each command.
+//! * [`verdict`]: the sentences on an estimate that pages and text share.
 //! * [`inspect`]: reads a figure's SVG back (title, panels, axis descriptions, legend, series)
 //!   for structure snapshots and for checking that every plot says what it shows.
 //!
@@ -30,6 +31,7 @@ pub mod html;
 pub mod inspect;
 pub mod pages;
 pub mod text;
+pub mod verdict;
 
 pub use figures::{Figure, LoopSignals, TrendPoint, TrendStatus};
 pub use html::{Block, Report, Section, WriteOptions, Written};

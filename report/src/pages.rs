@@ -1,20 +1,20 @@
 //! The HTML page of each command, from the typed results: `quantify`, `compare`, `diagnose`,
-//! `trend`, `detect`, and the page of a loop the reader refused. Also the sentences they share
-//! with the text output (the verdict on an estimate), the numbers of one run ([`facts`]) and
-//! the detection tests' section of `quantify`, `diagnose` and `detect`
-//! ([`detection_section`]).
+//! `trend`, `detect`, and the page of a loop the reader refused. Also the numbers of one run
+//! ([`facts`]) and the detection tests' section of `quantify`, `diagnose` and `detect`
+//! ([`detection_section`]). The verdict sentences they share with the text output are
+//! [`crate::verdict`]'s.
 
 use std::path::Path;
 
 use datasets::LoopData;
 use detection::Detection;
 use discrepancy::Diagnosis;
-use grid_search::{Criterion, Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
-use monitoring::Detected;
+use grid_search::Criterion;
+use monitoring::{Detected, DetectionFigures, DetectionView};
 use run::Fitted;
-use stiction_models::ModelEntry;
 
 use crate::figures::{self, Figure, LoopSignals};
+use crate::verdict::{f2, opt2, own_params, verdict, verdict_line};
 use crate::{Block, Report, ReportError, Section};
 
 mod trend;
@@ -52,116 +52,6 @@ pub fn signals<'a>(d: &'a LoopData, name: &'a str) -> Option<LoopSignals<'a>> {
 /// `kano × arx`.
 pub fn combo(r: &Fitted) -> String {
     format!("{} × {}", r.stiction.name, r.linear)
-}
-
-pub(crate) fn f2(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x:.2}")
-    } else {
-        "-".into()
-    }
-}
-
-pub(crate) fn opt2(x: Option<f64>) -> String {
-    x.map_or_else(|| "-".into(), f2)
-}
-
-/// One sentence on what a quantification says about the valve, with how far to trust it. The
-/// levels are [`grid_search::trust`]'s, the only place they are defined: "the valve sticks"
-/// only for S >= [`HARMFUL_S`] with no doubt; a slight S or a doubtful estimate says so.
-pub fn verdict(q: &Quantification, label: &str) -> String {
-    let (_, val) = q.fits.rank(q.criterion);
-    let fit = format!(
-        "validation F_PV {:.1} % ({})",
-        val,
-        match q.criterion {
-            grid_search::Criterion::Prediction => "one-step prediction",
-            grid_search::Criterion::Simulation => "free-run simulation",
-        }
-    );
-    let v = q.verdict();
-    let region = format!(
-        "S = {:.2} % of valve span (deadband + stickband; {:.0} % region {:.2}-{:.2}), J = {:.2} % (region {:.2}-{:.2})",
-        q.s,
-        100.0 * q.interval.confidence,
-        q.interval.s[0],
-        q.interval.s[1],
-        q.j,
-        q.interval.j[0],
-        q.interval.j[1]
-    );
-    let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
-    match v.severity {
-        Severity::Negligible if doubts.is_empty() => format!(
-            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %); {fit}.",
-            q.s
-        ),
-        Severity::Negligible => format!(
-            "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %), but the evidence is weak: {}; {fit}.",
-            q.s,
-            doubts.join("; ")
-        ),
-        _ if !doubts.is_empty() => format!(
-            "{label}: estimated {region}, but the evidence is weak: {}; {fit}. Do not act on this estimate alone: look at the figures, or repeat the registration.",
-            doubts.join("; ")
-        ),
-        Severity::Slight => format!(
-            "{label}: slight stiction, {region}; {fit}. Below the {HARMFUL_S} % at which stiction degrades control."
-        ),
-        Severity::Harmful => {
-            let maintenance = if q.s >= MAINTENANCE_S {
-                format!(
-                    " It is at or above the {MAINTENANCE_S} % maintenance threshold of `stiction trend`."
-                )
-            } else {
-                String::new()
-            };
-            format!(
-                "{label}: the valve sticks, {region}; {fit}. Stiction of {HARMFUL_S} % or more degrades control.{maintenance}"
-            )
-        }
-    }
-}
-
-/// The verdict in a few words, for the text output (`verdict: ...`).
-pub fn verdict_line(q: &Quantification) -> String {
-    let v = q.verdict();
-    if !v.doubts.is_empty() && v.severity != Severity::Negligible {
-        let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
-        return format!(
-            "S = {:.2} % is not to be trusted alone: {}",
-            q.s,
-            doubts.join("; ")
-        );
-    }
-    match v.severity {
-        Severity::Negligible => format!("no stiction found (S at most {NEGLIGIBLE_S} %)"),
-        Severity::Slight => {
-            format!("slight stiction (S between {NEGLIGIBLE_S} and {HARMFUL_S} %)")
-        }
-        Severity::Harmful if q.s >= MAINTENANCE_S => format!(
-            "the valve sticks (S of {HARMFUL_S} % or more degrades control; at or above the {MAINTENANCE_S} % maintenance threshold)"
-        ),
-        Severity::Harmful => {
-            format!("the valve sticks (S of {HARMFUL_S} % or more degrades control)")
-        }
-    }
-}
-
-/// The best model's own parameters and derived values, `name = value` (3 decimals).
-pub fn own_params(entry: &ModelEntry, q: &Quantification) -> Vec<String> {
-    entry
-        .params
-        .iter()
-        .zip(q.stiction.param_values())
-        .map(|(p, v)| format!("{} = {v:.3}", p.name))
-        .chain(
-            q.stiction
-                .derived_values()
-                .into_iter()
-                .map(|(k, v)| format!("{k} = {v:.3}")),
-        )
-        .collect()
 }
 
 /// The numbers of one run as name/value pairs.
@@ -263,7 +153,7 @@ pub fn run_figures(
 pub fn quantify_page(
     d: &LoopData,
     r: &Fitted,
-    det: &Detected,
+    det: &DetectionView,
     repair: &Result<repair::Repair, repair::NoRepair>,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
@@ -447,7 +337,7 @@ fn repair_paragraph(repair: &Result<repair::Repair, repair::NoRepair>) -> Block 
 pub fn diagnose_page(
     d: &LoopData,
     dg: &Diagnosis,
-    det: &Detected,
+    det: &DetectionView,
     repair: &Result<repair::Repair, repair::NoRepair>,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
@@ -455,66 +345,7 @@ pub fn diagnose_page(
     let base_label = combo(base);
     let head = dg.headline();
     let final_fit = dg.final_fit();
-    let mut findings = Section::new("Causes tested");
-    findings.push(Block::Paragraph(format!(
-        "Each cause is tested by fitting the model extended for it and comparing its \
-         validation fit by a likelihood ratio (LR) that must pass the threshold: in step 1 \
-         against the baseline {base_label}, in step k on top of the causes added before it. A \
-         cause is held when a step added it to the final model; its row shows that step's test."
-    )));
-    let cause_rows = crate::text::cause_rows(dg);
-    let rows = cause_rows
-        .iter()
-        .map(|row| {
-            let f = row.finding;
-            let (ext, s_, j_) = match &f.extended {
-                Some(e) => (
-                    format!("{} × {} d={}", e.stiction_model, e.linear_model, e.delay),
-                    format!("{:.2}", e.s),
-                    format!("{:.2}", e.j),
-                ),
-                None => (
-                    f.error.clone().unwrap_or_else(|| "-".into()),
-                    "-".into(),
-                    "-".into(),
-                ),
-            };
-            vec![
-                f.cause.to_string(),
-                crate::text::held_cell(row),
-                crate::text::finite_or_dash(f.statistic, 2, false),
-                crate::text::finite_or_dash(f.lr, 1, false),
-                crate::text::finite_or_dash(f.threshold.abs(), 1, false),
-                ext,
-                s_,
-                j_,
-                crate::text::finite_or_dash(f.gain_fit_pv_val, 2, true),
-            ]
-        })
-        .collect();
-    findings.push(Block::Table {
-        header: [
-            "cause",
-            "held",
-            "statistic",
-            "LR",
-            "needed",
-            "extension",
-            "S",
-            "J",
-            "ΔF_PV val",
-        ]
-        .map(String::from)
-        .to_vec(),
-        rows,
-    });
-    findings.push(Block::Details {
-        summary: "The evidence for each cause".into(),
-        paragraphs: cause_rows
-            .iter()
-            .map(|r| format!("{}: {}", r.finding.cause, r.finding.evidence))
-            .collect(),
-    });
+    let findings = causes_section(dg, &base_label);
     let mut first = Section::new("Verdict");
     first.push(Block::Verdict(format!(
         "{}.",
@@ -584,44 +415,7 @@ pub fn diagnose_page(
         later.push(baseline);
     }
     if let Some(sig) = &sig {
-        let mut res = Section::new("Residuals");
-        let r = &dg.residuals;
-        let ext = final_fit.map(|x| (x, format!("{} (final model)", combo(x))));
-        let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
-        res.push(Block::Figure(figures::residual_trends(
-            sig,
-            (&base.result, &base_label),
-            ext_ref,
-            "residuals",
-        )?));
-        res.push(Block::Figure(figures::residual_spectrum(
-            sig,
-            (&base.result, &base_label),
-            ext_ref,
-            "spectrum",
-        )?));
-        res.push(Block::Facts(vec![
-            (
-                "Ljung-Box Q (limit)".into(),
-                format!("{:.1} ({:.1})", r.ljung_box_q, r.ljung_box_limit),
-            ),
-            (
-                "cross-correlation with past MV".into(),
-                format!("z = {:.2} at lag {}", r.cross_mv_z, r.cross_mv_lag),
-            ),
-            (
-                "low-frequency share of the simulation residual".into(),
-                format!("{:.2}", r.low_frequency_ratio),
-            ),
-            (
-                "mean residual moving up / down".into(),
-                format!(
-                    "{:.3} / {:.3} (t = {:.2})",
-                    r.mean_up, r.mean_down, r.direction_t
-                ),
-            ),
-        ]));
-        later.push(res);
+        later.push(residuals_section(sig, dg, &base_label)?);
     }
     later.push(detection_section(d, det)?);
     // The verdict and the model to use first; then how it was reached.
@@ -639,12 +433,127 @@ pub fn diagnose_page(
     })
 }
 
+/// The causes section of the `diagnose` page: each cause's test against the model before it
+/// (the table) and its evidence.
+fn causes_section(dg: &Diagnosis, base_label: &str) -> Section {
+    let mut findings = Section::new("Causes tested");
+    findings.push(Block::Paragraph(format!(
+        "Each cause is tested by fitting the model extended for it and comparing its \
+         validation fit by a likelihood ratio (LR) that must pass the threshold: in step 1 \
+         against the baseline {base_label}, in step k on top of the causes added before it. A \
+         cause is held when a step added it to the final model; its row shows that step's test."
+    )));
+    let cause_rows = crate::text::cause_rows(dg);
+    let rows = cause_rows
+        .iter()
+        .map(|row| {
+            let f = row.finding;
+            let (ext, s_, j_) = match &f.extended {
+                Some(e) => (
+                    format!("{} × {} d={}", e.stiction_model, e.linear_model, e.delay),
+                    format!("{:.2}", e.s),
+                    format!("{:.2}", e.j),
+                ),
+                None => (
+                    f.error.clone().unwrap_or_else(|| "-".into()),
+                    "-".into(),
+                    "-".into(),
+                ),
+            };
+            vec![
+                f.cause.to_string(),
+                crate::text::held_cell(row),
+                crate::text::finite_or_dash(f.statistic, 2, false),
+                crate::text::finite_or_dash(f.lr, 1, false),
+                crate::text::finite_or_dash(f.threshold.abs(), 1, false),
+                ext,
+                s_,
+                j_,
+                crate::text::finite_or_dash(f.gain_fit_pv_val, 2, true),
+            ]
+        })
+        .collect();
+    findings.push(Block::Table {
+        header: [
+            "cause",
+            "held",
+            "statistic",
+            "LR",
+            "needed",
+            "extension",
+            "S",
+            "J",
+            "ΔF_PV val",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    });
+    findings.push(Block::Details {
+        summary: "The evidence for each cause".into(),
+        paragraphs: cause_rows
+            .iter()
+            .map(|r| format!("{}: {}", r.finding.cause, r.finding.evidence))
+            .collect(),
+    });
+    findings
+}
+
+/// The residuals section of the `diagnose` page: the baseline's (and the final model's)
+/// residuals over time and their spectrum, with the residual statistics.
+fn residuals_section(
+    sig: &LoopSignals<'_>,
+    dg: &Diagnosis,
+    base_label: &str,
+) -> Result<Section, ReportError> {
+    let base = &dg.baseline_fit;
+    let final_fit = dg.final_fit();
+    let mut res = Section::new("Residuals");
+    let r = &dg.residuals;
+    let ext = final_fit.map(|x| (x, format!("{} (final model)", combo(x))));
+    let ext_ref = ext.as_ref().map(|(v, l)| (&v.result, l.as_str()));
+    res.push(Block::Figure(figures::residual_trends(
+        sig,
+        (&base.result, base_label),
+        ext_ref,
+        "residuals",
+    )?));
+    res.push(Block::Figure(figures::residual_spectrum(
+        sig,
+        (&base.result, base_label),
+        ext_ref,
+        "spectrum",
+    )?));
+    res.push(Block::Facts(vec![
+        (
+            "Ljung-Box Q (limit)".into(),
+            format!("{:.1} ({:.1})", r.ljung_box_q, r.ljung_box_limit),
+        ),
+        (
+            "cross-correlation with past MV".into(),
+            format!("z = {:.2} at lag {}", r.cross_mv_z, r.cross_mv_lag),
+        ),
+        (
+            "low-frequency share of the simulation residual".into(),
+            format!("{:.2}", r.low_frequency_ratio),
+        ),
+        (
+            "mean residual moving up / down".into(),
+            format!(
+                "{:.3} / {:.3} (t = {:.2})",
+                r.mean_up, r.mean_down, r.direction_t
+            ),
+        ),
+    ]));
+    Ok(res)
+}
+
 /// The detection tests' section of the `quantify` and `diagnose` pages: the detector's line
 /// (verdict, score, reason, as the text output ends), then what [`detection_blocks`] shows, or
 /// why the detector could not run.
-pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, ReportError> {
+pub fn detection_section(d: &LoopData, view: &DetectionView) -> Result<Section, ReportError> {
     let mut sec = Section::new("Detection: is it the valve?");
-    let line = crate::text::detection_line(det);
+    let line = crate::text::detection_line(&view.detected);
     let mut chars = line.chars();
     let line: String = chars
         .next()
@@ -654,8 +563,8 @@ pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, Report
         "{line}. The detection tests judge the time series alone, independently of the model \
          fitted above."
     )));
-    match det {
-        Detected::Ran(x) => sec.blocks.extend(detection_blocks(d, x)?),
+    match &view.detected {
+        Detected::Ran(x) => sec.blocks.extend(detection_blocks(d, x, &view.figures)?),
         Detected::Failed(_) => {
             sec.push(Block::Note(
                 "No test ran, so there is nothing to draw.".into(),
@@ -667,9 +576,14 @@ pub fn detection_section(d: &LoopData, det: &Detected) -> Result<Section, Report
 
 /// What the detection tests saw and said on `d`: the loop in one sentence, the table of the
 /// tests (name, statistic, verdict, evidence), the PV-OP plot with the fitted ellipse and the
-/// OP-PV cross-correlation (figures `detection-pv-op` and `detection-xcorr`), drawn from the
-/// registration the tests judged ([`monitoring::detect::registration`]).
-pub fn detection_blocks(d: &LoopData, det: &Detection) -> Result<Vec<Block>, ReportError> {
+/// OP-PV cross-correlation (figures `detection-pv-op` and `detection-xcorr`), drawn from what
+/// the detector computed on the registration the tests judged (`figures`,
+/// [`monitoring::detect_view`]).
+pub fn detection_blocks(
+    d: &LoopData,
+    det: &Detection,
+    figures: &Result<DetectionFigures, String>,
+) -> Result<Vec<Block>, ReportError> {
     let mut blocks = Vec::new();
     let ts = run::sample_time(d);
     blocks.push(Block::Paragraph(format!(
@@ -708,39 +622,36 @@ pub fn detection_blocks(d: &LoopData, det: &Detection) -> Result<Vec<Block>, Rep
     let Some(sig) = signals(d, &name) else {
         return Ok(blocks);
     };
-    let reg = match monitoring::detect::registration(d, det.integrating) {
-        Ok(reg) => reg,
+    let drawn = match figures {
+        Ok(drawn) => drawn,
         Err(e) => {
             blocks.push(Block::Note(format!("No detection figures: {e}.")));
             return Ok(blocks);
         }
     };
-    let ellipse = detection::figures::pv_op_ellipse(&reg);
     blocks.push(Block::Figure(figures::pv_op_plot(
         &sig,
-        ellipse.as_ref(),
+        drawn.ellipse.as_ref(),
         "detection-pv-op",
     )?));
-    match detection::figures::cross_correlation(&reg) {
-        Some(cc) => blocks.push(Block::Figure(figures::cross_correlation(
+    match &drawn.cross_correlation {
+        Ok(cc) => blocks.push(Block::Figure(figures::cross_correlation(
             &sig,
-            &cc,
+            cc,
             "detection-xcorr",
         )?)),
-        None => blocks.push(Block::Note(format!(
-            "No cross-correlation: {}.",
-            reg.check().err().map_or_else(
-                || "the record cannot be judged".to_string(),
-                |e| e.to_string()
-            )
-        ))),
+        Err(why) => blocks.push(Block::Note(format!("No cross-correlation: {why}."))),
     }
     Ok(blocks)
 }
 
 /// The report of `detect`: the verdict with its score and reason, then the tests' table and
-/// figures ([`detection_blocks`]).
-pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError> {
+/// figures ([`detection_blocks`]) drawn from `figures`.
+pub fn detect_page(
+    d: &LoopData,
+    det: &Detection,
+    figures: &Result<DetectionFigures, String>,
+) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let mut first = Section::new("Verdict");
     first.push(Block::Verdict(format!(
@@ -757,7 +668,7 @@ pub fn detect_page(d: &LoopData, det: &Detection) -> Result<Report, ReportError>
         det.reason
     )));
     let mut tests = Section::new("The tests");
-    tests.blocks = detection_blocks(d, det)?;
+    tests.blocks = detection_blocks(d, det, figures)?;
     Ok(Report {
         title: format!("detect: loop {name}"),
         subtitle: format!("{} · {} samples · stiction detect", d.source, d.len()),

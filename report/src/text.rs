@@ -15,7 +15,7 @@ use monitoring::{Detected, Evidence, Flag, Roc, Trend};
 use run::identify::Identification;
 use run::Fitted;
 
-use crate::pages::{self, opt2};
+use crate::verdict::{opt2, own_params, verdict_line};
 
 /// The text of `quantify`: the combination, S and J with their ranges, the fits, the grid, the
 /// verdict and the warnings. `init` is the initialization's label.
@@ -44,7 +44,7 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
         init,
         q.criterion.describe()
     )?;
-    let own = pages::own_params(r.stiction, q);
+    let own = own_params(r.stiction, q);
     writeln!(
         out,
         "  S = {:.2} %  [{:.2}, {:.2}]    J = {:.2} %  [{:.2}, {:.2}]    ({})",
@@ -85,7 +85,7 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
         r.elapsed_ms
     )
     ?;
-    writeln!(out, "  verdict: {}", pages::verdict_line(q))?;
+    writeln!(out, "  verdict: {}", verdict_line(q))?;
     for (i, w) in q.warnings.iter().enumerate() {
         let kind = if i < q.doubts.len() {
             "warning"

@@ -51,9 +51,9 @@ fn tables(r: &Report) -> Vec<(&Vec<String>, &Vec<Vec<String>>)> {
 #[test]
 fn detect_page_has_the_verdict_the_test_table_and_two_checked_figures() {
     let d = sticky();
-    let det = monitoring::detect_loop(&d, false);
-    let det = det.detection().unwrap();
-    let page = detect_page(&d, det).unwrap();
+    let view = monitoring::detect_file(&d, None, monitoring::Integrating::No);
+    let det = view.detected.detection().unwrap();
+    let page = detect_page(&d, det, &view.figures).unwrap();
     assert_eq!(page.title, "detect: loop sticky");
     let verdict = page.sections[0]
         .blocks
@@ -98,9 +98,9 @@ fn detect_page_has_the_verdict_the_test_table_and_two_checked_figures() {
 fn a_record_the_detector_cannot_take_gets_its_reason_and_no_figure() {
     let mut d = sticky();
     d.sp.as_mut().unwrap().pop();
-    let det = monitoring::detect_loop(&d, false);
-    assert!(det.detection().is_none());
-    let sec = detection_section(&d, &det).unwrap();
+    let view = monitoring::detect_file(&d, None, monitoring::Integrating::No);
+    assert!(view.detected.detection().is_none());
+    let sec = detection_section(&d, &view).unwrap();
     assert!(sec.blocks.iter().all(|b| !matches!(b, Block::Figure(_))));
     let Block::Paragraph(first) = &sec.blocks[0] else {
         panic!("{:?}", sec.blocks[0]);
@@ -116,8 +116,8 @@ fn a_record_the_detector_cannot_take_gets_its_reason_and_no_figure() {
 fn a_flat_op_has_the_table_and_the_pv_op_plot_but_no_cross_correlation() {
     let mut d = sticky();
     d.op = vec![30.0; d.op.len()];
-    let det = monitoring::detect_loop(&d, false);
-    let sec = detection_section(&d, &det).unwrap();
+    let view = monitoring::detect_file(&d, None, monitoring::Integrating::No);
+    let sec = detection_section(&d, &view).unwrap();
     let names: Vec<&str> = sec
         .blocks
         .iter()

@@ -9,7 +9,7 @@ use std::time::Instant;
 use ::audit::{RegistrationSummary, Store, ValveHistory};
 use anyhow::anyhow;
 use monitoring::batch::{BatchOptions, Labels, DEFAULT_MIN_FIT};
-use monitoring::registration::file_name;
+use monitoring::kind::file_name;
 use rayon::prelude::*;
 use report::fleet::{FleetRegistration, FleetValve};
 
@@ -212,7 +212,12 @@ fn latest_page(
         d.clone()
     };
     let problem = run::problem(&used).map_err(|e| e.to_string())?;
-    let det = monitoring::detect_decided(&d, kind);
+    // the tests judge the record as read; the page draws `used` (the increments of an
+    // integrating loop), and the detection figures with it
+    let det = monitoring::DetectionView {
+        detected: monitoring::detect_decided(&d, kind),
+        figures: monitoring::detect::detection_figures(&used, integrating),
+    };
     let (st, li) = (&latest.stiction_model, &latest.linear_model);
     let (page, causes) = match diagnose {
         Some(search) => {

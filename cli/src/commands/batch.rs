@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use monitoring::batch::{self, BatchOptions, Labels, DEFAULT_MIN_FIT};
-use monitoring::registration::{expand, file_name, Integrating};
+use monitoring::kind::{file_name, Integrating};
+use monitoring::registration::expand;
 use stiction_models::find_model;
 
 use super::load::DataFlags;

@@ -43,15 +43,19 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     };
     let d = load_with(&args.file, &opts, s).map_err(|f| refused(f, s))?;
     d.require_pv().map_err(|e| refused(e.into(), s))?;
-    let det = match monitoring::detect_file(&d, Some(&args.file), args.integrating.into()) {
+    let view = monitoring::detect_file(&d, Some(&args.file), args.integrating.into());
+    let det = match view.detected {
         monitoring::Detected::Ran(det) => det,
         monitoring::Detected::Failed(e) => {
             return Err(refused(anyhow!("{}: {e}", d.source).into(), s))
         }
     };
-    reporting::write(&args.report, s, || report::pages::detect_page(&d, &det))?;
+    let figures = &view.figures;
+    reporting::write(&args.report, s, || {
+        report::pages::detect_page(&d, &det, figures)
+    })?;
     if args.json {
-        return s.json(&monitoring::detect_document(&d, &det));
+        return s.json(&monitoring::document::detect(&d, &det));
     }
     s.text(report::text::detect(&d, &det)?)
 }

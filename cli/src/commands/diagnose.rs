@@ -64,20 +64,18 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         report::pages::diagnose_page(&d, &dg, &det, &repair)
     })?;
     if args.json {
-        let mut v = dg.record(&d.source, &args.search.init);
-        v["detection"] = serde_json::json!(det.record());
-        let (value, reason) = match &repair {
-            Ok(r) => (serde_json::json!(r), serde_json::Value::Null),
-            Err(e) => (serde_json::Value::Null, serde_json::json!(e.to_string())),
-        };
-        v["repair"] = value;
-        v["repair_reason"] = reason;
-        return s.json(&v);
+        return s.json(&monitoring::document::diagnose(
+            &d.source,
+            &dg,
+            &args.search.init,
+            &det.detected,
+            &repair,
+        ));
     }
     let text = report::text::diagnose(&d, &dg)?;
     s.text(format!(
         "{text}{}\n{}\n",
         report::text::repair_line(&repair),
-        report::text::detection_line(&det)
+        report::text::detection_line(&det.detected)
     ))
 }

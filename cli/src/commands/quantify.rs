@@ -6,7 +6,6 @@ use std::time::Instant;
 use anyhow::anyhow;
 use datasets::LoopData;
 use run::Fitted;
-use serde_json::json;
 use stiction_models::find_model;
 
 use super::load::{load, DataFlags};
@@ -169,16 +168,17 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     if args.json {
         let mut record = r.record(&args.search.init);
         record.set_repair(repair);
-        let mut v = serde_json::to_value(record)?;
-        v["source"] = json!(d.source);
-        v["detection"] = json!(det.record());
-        return s.json(&v);
+        return s.json(&monitoring::document::quantify(
+            &d.source,
+            &record,
+            &det.detected,
+        )?);
     }
     let text = report::text::quantify(&d.source, &r, args.search.init.label())?;
     s.text(format!(
         "{text}{}\n{}\n",
         report::text::repair_line(&repair),
-        report::text::detection_line(&det)
+        report::text::detection_line(&det.detected)
     ))
 }
 
