@@ -439,6 +439,33 @@ pub fn read_mat_path(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<LoopD
     read_mat(bytes.as_slice(), &name, opts)
 }
 
+/// The columns as CSV text, a header of their labels, then `len` rows (NaN as an empty cell,
+/// numbers with every digit).
+fn csv_text(columns: &[(&str, Vec<f64>)], len: usize) -> String {
+    let mut text = columns
+        .iter()
+        .map(|(l, _)| *l)
+        .collect::<Vec<_>>()
+        .join(",");
+    text.push('\n');
+    for i in 0..len {
+        let row: Vec<String> = columns
+            .iter()
+            .map(|(_, v)| {
+                let x = v[i];
+                if x.is_nan() {
+                    String::new()
+                } else {
+                    format!("{x:?}")
+                }
+            })
+            .collect();
+        text.push_str(&row.join(","));
+        text.push('\n');
+    }
+    text
+}
+
 /// Read one registration from MATLAB v5 bytes; `source` names it in messages.
 ///
 /// Never panics: any input yields either data or a [`DataError`].
@@ -561,27 +588,7 @@ pub fn read_mat(
         }
     }
     // Hand the vectors to the CSV reader's checks.
-    let mut text = columns
-        .iter()
-        .map(|(l, _)| *l)
-        .collect::<Vec<_>>()
-        .join(",");
-    text.push('\n');
-    for i in 0..len {
-        let row: Vec<String> = columns
-            .iter()
-            .map(|(_, v)| {
-                let x = v[i];
-                if x.is_nan() {
-                    String::new()
-                } else {
-                    format!("{x:?}")
-                }
-            })
-            .collect();
-        text.push_str(&row.join(","));
-        text.push('\n');
-    }
+    let text = csv_text(&columns, len);
     let canonical = ReadOptions {
         pv: None,
         op: None,

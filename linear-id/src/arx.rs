@@ -4,11 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{check_data, check_order};
-use crate::registry::resolve;
-use crate::{
-    la, mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue,
-    PreparedOutput, Structure,
-};
+use crate::{la, mean, IdError, LinearFit, PreparedOutput, Structure};
 
 /// Largest accepted polynomial order.
 pub(crate) const MAX_ORDER: usize = 50;
@@ -112,13 +108,6 @@ impl ArxParams {
     }
 }
 
-impl TryFrom<ArxParams> for Arx {
-    type Error = IdError;
-    fn try_from(p: ArxParams) -> Result<Self, IdError> {
-        p.check()
-    }
-}
-
 impl From<Arx> for ArxParams {
     fn from(a: Arx) -> Self {
         ArxParams {
@@ -137,11 +126,6 @@ struct ArxCache {
 }
 
 impl Arx {
-    /// Start a parameter builder (`Arx::params().n(2).m(2).delay(0).check()?`).
-    pub fn params() -> ArxParams {
-        ArxParams::default()
-    }
-
     /// `(n, m, delay)`.
     pub(crate) fn orders_tuple(&self) -> (usize, usize, usize) {
         (self.n, self.m, self.delay)
@@ -255,100 +239,57 @@ impl Arx {
     }
 }
 
-#[typetag::serde(name = "arx")]
-impl LinearIdentifier for Arx {
-    fn name(&self) -> &'static str {
-        "arx"
+crate::linear_identifier! {
+    Arx("arx") from ArxParams;
+    description "ARX (eq. 2) by least squares (Householder QR)";
+    orders {
+        n: Int(2), "order of A(q) (auto-regressive part)", |p| p.n;
+        m: Int(2), "order of B(q) (exogenous part, b1 q^-1 .. bm q^-m)", |p| p.m;
+        delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |p| p.delay;
     }
-    fn orders(&self) -> Vec<(&'static str, OrderValue)> {
-        vec![
-            ("n", OrderValue::Int(self.n)),
-            ("m", OrderValue::Int(self.m)),
-            ("delay", OrderValue::Int(self.delay)),
-        ]
-    }
-    fn min_samples(&self) -> usize {
-        // strictly more equations than unknowns
-        self.n0() + self.n + self.m + 1
-    }
-    /// A grid search identifies an ARX from sums over the record ([`Arx::output_sums`]), linear
-    /// in its p = n + m parameters: about 10 p in the units of the default p² (measured:
-    /// `docs/decisions/2026-11-27-long-records-and-fuzz.md`).
-    fn cost_per_sample(&self) -> f64 {
-        10.0 * (self.n + self.m).max(1) as f64
-    }
-    fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-        check_data(u, y, self.min_samples())?;
-        let y_mean = mean(y);
-        let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
-        self.solve(u, y, &yc, y_mean)
-    }
-    fn prepare(&self, y: &[f64]) -> Result<PreparedOutput, IdError> {
-        crate::error::check_finite("y", y)?;
-        let y_mean = mean(y);
-        let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
-        Ok(PreparedOutput::with_cache(
-            y,
-            Box::new(ArxCache { y_mean, yc }),
-        ))
-    }
-    fn identify_prepared(
-        &self,
-        prepared: &PreparedOutput,
-        u: &[f64],
-    ) -> Result<LinearFit, IdError> {
-        let y = prepared.y();
-        match prepared.cache::<ArxCache>() {
-            Some(c) => {
-                check_data(u, y, self.min_samples())?;
-                self.solve(u, y, &c.yc, c.y_mean)
-            }
-            None => self.identify(u, y),
+    impl {
+        fn min_samples(&self) -> usize {
+            // strictly more equations than unknowns
+            self.n0() + self.n + self.m + 1
         }
-    }
-    fn as_arx(&self) -> Option<&Arx> {
-        Some(self)
-    }
-    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
-        Box::new(*self)
-    }
-}
-
-pub(crate) const ARX_ORDERS: [OrderSpec; 3] = [
-    OrderSpec {
-        name: "n",
-        default: OrderValue::Int(2),
-        meaning: "order of A(q) (auto-regressive part)",
-    },
-    OrderSpec {
-        name: "m",
-        default: OrderValue::Int(2),
-        meaning: "order of B(q) (exogenous part, b1 q^-1 .. bm q^-m)",
-    },
-    OrderSpec {
-        name: "delay",
-        default: OrderValue::Int(0),
-        meaning: "dead time t_d in samples (first input lag is 1 + delay)",
-    },
-];
-
-fn build_arx(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut v = resolve("arx", &ARX_ORDERS, pairs)?;
-    Ok(Box::new(
-        Arx::params()
-            .n(v.int()?)
-            .m(v.int()?)
-            .delay(v.int()?)
-            .check()?,
-    ))
-}
-
-inventory::submit! {
-    IdentifierEntry {
-        name: "arx",
-        description: "ARX (eq. 2) by least squares (Householder QR)",
-        orders: &ARX_ORDERS,
-        build: build_arx,
+        /// A grid search identifies an ARX from sums over the record ([`Arx::output_sums`]), linear
+        /// in its p = n + m parameters: about 10 p in the units of the default p² (measured:
+        /// `docs/decisions/2026-11-27-long-records-and-fuzz.md`).
+        fn cost_per_sample(&self) -> f64 {
+            10.0 * (self.n + self.m).max(1) as f64
+        }
+        fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+            check_data(u, y, self.min_samples())?;
+            let y_mean = mean(y);
+            let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
+            self.solve(u, y, &yc, y_mean)
+        }
+        fn prepare(&self, y: &[f64]) -> Result<PreparedOutput, IdError> {
+            crate::error::check_finite("y", y)?;
+            let y_mean = mean(y);
+            let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
+            Ok(PreparedOutput::with_cache(
+                y,
+                Box::new(ArxCache { y_mean, yc }),
+            ))
+        }
+        fn identify_prepared(
+            &self,
+            prepared: &PreparedOutput,
+            u: &[f64],
+        ) -> Result<LinearFit, IdError> {
+            let y = prepared.y();
+            match prepared.cache::<ArxCache>() {
+                Some(c) => {
+                    check_data(u, y, self.min_samples())?;
+                    self.solve(u, y, &c.yc, c.y_mean)
+                }
+                None => self.identify(u, y),
+            }
+        }
+        fn as_arx(&self) -> Option<&Arx> {
+            Some(self)
+        }
     }
 }
 
@@ -356,6 +297,7 @@ inventory::submit! {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+    use crate::LinearIdentifier;
 
     /// Noisy ARX-like data with offsets.
     fn data(len: usize) -> (Vec<f64>, Vec<f64>) {

@@ -658,20 +658,7 @@ impl ArxOutputSums {
         // center (the intercept) and symmetrise; a diagonal that loses more than three digits
         // to the centering (a column constant over the rows, or far from its shift) is left
         // to the QR, which reports what it makes of it
-        for a in 0..=d {
-            let raw = g[a][a];
-            let c = raw - sums[a] * sums[a] / nrows;
-            if !(c > CENTERING_LOSS * raw) {
-                return None;
-            }
-        }
-        for a in 0..=d {
-            for b in a..=d {
-                let c = g[a][b] - sums[a] * sums[b] / nrows;
-                g[a][b] = c;
-                g[b][a] = c;
-            }
-        }
+        center_products(&mut g, &sums, d, nrows)?;
         // regressors x_k = -y(t-k) (k = 1..=n), u(t-delay-j): flip the signs of the y lags
         let sign = |a: usize| if (1..=n).contains(&a) { -1.0 } else { 1.0 };
         let mut scale = [0.0; MAX_COLS];
@@ -692,24 +679,7 @@ impl ArxOutputSums {
             rhs[p] = sign(p + 1) * g[p + 1][0] * scale[p];
         }
         // Cholesky A = L L', in place (lower triangle)
-        for j in 0..d {
-            let mut v = a[j][j];
-            for k in 0..j {
-                v -= a[j][k] * a[j][k];
-            }
-            if !(v >= GRAM_PIVOT_TOL) {
-                return None;
-            }
-            let ljj = v.sqrt();
-            a[j][j] = ljj;
-            for i in j + 1..d {
-                let mut w = a[i][j];
-                for k in 0..j {
-                    w -= a[i][k] * a[j][k];
-                }
-                a[i][j] = w / ljj;
-            }
-        }
+        cholesky_in_place(&mut a, d)?;
         let mut x = cholesky_solve(&a, &rhs, d);
         for k in 0..d {
             x[k] *= scale[k];
@@ -750,28 +720,10 @@ impl ArxOutputSums {
             - (0..d)
                 .map(|k| x[k] * sign(k + 1) * col_mean(k + 1))
                 .sum::<f64>();
-        let mut a_poly = Vec::with_capacity(n + 1);
-        a_poly.push(1.0);
-        a_poly.extend_from_slice(&x[..n]);
-        let a1: f64 = a_poly.iter().sum();
-        let b1: f64 = x[n..d].iter().sum();
-        let (mut um, mut ym) = (u_mean, y_mean);
-        if a1.abs() >= b1.abs() && a1 != 0.0 {
-            ym += c0 / a1;
-        } else if b1 != 0.0 {
-            um -= c0 / b1;
-        } else {
-            return None;
-        }
         if !rss.is_finite() || x[..d].iter().any(|v| !v.is_finite()) {
             return None;
         }
-        let structure = Structure::Polynomial {
-            a: a_poly,
-            b: x[n..d].to_vec(),
-            c: vec![1.0],
-            delay,
-        };
+        let (structure, um, ym) = fold_intercept(&x[..d], n, delay, c0, (u_mean, y_mean))?;
         Some(LinearFit::with_diagnostics(
             "arx", structure, um, ym, len, n0, rss, y_ss,
         ))
@@ -836,6 +788,88 @@ impl ArxOutputSums {
     }
 }
 
+/// The ARX polynomials from the solution `x = (a1..an, b1..bm)` and the intercept `c0`, which is
+/// folded into the operating point as the QR path folds it (`arx.rs`): into the output mean
+/// when `|A(1)| >= |B(1)|`, else into the input mean; `None` when both are 0.
+fn fold_intercept(
+    x: &[f64],
+    n: usize,
+    delay: usize,
+    c0: f64,
+    (u_mean, y_mean): (f64, f64),
+) -> Option<(Structure, f64, f64)> {
+    let mut a_poly = Vec::with_capacity(n + 1);
+    a_poly.push(1.0);
+    a_poly.extend_from_slice(&x[..n]);
+    let a1: f64 = a_poly.iter().sum();
+    let b1: f64 = x[n..].iter().sum();
+    let (mut um, mut ym) = (u_mean, y_mean);
+    if a1.abs() >= b1.abs() && a1 != 0.0 {
+        ym += c0 / a1;
+    } else if b1 != 0.0 {
+        um -= c0 / b1;
+    } else {
+        return None;
+    }
+    let structure = Structure::Polynomial {
+        a: a_poly,
+        b: x[n..].to_vec(),
+        c: vec![1.0],
+        delay,
+    };
+    Some((structure, um, ym))
+}
+
+/// Center the column products `g` (the intercept) over `nrows` rows and symmetrise them; `None`
+/// when a diagonal loses more than three digits to the centering (a column constant over the
+/// rows, or far from its shift), which is left to the QR.
+fn center_products(
+    g: &mut [[f64; MAX_COLS + 1]; MAX_COLS + 1],
+    sums: &[f64; MAX_COLS + 1],
+    d: usize,
+    nrows: f64,
+) -> Option<()> {
+    for a in 0..=d {
+        let raw = g[a][a];
+        let c = raw - sums[a] * sums[a] / nrows;
+        if !(c > CENTERING_LOSS * raw) {
+            return None;
+        }
+    }
+    for a in 0..=d {
+        for b in a..=d {
+            let c = g[a][b] - sums[a] * sums[b] / nrows;
+            g[a][b] = c;
+            g[b][a] = c;
+        }
+    }
+    Some(())
+}
+
+/// Cholesky `A = L L'` of the leading `d × d` block, in place (lower triangle); `None` when a
+/// pivot is below [`GRAM_PIVOT_TOL`].
+fn cholesky_in_place(a: &mut [[f64; MAX_COLS]; MAX_COLS], d: usize) -> Option<()> {
+    for j in 0..d {
+        let mut v = a[j][j];
+        for k in 0..j {
+            v -= a[j][k] * a[j][k];
+        }
+        if !(v >= GRAM_PIVOT_TOL) {
+            return None;
+        }
+        let ljj = v.sqrt();
+        a[j][j] = ljj;
+        for i in j + 1..d {
+            let mut w = a[i][j];
+            for k in 0..j {
+                w -= a[i][k] * a[j][k];
+            }
+            a[i][j] = w / ljj;
+        }
+    }
+    Some(())
+}
+
 /// Solve `L L' x = rhs` (`L` the lower triangle of `l`, order `d`).
 fn cholesky_solve(
     l: &[[f64; MAX_COLS]; MAX_COLS],
@@ -882,168 +916,4 @@ fn refined_sse(
 }
 
 #[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used)]
-    use super::*;
-    use crate::LinearIdentifier;
-
-    /// The shared valve-like record with output noise 0.3.
-    fn data(len: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
-        crate::test_data::valve_loop(len, seed, 0.3)
-    }
-
-    #[test]
-    fn gram_fit_matches_the_qr() {
-        for seed in [1, 2, 3] {
-            let (u, y) = data(3000, seed);
-            for (n, m, delay) in [(2, 2, 0), (1, 3, 2), (4, 1, 0), (3, 3, 5)] {
-                let arx = Arx::params().n(n).m(m).delay(delay).check().unwrap();
-                let sums = arx.output_sums(&y).unwrap();
-                for (from, to) in [(0, 2000), (137, 2000), (900, 1500)] {
-                    let qr = arx.identify(&u[from..to], &y[from..to]).unwrap();
-                    let gram = sums.identify_window(&u, from, to).unwrap();
-                    let (
-                        Structure::Polynomial { a: a1, b: b1, .. },
-                        Structure::Polynomial { a: a2, b: b2, .. },
-                    ) = (qr.structure(), gram.structure())
-                    else {
-                        panic!()
-                    };
-                    let big = a1.iter().chain(b1).fold(0.0f64, |m, v| m.max(v.abs()));
-                    for (p, q) in a1.iter().chain(b1).zip(a2.iter().chain(b2)) {
-                        assert!((p - q).abs() <= 1e-9 * big, "{n} {m} {delay}: {p} vs {q}");
-                    }
-                    let (m1, m2) = (qr.means(), gram.means());
-                    assert!(
-                        (m1.0 - m2.0).abs() < 1e-9 * m1.0.abs().max(1.0),
-                        "{m1:?} {m2:?}"
-                    );
-                    assert!(
-                        (m1.1 - m2.1).abs() < 1e-9 * m1.1.abs().max(1.0),
-                        "{m1:?} {m2:?}"
-                    );
-                    let (f1, f2) = (qr.info().fit_pv, gram.info().fit_pv);
-                    assert!((f1 - f2).abs() < 1e-9 * f1.abs(), "{f1} vs {f2}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn poorly_conditioned_windows_fall_back() {
-        let (u, y) = data(600, 4);
-        let arx = Arx::params().n(2).m(2).check().unwrap();
-        let sums = arx.output_sums(&y).unwrap();
-        // a ramp: u(t-1) and u(t-2) collinear after centering, up to a 1e-6 wiggle
-        let v: Vec<f64> = (0..u.len())
-            .map(|k| k as f64 + 1e-6 * (k as f64).sin())
-            .collect();
-        assert!(sums.identify_window(&v, 0, 600).is_none());
-        assert!(sums.identify_window(&u, 0, 600).is_some());
-        // Centering::Mean is not handled from sums
-        let mean = Arx::params().centering(Centering::Mean).check().unwrap();
-        assert!(mean.output_sums(&y).is_none());
-    }
-
-    /// The identification SSE from the residual pass and the refinement step equals the sum
-    /// of squared one-step residuals of the returned model, computed directly, also on
-    /// noise-free data (where `y'y - θ'X'y` would be round-off).
-    #[test]
-    fn the_sse_is_the_direct_one() {
-        for noise in [0.3, 0.0] {
-            let (u, y) = crate::test_data::valve_loop(3000, 5, noise);
-            for (n, m, delay) in [(2, 2, 0), (1, 3, 2), (4, 1, 0), (3, 3, 5)] {
-                let arx = Arx::params().n(n).m(m).delay(delay).check().unwrap();
-                let sums = arx.output_sums(&y).unwrap();
-                let (from, to) = (137, 2000);
-                let fit = sums.identify_window(&u, from, to).unwrap();
-                let (uw, yw) = (&u[from..to], &y[from..to]);
-                let pred = fit.predict_one_step(uw, yw).unwrap();
-                let n0 = fit.info().first_sample;
-                let direct: f64 = yw[n0..]
-                    .iter()
-                    .zip(&pred[n0..])
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum();
-                let rss = fit.info().residual_variance * (yw.len() - n0) as f64;
-                // relative to the residual, or to the output's variation where the residual
-                // is round-off (the exact orders on noise-free data)
-                let mean = yw[n0..].iter().sum::<f64>() / (yw.len() - n0) as f64;
-                let y_ss: f64 = yw[n0..].iter().map(|v| (v - mean) * (v - mean)).sum();
-                assert!(
-                    (rss - direct).abs() <= 1e-10 * direct + 1e-15 * y_ss,
-                    "{noise} {n} {m} {delay}: {rss} vs {direct}"
-                );
-                let fit_direct = crate::fit_pv(&yw[n0..], &pred[n0..]);
-                assert!(
-                    (fit.info().fit_pv - fit_direct).abs() <= 1e-10,
-                    "{} vs {fit_direct}",
-                    fit.info().fit_pv
-                );
-            }
-        }
-    }
-
-    /// The fused passes: the AVX register and the plain array give the same bits, and both
-    /// equal one dot product per product (the path of the larger orders) to round-off.
-    #[test]
-    fn passes_give_the_same_bits_everywhere() {
-        let (u, y) = data(1003, 6);
-        for n in 0..=3 {
-            for m in 1..=3 {
-                for delay in [0, 2] {
-                    let arx = Arx::params().n(n).m(m).delay(delay).check().unwrap();
-                    let sums = arx.output_sums(&y).unwrap();
-                    let rows = (17 + n.max(m + delay), 1003 - 2);
-                    let u_mean = 49.5;
-                    let lags = || LagPass {
-                        sums: &sums,
-                        u: &u,
-                        u_mean,
-                        rows,
-                    };
-                    let native = Arch::new().dispatch(Dispatch(lags()));
-                    let portable = lags().run(Portable);
-                    let dots = sums.lag_products(&u, u_mean, rows);
-                    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(1.0);
-                    assert!(close(native.u, dots.u));
-                    assert_eq!(native.u.to_bits(), portable.u.to_bits());
-                    for (p, q, r) in [
-                        (&native.yu[..], &portable.yu[..], &dots.yu[..]),
-                        (&native.y0u[..], &portable.y0u[..], &dots.y0u[..]),
-                        (&native.uu[..], &portable.uu[..], &dots.uu[..]),
-                    ] {
-                        for k in 0..p.len() {
-                            assert_eq!(p[k].to_bits(), q[k].to_bits(), "{n} {m} {delay}");
-                            assert!(close(p[k], r[k]), "{n} {m} {delay}: {} vs {}", p[k], r[k]);
-                        }
-                    }
-                    let mut x = [0.0; MAX_COLS];
-                    for (k, v) in x.iter_mut().take(n + m).enumerate() {
-                        *v = 0.3 - 0.2 * k as f64;
-                    }
-                    let res = || ResidualPass {
-                        lags: lags(),
-                        x: &x,
-                        c: 0.7,
-                    };
-                    let native = Arch::new().dispatch(Dispatch(res()));
-                    let portable = res().run(Portable);
-                    let dots = sums.residual_products(&u, u_mean, rows, &x, 0.7);
-                    let all = |p: &ResidualProducts| {
-                        let mut v = vec![p.sum, p.sq];
-                        v.extend_from_slice(&p.cols[..n + m]);
-                        v
-                    };
-                    for ((p, q), r) in all(&native).iter().zip(all(&portable)).zip(all(&dots)) {
-                        assert_eq!(p.to_bits(), q.to_bits(), "{n} {m} {delay}");
-                        assert!(
-                            (p - r).abs() <= 1e-11 * p.abs().max(1.0),
-                            "{n} {m} {delay}: {p} vs {r}"
-                        );
-                    }
-                }
-            }
-        }
-    }
-}
+mod tests;

@@ -18,12 +18,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::arx::{ARX_ORDERS, MAX_DELAY};
+use crate::arx::MAX_DELAY;
 use crate::error::{check_data, check_order, check_real};
-use crate::registry::resolve;
-use crate::{
-    mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue, Structure,
-};
+use crate::{mean, IdError, LinearFit, LinearIdentifier, Structure};
 
 /// The notch's pole radius for frequency ω (module docs).
 pub(crate) fn pole_radius(omega: f64) -> f64 {
@@ -139,13 +136,6 @@ impl HarxParams {
     }
 }
 
-impl TryFrom<HarxParams> for Harx {
-    type Error = IdError;
-    fn try_from(p: HarxParams) -> Result<Self, IdError> {
-        p.check()
-    }
-}
-
 impl From<Harx> for HarxParams {
     fn from(h: Harx) -> Self {
         HarxParams {
@@ -158,10 +148,6 @@ impl From<Harx> for HarxParams {
 }
 
 impl Harx {
-    /// Start a parameter builder (`Harx::params().omega(0.04).check()?`).
-    pub fn params() -> HarxParams {
-        HarxParams::default()
-    }
     /// The disturbance's frequency, rad/sample.
     pub fn omega(&self) -> f64 {
         self.omega
@@ -261,42 +247,39 @@ impl Harx {
     }
 }
 
-#[typetag::serde(name = "harx")]
-impl LinearIdentifier for Harx {
-    fn name(&self) -> &'static str {
-        "harx"
+crate::linear_identifier! {
+    Harx("harx") from HarxParams;
+    description "ARX with a sinusoidal disturbance of frequency omega (ARX of the signals notch-filtered at omega)";
+    orders {
+        n: Int(2), crate::Arx::ORDERS[0].meaning, |p| p.n;
+        m: Int(2), crate::Arx::ORDERS[1].meaning, |p| p.m;
+        delay: Int(0), crate::Arx::ORDERS[2].meaning, |p| p.delay;
+        omega: Real(0.05),
+            "frequency of the sinusoidal disturbance, rad/sample (2 pi / period in samples)",
+            |p| p.omega;
     }
-    fn orders(&self) -> Vec<(&'static str, OrderValue)> {
-        vec![
-            ("n", OrderValue::Int(self.n)),
-            ("m", OrderValue::Int(self.m)),
-            ("delay", OrderValue::Int(self.delay)),
-            ("omega", OrderValue::Real(self.omega)),
-        ]
-    }
-    fn min_samples(&self) -> usize {
-        // strictly more equations than the regression's n + m + 3 unknowns (intercept and
-        // the notch's transient pair)
-        self.n.max(self.m + self.delay) + self.n + self.m + 4
-    }
-    fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-        let mut fit = self.fit_bare(u, y)?;
-        fit.refresh_info(u, y)?;
-        Ok(fit)
-    }
-    /// As the default, but the fit's diagnostics come from the prediction's identification
-    /// window instead of a second prediction of it (what the grid search calls per node).
-    fn identify_predict_many(
-        &self,
-        inputs: &[(usize, &[f64])],
-        y: &[f64],
-        split: usize,
-        outs: &mut [Vec<f64>],
-    ) -> Vec<Result<crate::Identified, IdError>> {
-        crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.fit_bare(u, y))
-    }
-    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
-        Box::new(*self)
+    impl {
+        fn min_samples(&self) -> usize {
+            // strictly more equations than the regression's n + m + 3 unknowns (intercept and
+            // the notch's transient pair)
+            self.n.max(self.m + self.delay) + self.n + self.m + 4
+        }
+        fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+            let mut fit = self.fit_bare(u, y)?;
+            fit.refresh_info(u, y)?;
+            Ok(fit)
+        }
+        /// As the default, but the fit's diagnostics come from the prediction's identification
+        /// window instead of a second prediction of it (what the grid search calls per node).
+        fn identify_predict_many(
+            &self,
+            inputs: &[(usize, &[f64])],
+            y: &[f64],
+            split: usize,
+            outs: &mut [Vec<f64>],
+        ) -> Vec<Result<crate::Identified, IdError>> {
+            crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.fit_bare(u, y))
+        }
     }
 }
 
@@ -326,39 +309,6 @@ impl Harx {
         let mut fit = LinearFit::bare("harx", structure, u_op, y_op, None);
         fit.harmonic = Some(self.omega);
         Ok(fit)
-    }
-}
-
-/// ARX's orders, then the frequency.
-const HARX_ORDERS: [OrderSpec; 4] = [
-    ARX_ORDERS[0],
-    ARX_ORDERS[1],
-    ARX_ORDERS[2],
-    OrderSpec {
-        name: "omega",
-        default: OrderValue::Real(0.05),
-        meaning: "frequency of the sinusoidal disturbance, rad/sample (2 pi / period in samples)",
-    },
-];
-
-fn build_harx(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut v = resolve("harx", &HARX_ORDERS, pairs)?;
-    Ok(Box::new(
-        Harx::params()
-            .n(v.int()?)
-            .m(v.int()?)
-            .delay(v.int()?)
-            .omega(v.real()?)
-            .check()?,
-    ))
-}
-
-inventory::submit! {
-    IdentifierEntry {
-        name: "harx",
-        description: "ARX with a sinusoidal disturbance of frequency omega (ARX of the signals notch-filtered at omega)",
-        orders: &HARX_ORDERS,
-        build: build_harx,
     }
 }
 

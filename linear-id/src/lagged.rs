@@ -27,12 +27,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::arx::{ARX_ORDERS, MAX_DELAY, MAX_ORDER};
+use crate::arx::{MAX_DELAY, MAX_ORDER};
 use crate::error::{check_data, check_order};
-use crate::registry::resolve;
-use crate::{
-    mean, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue, Structure,
-};
+use crate::{mean, IdError, LinearFit, LinearIdentifier, Structure};
 
 /// Largest accepted lag (the model's polynomials have `n · lag` and `m · lag` coefficients).
 pub const LARX_MAX_LAG: usize = 100;
@@ -116,13 +113,6 @@ impl LarxParams {
     }
 }
 
-impl TryFrom<LarxParams> for Larx {
-    type Error = IdError;
-    fn try_from(p: LarxParams) -> Result<Self, IdError> {
-        p.check()
-    }
-}
-
 impl From<Larx> for LarxParams {
     fn from(l: Larx) -> Self {
         LarxParams {
@@ -135,10 +125,6 @@ impl From<Larx> for LarxParams {
 }
 
 impl Larx {
-    /// Start a parameter builder (`Larx::params().lag(6).check()?`).
-    pub fn params() -> LarxParams {
-        LarxParams::default()
-    }
     /// Samples per lag.
     pub fn lag(&self) -> usize {
         self.lag
@@ -225,74 +211,38 @@ impl Larx {
     }
 }
 
-#[typetag::serde(name = "larx")]
-impl LinearIdentifier for Larx {
-    fn name(&self) -> &'static str {
-        "larx"
+crate::linear_identifier! {
+    Larx("larx") from LarxParams;
+    description "ARX at a lag of r samples: PV from PV r, 2r .. samples back and MV averaged over blocks of r (for historian-compressed PV)";
+    orders {
+        n: Int(2), crate::Arx::ORDERS[0].meaning, |p| p.n;
+        m: Int(2), crate::Arx::ORDERS[1].meaning, |p| p.m;
+        delay: Int(0), crate::Arx::ORDERS[2].meaning, |p| p.delay;
+        lag: Int(1),
+            "samples per lag r: y_k from y_(k-r) .. y_(k-nr) and the input's means over blocks of r samples (1: ARX)",
+            |p| p.lag;
     }
-    fn orders(&self) -> Vec<(&'static str, OrderValue)> {
-        vec![
-            ("n", OrderValue::Int(self.n)),
-            ("m", OrderValue::Int(self.m)),
-            ("delay", OrderValue::Int(self.delay)),
-            ("lag", OrderValue::Int(self.lag)),
-        ]
-    }
-    fn min_samples(&self) -> usize {
-        // strictly more equations than the n + m + 1 unknowns (with the intercept)
-        self.n0() + self.n + self.m + 2
-    }
-    fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-        let mut fit = self.fit_bare(u, y)?;
-        fit.refresh_info(u, y)?;
-        Ok(fit)
-    }
-    /// As the default, but the fit's diagnostics come from the prediction's identification
-    /// window instead of a second prediction of it (what the grid search calls per node).
-    fn identify_predict_many(
-        &self,
-        inputs: &[(usize, &[f64])],
-        y: &[f64],
-        split: usize,
-        outs: &mut [Vec<f64>],
-    ) -> Vec<Result<crate::Identified, IdError>> {
-        crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.fit_bare(u, y))
-    }
-    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
-        Box::new(*self)
-    }
-}
-
-/// ARX's orders, then the lag.
-const LARX_ORDERS: [OrderSpec; 4] = [
-    ARX_ORDERS[0],
-    ARX_ORDERS[1],
-    ARX_ORDERS[2],
-    OrderSpec {
-        name: "lag",
-        default: OrderValue::Int(1),
-        meaning: "samples per lag r: y_k from y_(k-r) .. y_(k-nr) and the input's means over blocks of r samples (1: ARX)",
-    },
-];
-
-fn build_larx(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut v = resolve("larx", &LARX_ORDERS, pairs)?;
-    Ok(Box::new(
-        Larx::params()
-            .n(v.int()?)
-            .m(v.int()?)
-            .delay(v.int()?)
-            .lag(v.int()?)
-            .check()?,
-    ))
-}
-
-inventory::submit! {
-    IdentifierEntry {
-        name: "larx",
-        description: "ARX at a lag of r samples: PV from PV r, 2r .. samples back and MV averaged over blocks of r (for historian-compressed PV)",
-        orders: &LARX_ORDERS,
-        build: build_larx,
+    impl {
+        fn min_samples(&self) -> usize {
+            // strictly more equations than the n + m + 1 unknowns (with the intercept)
+            self.n0() + self.n + self.m + 2
+        }
+        fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+            let mut fit = self.fit_bare(u, y)?;
+            fit.refresh_info(u, y)?;
+            Ok(fit)
+        }
+        /// As the default, but the fit's diagnostics come from the prediction's identification
+        /// window instead of a second prediction of it (what the grid search calls per node).
+        fn identify_predict_many(
+            &self,
+            inputs: &[(usize, &[f64])],
+            y: &[f64],
+            split: usize,
+            outs: &mut [Vec<f64>],
+        ) -> Vec<Result<crate::Identified, IdError>> {
+            crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.fit_bare(u, y))
+        }
     }
 }
 
@@ -300,7 +250,7 @@ inventory::submit! {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
-    use crate::Arx;
+    use crate::{Arx, OrderValue};
 
     /// A second-order process `y_k = 1.5 y_{k−1} − 0.6 y_{k−2} + 0.3 u_{k−1} + 0.1 u_{k−2}`
     /// (static gain 4) driven by a random switching input, with a little output noise, offset

@@ -139,6 +139,8 @@
 
 mod arx;
 mod arx_sums;
+#[doc(hidden)]
+pub mod declare;
 mod error;
 mod fit;
 mod harmonic;

@@ -13,10 +13,7 @@ use serde::{Deserialize, Serialize};
 mod lanes;
 
 use crate::error::{check_data, check_finite, check_order, check_real};
-use crate::registry::resolve;
-use crate::{
-    la, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec, OrderValue, Structure,
-};
+use crate::{la, IdError, LinearFit, OrderValue, Structure};
 
 /// PARSIM-K state-space identification, eq. (6) in innovation form.
 ///
@@ -128,13 +125,6 @@ impl ParsimKParams {
         }
         check_real("ss", "threshold", self.threshold, 0.0, 1.0)?;
         Ok(ParsimK { p: self })
-    }
-}
-
-impl TryFrom<ParsimKParams> for ParsimK {
-    type Error = IdError;
-    fn try_from(p: ParsimKParams) -> Result<Self, IdError> {
-        p.check()
     }
 }
 
@@ -607,11 +597,6 @@ fn weight_factor(w2: faer::MatRef<'_, f64>) -> Result<Mat<f64>, IdError> {
 }
 
 impl ParsimK {
-    /// Start a parameter builder.
-    pub fn params() -> ParsimKParams {
-        ParsimKParams::default()
-    }
-
     fn run(&self, u: &[f64], y: &[f64], route: Route) -> Result<LinearFit, IdError> {
         self.run_with(u, &self.output(y), route)
     }
@@ -628,6 +613,30 @@ impl ParsimK {
             Vec::new()
         };
         Output { mean, sd, ys, yy }
+    }
+
+    /// Step 4: the order, given or by the singular-value threshold (at most `max_order`, else
+    /// `f`); an error when the weighted SVD has fewer non-zero singular values.
+    fn order(&self, sv: &[f64]) -> Result<usize, IdError> {
+        let prm = self.p;
+        let f = prm.f;
+        let n = if prm.n > 0 {
+            prm.n
+        } else {
+            let cap = if prm.max_order == 0 { f } else { prm.max_order };
+            let s0 = sv.first().copied().unwrap_or(0.0);
+            sv.iter()
+                .take(cap)
+                .take_while(|&&s| s >= prm.threshold * s0 && s > 0.0)
+                .count()
+                .max(1)
+        };
+        if n > sv.len() || !(sv[n - 1] > 0.0) {
+            return Err(singular(format!(
+                "weighted SVD has fewer than {n} non-zero singular values ({sv:?})"
+            )));
+        }
+        Ok(n)
     }
 
     fn run_with(&self, u: &[f64], out: &Output, route: Route) -> Result<LinearFit, IdError> {
@@ -725,22 +734,7 @@ impl ParsimK {
         .ok_or_else(|| svd_failed("weighted SVD"))?;
 
         // --- Step 4: order
-        let n = if prm.n > 0 {
-            prm.n
-        } else {
-            let cap = if prm.max_order == 0 { f } else { prm.max_order };
-            let s0 = sv.first().copied().unwrap_or(0.0);
-            sv.iter()
-                .take(cap)
-                .take_while(|&&s| s >= prm.threshold * s0 && s > 0.0)
-                .count()
-                .max(1)
-        };
-        if n > sv.len() || !(sv[n - 1] > 0.0) {
-            return Err(singular(format!(
-                "weighted SVD has fewer than {n} non-zero singular values ({sv:?})"
-            )));
-        }
+        let n = self.order(&sv)?;
         // --- Step 5: O = U_n Σ_n^{1/2}; C = O[0]; A_K = pinv(O[..f-1]) O[1..]
         let obs = Mat::<f64>::from_fn(f, n, |r, c| svd_u[(r, c)] * sv[c].sqrt());
         let c_s: Vec<f64> = (0..n).map(|j| obs[(0, j)]).collect();
@@ -781,412 +775,162 @@ impl ParsimK {
         let x0: Vec<f64> = theta[idx..idx + n].to_vec();
 
         // --- Step 7: unscale; A = A_K + K C, B = B_K + K D
-        let bk: Vec<f64> = bk_s.iter().map(|v| v / su).collect();
-        let d = d_s * sy / su;
-        let k: Vec<f64> = k_s.iter().map(|v| v / sy).collect();
-        let c: Vec<f64> = c_s.iter().map(|v| v * sy).collect();
-        let a: Vec<Vec<f64>> = (0..n)
-            .map(|i| (0..n).map(|j| ak[i][j] + k[i] * c[j]).collect())
-            .collect();
-        let b: Vec<f64> = (0..n).map(|i| bk[i] + k[i] * d).collect();
-        if a.iter()
-            .flatten()
-            .chain(&b)
-            .chain(&c)
-            .chain(&k)
-            .chain(&x0)
-            .any(|v| !v.is_finite())
-        {
-            return Err(svd_failed("PARSIM-K (non-finite estimate)"));
-        }
-        let structure = Structure::StateSpace { a, b, c, d, k, x0 };
+        let structure = unscale(&ak, &c_s, (bk_s, d_s, k_s, x0), (su, sy))?;
         let mut fit = LinearFit::bare("ss", structure, u_mean, y_mean, None);
         fit.info.singular_values = sv;
         Ok(fit)
     }
 }
 
-#[typetag::serde(name = "ss")]
-impl LinearIdentifier for ParsimK {
-    fn name(&self) -> &'static str {
-        "ss"
+/// Step 7 of PARSIM-K: the scaled estimates (`A_K`, `C`, and `B_K`, `D`, `K`, `x0` of step 6)
+/// back in the data's units (`su`, `sy`), with `A = A_K + K C` and `B = B_K + K D`; an error
+/// when a value is not finite.
+fn unscale(
+    ak: &[Vec<f64>],
+    c_s: &[f64],
+    (bk_s, d_s, k_s, x0): (Vec<f64>, f64, Vec<f64>, Vec<f64>),
+    (su, sy): (f64, f64),
+) -> Result<Structure, IdError> {
+    let n = c_s.len();
+    let bk: Vec<f64> = bk_s.iter().map(|v| v / su).collect();
+    let d = d_s * sy / su;
+    let k: Vec<f64> = k_s.iter().map(|v| v / sy).collect();
+    let c: Vec<f64> = c_s.iter().map(|v| v * sy).collect();
+    let a: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| ak[i][j] + k[i] * c[j]).collect())
+        .collect();
+    let b: Vec<f64> = (0..n).map(|i| bk[i] + k[i] * d).collect();
+    if a.iter()
+        .flatten()
+        .chain(&b)
+        .chain(&c)
+        .chain(&k)
+        .chain(&x0)
+        .any(|v| !v.is_finite())
+    {
+        return Err(svd_failed("PARSIM-K (non-finite estimate)"));
     }
-    fn orders(&self) -> Vec<(&'static str, OrderValue)> {
-        vec![
-            ("n", OrderValue::Int(self.p.n)),
-            ("f", OrderValue::Int(self.p.f)),
-            ("p", OrderValue::Int(self.p.p)),
-            ("threshold", OrderValue::Real(self.p.threshold)),
-            ("max_order", OrderValue::Int(self.p.max_order)),
-            ("d_required", OrderValue::Bool(self.p.d_required)),
-            ("center", OrderValue::Bool(self.p.center)),
-        ]
-    }
-    fn min_samples(&self) -> usize {
-        // N = L - p - f + 1 columns must exceed the 2p + 2 step-2 regressors
-        let (f, p) = (self.p.f, self.p.p);
-        (2 * p + 3) + p + f - 1
-    }
-    fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-        check_data(u, y, self.min_samples())?;
-        let mut fit = self.run(u, y, Route::Fast)?;
-        fit.refresh_info(u, y)?;
-        Ok(fit)
-    }
-    /// Identified one input at a time; the predictions of fits of order up to 4 run four at a
-    /// time in SIMD lanes (`parsim/lanes.rs`, the same bits), the others one at a time; the
-    /// prediction over the identification window is shared with the fit's diagnostics.
-    fn identify_predict_many(
-        &self,
-        inputs: &[(usize, &[f64])],
-        y: &[f64],
-        split: usize,
-        outs: &mut [Vec<f64>],
-    ) -> Vec<Result<crate::Identified, IdError>> {
-        let split = split.min(y.len());
-        // the output's scaling and self-products, once per identification window
-        let mut outputs: Vec<(usize, Output)> = Vec::new();
-        let mut fits: Vec<Result<(LinearFit, usize), IdError>> = inputs
-            .iter()
-            .map(|&(start, u)| {
-                let start = crate::input_start(start, u, y, split)?;
-                let (u_id, y_id) = (&u[start..split], &y[start..split]);
-                check_data(u_id, y_id, self.min_samples())?;
-                let at = match outputs.iter().position(|(s, _)| *s == start) {
-                    Some(at) => at,
-                    None => {
-                        outputs.push((start, self.output(y_id)));
-                        outputs.len() - 1
-                    }
-                };
-                Ok((self.run_with(u_id, &outputs[at].1, Route::Fast)?, start))
-            })
-            .collect();
-        // the predictions: fits of one order up to 4 side by side, the others alone
-        let mut predicted: Vec<Option<Result<(), IdError>>> = vec![None; inputs.len()];
-        let mut by_order: [Vec<lanes::Lane<'_>>; 5] = Default::default();
-        for (i, fit) in fits.iter_mut().enumerate() {
-            let Ok((fit, start)) = fit else { continue };
-            let (u, start) = (inputs[i].1, *start);
-            outs[i].resize(y.len() - start, 0.0);
-            let checked =
-                check_finite("u", &u[start..]).and_then(|()| check_finite("y", &y[start..]));
-            let n = fit.structure().order();
-            match checked {
-                Ok(()) if (1..=4).contains(&n) => by_order[n].push(lanes::Lane {
-                    fit,
-                    u,
-                    start,
-                    index: i,
-                }),
-                Ok(()) => {
-                    predicted[i] =
-                        Some(fit.predict_one_step_into(&u[start..], &y[start..], &mut outs[i]))
-                }
-                Err(e) => predicted[i] = Some(Err(e)),
-            }
-        }
-        for (n, group) in by_order.iter_mut().enumerate() {
-            group.sort_by_key(|lane| lane.start);
-            for part in group.chunks(lanes::LANES) {
-                let members: [&lanes::Lane<'_>; lanes::LANES] =
-                    std::array::from_fn(|l| &part[l.min(part.len() - 1)]);
-                let mut buf = crate::lanes::Scratch::zeroed(y.len());
-                match n {
-                    1 => lanes::predict::<1>(members, y, &mut buf),
-                    2 => lanes::predict::<2>(members, y, &mut buf),
-                    3 => lanes::predict::<3>(members, y, &mut buf),
-                    _ => lanes::predict::<4>(members, y, &mut buf),
-                }
-                for (l, lane) in part.iter().enumerate() {
-                    let out = &mut outs[lane.index];
-                    for (v, b) in out.iter_mut().zip(&buf[lane.start..]) {
-                        *v = b[l];
-                    }
-                    predicted[lane.index] = Some(check_finite("estimate", out));
-                }
-            }
-        }
-        drop(by_order);
-        fits.into_iter()
-            .zip(predicted)
-            .enumerate()
-            .map(|(i, (fit, predicted))| {
-                let (fit, start) = fit?;
-                let predicted = predicted.expect("every fit is predicted");
-                let record = (&inputs[i].1[start..], &y[start..]);
-                fit.diagnose_from_prediction(record, split - start, &outs[i], predicted)
-            })
-            .collect()
-    }
-    fn box_clone(&self) -> Box<dyn LinearIdentifier> {
-        Box::new(*self)
-    }
+    Ok(Structure::StateSpace { a, b, c, d, k, x0 })
 }
 
-const SS_ORDERS: [OrderSpec; 7] = [
-    OrderSpec {
-        name: "n",
-        default: OrderValue::Int(2),
-        meaning: "state dimension (0 = choose by the singular-value threshold)",
-    },
-    OrderSpec {
-        name: "f",
-        default: OrderValue::Int(10),
-        meaning: "future horizon",
-    },
-    OrderSpec {
-        name: "p",
-        default: OrderValue::Int(10),
-        meaning: "past horizon",
-    },
-    OrderSpec {
-        name: "threshold",
-        default: OrderValue::Real(0.1),
-        meaning: "keep singular values >= threshold * largest (when n = 0)",
-    },
-    OrderSpec {
-        name: "max_order",
-        default: OrderValue::Int(0),
-        meaning: "cap of the threshold rule (0 = f)",
-    },
-    OrderSpec {
-        name: "d_required",
-        default: OrderValue::Bool(false),
-        meaning: "true = estimate a feedthrough D, false = D fixed to 0 (eq. 6)",
-    },
-    OrderSpec {
-        name: "center",
-        default: OrderValue::Bool(true),
-        meaning: "true = subtract the means of u and y first, false = do not (SIPPY's default)",
-    },
-];
-
-fn build_ss(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut v = resolve("ss", &SS_ORDERS, pairs)?;
-    Ok(Box::new(
-        ParsimK::params()
-            .n(v.int()?)
-            .f(v.int()?)
-            .p(v.int()?)
-            .threshold(v.real()?)
-            .max_order(v.int()?)
-            .d_required(v.bool()?)
-            .center(v.bool()?)
-            .check()?,
-    ))
-}
-
-inventory::submit! {
-    IdentifierEntry {
-        name: "ss",
-        description: "state space (eq. 6, innovation form) by PARSIM-K subspace identification",
-        orders: &SS_ORDERS,
-        build: build_ss,
+crate::linear_identifier! {
+    ParsimK("ss") from ParsimKParams;
+    description "state space (eq. 6, innovation form) by PARSIM-K subspace identification";
+    orders {
+        n: Int(2), "state dimension (0 = choose by the singular-value threshold)", |q| q.n;
+        f: Int(10), "future horizon", |q| q.f;
+        p: Int(10), "past horizon", |q| q.p;
+        threshold: Real(0.1),
+            "keep singular values >= threshold * largest (when n = 0)",
+            |q| q.threshold;
+        max_order: Int(0), "cap of the threshold rule (0 = f)", |q| q.max_order;
+        d_required: Bool(false),
+            "true = estimate a feedthrough D, false = D fixed to 0 (eq. 6)",
+            |q| q.d_required;
+        center: Bool(true),
+            "true = subtract the means of u and y first, false = do not (SIPPY's default)",
+            |q| q.center;
+    }
+    impl {
+        fn min_samples(&self) -> usize {
+            // N = L - p - f + 1 columns must exceed the 2p + 2 step-2 regressors
+            let (f, p) = (self.p.f, self.p.p);
+            (2 * p + 3) + p + f - 1
+        }
+        fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+            check_data(u, y, self.min_samples())?;
+            let mut fit = self.run(u, y, Route::Fast)?;
+            fit.refresh_info(u, y)?;
+            Ok(fit)
+        }
+        /// Identified one input at a time; the predictions of fits of order up to 4 run four at a
+        /// time in SIMD lanes (`parsim/lanes.rs`, the same bits), the others one at a time; the
+        /// prediction over the identification window is shared with the fit's diagnostics.
+        fn identify_predict_many(
+            &self,
+            inputs: &[(usize, &[f64])],
+            y: &[f64],
+            split: usize,
+            outs: &mut [Vec<f64>],
+        ) -> Vec<Result<crate::Identified, IdError>> {
+            let split = split.min(y.len());
+            // the output's scaling and self-products, once per identification window
+            let mut outputs: Vec<(usize, Output)> = Vec::new();
+            let mut fits: Vec<Result<(LinearFit, usize), IdError>> = inputs
+                .iter()
+                .map(|&(start, u)| {
+                    let start = crate::input_start(start, u, y, split)?;
+                    let (u_id, y_id) = (&u[start..split], &y[start..split]);
+                    check_data(u_id, y_id, self.min_samples())?;
+                    let at = match outputs.iter().position(|(s, _)| *s == start) {
+                        Some(at) => at,
+                        None => {
+                            outputs.push((start, self.output(y_id)));
+                            outputs.len() - 1
+                        }
+                    };
+                    Ok((self.run_with(u_id, &outputs[at].1, Route::Fast)?, start))
+                })
+                .collect();
+            // the predictions: fits of one order up to 4 side by side, the others alone
+            let mut predicted: Vec<Option<Result<(), IdError>>> = vec![None; inputs.len()];
+            let mut by_order: [Vec<lanes::Lane<'_>>; 5] = Default::default();
+            for (i, fit) in fits.iter_mut().enumerate() {
+                let Ok((fit, start)) = fit else { continue };
+                let (u, start) = (inputs[i].1, *start);
+                outs[i].resize(y.len() - start, 0.0);
+                let checked =
+                    check_finite("u", &u[start..]).and_then(|()| check_finite("y", &y[start..]));
+                let n = fit.structure().order();
+                match checked {
+                    Ok(()) if (1..=4).contains(&n) => by_order[n].push(lanes::Lane {
+                        fit,
+                        u,
+                        start,
+                        index: i,
+                    }),
+                    Ok(()) => {
+                        predicted[i] =
+                            Some(fit.predict_one_step_into(&u[start..], &y[start..], &mut outs[i]))
+                    }
+                    Err(e) => predicted[i] = Some(Err(e)),
+                }
+            }
+            for (n, group) in by_order.iter_mut().enumerate() {
+                group.sort_by_key(|lane| lane.start);
+                for part in group.chunks(lanes::LANES) {
+                    let members: [&lanes::Lane<'_>; lanes::LANES] =
+                        std::array::from_fn(|l| &part[l.min(part.len() - 1)]);
+                    let mut buf = crate::lanes::Scratch::zeroed(y.len());
+                    match n {
+                        1 => lanes::predict::<1>(members, y, &mut buf),
+                        2 => lanes::predict::<2>(members, y, &mut buf),
+                        3 => lanes::predict::<3>(members, y, &mut buf),
+                        _ => lanes::predict::<4>(members, y, &mut buf),
+                    }
+                    for (l, lane) in part.iter().enumerate() {
+                        let out = &mut outs[lane.index];
+                        for (v, b) in out.iter_mut().zip(&buf[lane.start..]) {
+                            *v = b[l];
+                        }
+                        predicted[lane.index] = Some(check_finite("estimate", out));
+                    }
+                }
+            }
+            drop(by_order);
+            fits.into_iter()
+                .zip(predicted)
+                .enumerate()
+                .map(|(i, (fit, predicted))| {
+                    let (fit, start) = fit?;
+                    let predicted = predicted.expect("every fit is predicted");
+                    let record = (&inputs[i].1[start..], &y[start..]);
+                    fit.diagnose_from_prediction(record, split - start, &outs[i], predicted)
+                })
+                .collect()
+        }
     }
 }
 
 #[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used)]
-    use super::*;
-
-    #[test]
-    fn self_products_are_the_general_ones_bit_for_bit() {
-        let (u, _) = crate::test_data::valve_loop(300, 5, 0.3);
-        for (k, ncol) in [(1, 10), (4, 200), (20, 281)] {
-            let general = shifted_products(&u, k, &u, k, ncol);
-            let own = shifted_self_products(&u, k, ncol);
-            let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&general), bits(&own), "k {k}, ncol {ncol}");
-        }
-    }
-
-    #[test]
-    fn identify_predict_many_equals_one_call_each() {
-        for n in [1, 3, 6] {
-            for order in [2, 3] {
-                let ss = ParsimK::params().n(order).check().unwrap();
-                crate::test_data::identify_predict_many_matches(&ss, n);
-            }
-        }
-    }
-
-    #[test]
-    fn fast_route_matches_the_reference() {
-        let (mut from_gram, mut from_cholesky) = (0, 0);
-        // noisy records take the Gram path and the Cholesky factor of W²; the noise-free one
-        // falls back to the QR
-        for (seed, noise) in [(1, 3.0), (2, 2.0), (3, 4.0), (4, 1e-6)] {
-            let (u, y) = crate::test_data::valve_loop(2000, seed, noise);
-            for (n, f, p) in [(2, 10, 10), (2, 5, 8), (0, 6, 6)] {
-                let ss = ParsimK::params().n(n).f(f).p(p).check().unwrap();
-                let mut qr = ss.run(&u, &y, Route::Reference).unwrap();
-                let mut auto = ss.run(&u, &y, Route::Fast).unwrap();
-                qr.refresh_info(&u, &y).unwrap();
-                auto.refresh_info(&u, &y).unwrap();
-                let (f1, f2) = (qr.info().fit_pv, auto.info().fit_pv);
-                assert!(
-                    (f1 - f2).abs() <= 1e-9 * f1.abs(),
-                    "seed {seed} n={n} f={f} p={p}: fit {f1} vs {f2}"
-                );
-                let p1 = qr.predict_one_step(&u, &y).unwrap();
-                let p2 = auto.predict_one_step(&u, &y).unwrap();
-                let big = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                for (a, b) in p1.iter().zip(&p2) {
-                    assert!((a - b).abs() <= 1e-9 * big, "seed {seed}: {a} vs {b}");
-                }
-                let (s1, s2) = (&qr.info().singular_values, &auto.info().singular_values);
-                assert_eq!(s1.len(), s2.len());
-                // the leading values agree to 1e-12 relative; those at the noise floor of the
-                // nearly noise-free record (σ ≈ 3e-8 σ_1, W² nearly singular) to 4e-9 σ_1
-                for (a, b) in s1.iter().zip(s2) {
-                    assert!(
-                        (a - b).abs() <= 1e-8 * s1[0],
-                        "seed {seed}: σ {s1:?} vs {s2:?}"
-                    );
-                }
-                let us: Vec<f64> = u.iter().map(|v| v - 50.0).collect();
-                let ys: Vec<f64> = y.iter().map(|v| v - 40.0).collect();
-                let ncol = u.len() + 1 - p - f;
-                let cols: Vec<(bool, usize)> = (0..p)
-                    .map(|i| (false, i))
-                    .chain((0..p).map(|i| (true, i)))
-                    .chain([(false, p), (true, p)])
-                    .chain((0..f).map(|i| (true, p + i)))
-                    .collect();
-                let h = ShiftedProducts::new(&us, &ys, p + f, ncol);
-                from_gram += usize::from(step2_from_gram(&h, &cols, 2 * p + 2).is_some());
-                let w2 = weight_squared(&hankel_gram(&h, p, f), 2 * p, Route::Fast).unwrap();
-                from_cholesky += usize::from(la::cholesky_lower(w2.as_ref()).is_some());
-            }
-        }
-        // both ways of factoring W² are compared: Cholesky on the noisy records (and one
-        // horizon of the nearly noise-free one), the square root on the others
-        assert!(
-            from_cholesky == 10,
-            "W² factored by Cholesky {from_cholesky} of 12 times, expected 10"
-        );
-        // the comparison is not vacuous: the Gram path is taken on these records
-        assert!(
-            from_gram == 9,
-            "Gram path taken {from_gram} of 12 times, expected 9"
-        );
-    }
-
-    #[test]
-    fn step2_gram_refuses_a_rank_deficient_record() {
-        // u constant after the first samples: the u shifts are collinear over the columns
-        let (mut u, y) = crate::test_data::valve_loop(600, 5, 0.3);
-        u[10..].fill(51.0);
-        let ncol = u.len() + 1 - 20;
-        let cols: Vec<(bool, usize)> = (0..10)
-            .map(|i| (false, i))
-            .chain((0..10).map(|i| (true, i)))
-            .chain([(false, 10), (true, 10)])
-            .collect();
-        let h = ShiftedProducts::new(&u, &y, 20, ncol);
-        assert!(step2_from_gram(&h, &cols, 22).is_none());
-    }
-
-    #[test]
-    fn hankel_gram_matches_product() {
-        let len = 700;
-        let us: Vec<f64> = (0..len)
-            .map(|k| ((k * 7919) % 113) as f64 / 56.0 - 1.0)
-            .collect();
-        let ys: Vec<f64> = (0..len)
-            .map(|k| (k as f64 * 0.37).sin() + 0.1 * us[k])
-            .collect();
-        for (p, f) in [(10, 10), (3, 7), (12, 4)] {
-            let ncol = len + 1 - p - f;
-            let mut x = Mat::<f64>::zeros(ncol, 2 * p + f);
-            for i in 0..p {
-                x.col_as_slice_mut(i).copy_from_slice(&us[i..i + ncol]);
-                x.col_as_slice_mut(p + i).copy_from_slice(&ys[i..i + ncol]);
-            }
-            for i in 0..f {
-                x.col_as_slice_mut(2 * p + i)
-                    .copy_from_slice(&us[p + i..p + i + ncol]);
-            }
-            let direct = la::mul(x.as_ref().transpose(), x.as_ref());
-            let fast = hankel_gram(&ShiftedProducts::new(&us, &ys, p + f, ncol), p, f);
-            for i in 0..2 * p + f {
-                for j in 0..2 * p + f {
-                    assert!(
-                        (direct[(i, j)] - fast[(i, j)]).abs() < 1e-11 * ncol as f64,
-                        "p={p} f={f} ({i},{j}): {} vs {}",
-                        direct[(i, j)],
-                        fast[(i, j)]
-                    );
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn step6_columns_match_separate_simulations() {
-        let len = 300;
-        let us: Vec<f64> = (0..len)
-            .map(|k| ((k * 31) % 17) as f64 / 8.0 - 1.0)
-            .collect();
-        let ys: Vec<f64> = (0..len).map(|k| (k as f64 * 0.2).cos()).collect();
-        for n in [1usize, 2, 3, 5] {
-            let ak: Vec<f64> = (0..n * n)
-                .map(|i| {
-                    if i % (n + 1) == 0 {
-                        0.5
-                    } else {
-                        0.05 * i as f64 / (n * n) as f64
-                    }
-                })
-                .collect();
-            let c: Vec<f64> = (0..n).map(|i| 1.0 - 0.3 * i as f64).collect();
-            for d_required in [false, true] {
-                let npar = 3 * n + usize::from(d_required);
-                let mut ab = vec![f64::NAN; len * npar];
-                step6_columns_dispatch(n, &ak, &c, &us, &ys, d_required, &mut ab);
-                // reference: one simulation per column
-                let sim = |bk: &[f64], k: &[f64], x0: &[f64]| -> Vec<f64> {
-                    let mut x = x0.to_vec();
-                    let mut out = vec![0.0; len];
-                    for t in 0..len {
-                        out[t] = (0..n).map(|i| c[i] * x[i]).sum();
-                        x = (0..n)
-                            .map(|i| {
-                                (0..n).map(|j| ak[i * n + j] * x[j]).sum::<f64>()
-                                    + bk[i] * us[t]
-                                    + k[i] * ys[t]
-                            })
-                            .collect();
-                    }
-                    out
-                };
-                let z = vec![0.0; n];
-                let off = usize::from(d_required);
-                for r in 0..n {
-                    let mut e = vec![0.0; n];
-                    e[r] = 1.0;
-                    for (col, want) in [
-                        (r, sim(&e, &z, &z)),
-                        (n + off + r, sim(&z, &e, &z)),
-                        (2 * n + off + r, sim(&z, &z, &e)),
-                    ] {
-                        // the row recursion sums in another order: equal to round-off
-                        let got = &ab[col * len..(col + 1) * len];
-                        let big = want.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-                        for (t, (g, w)) in got.iter().zip(&want).enumerate() {
-                            assert!(
-                                (g - w).abs() <= 1e-12 * big,
-                                "n={n} col {col} t {t}: {g} vs {w}"
-                            );
-                        }
-                    }
-                }
-                if d_required {
-                    assert_eq!(&ab[n * len..(n + 1) * len], &us[..]);
-                }
-            }
-        }
-    }
-}
+mod tests;

@@ -20,11 +20,7 @@ mod lanes;
 
 use crate::arx::{MAX_DELAY, MAX_ORDER};
 use crate::error::{check_data, check_order, check_real};
-use crate::registry::resolve;
-use crate::{
-    la, mean, BiasTracking, IdError, IdentifierEntry, LinearFit, LinearIdentifier, OrderSpec,
-    OrderValue, Structure,
-};
+use crate::{la, mean, BiasTracking, IdError, LinearFit, OrderValue, Structure};
 
 /// Tuning of the recursive estimator (shared by armax, earx, earmax).
 ///
@@ -307,7 +303,9 @@ impl Recursive {
 macro_rules! recursive_identifier {
     (
         $ty:ident, $params:ident, $pstr:literal, $tag:literal, $bias:expr, $doc:literal,
-        n = $n:expr, m = $m:expr, p = $p:expr, has_p = $has_p:tt
+        n = $n:expr, m = $m:expr, p = $p:expr, has_p = $has_p:tt,
+        description $description:expr;
+        orders { $($orders:tt)* }
     ) => {
         #[doc = $doc]
         ///
@@ -408,13 +406,6 @@ macro_rules! recursive_identifier {
             }
         }
 
-        impl TryFrom<$params> for $ty {
-            type Error = IdError;
-            fn try_from(p: $params) -> Result<Self, IdError> {
-                p.check()
-            }
-        }
-
         impl From<$ty> for $params {
             fn from(t: $ty) -> Self {
                 $params {
@@ -427,47 +418,26 @@ macro_rules! recursive_identifier {
             }
         }
 
-        impl $ty {
-            /// Start a parameter builder.
-            pub fn params() -> $params {
-                $params::default()
-            }
-        }
-
-        #[typetag::serde(name = $tag)]
-        impl LinearIdentifier for $ty {
-            fn name(&self) -> &'static str {
-                $tag
-            }
-            fn orders(&self) -> Vec<(&'static str, OrderValue)> {
-                let r = &self.inner;
-                let mut v = vec![("n", OrderValue::Int(r.na)), ("m", OrderValue::Int(r.nb))];
-                if $has_p {
-                    v.push(("p", OrderValue::Int(r.nc)));
+        crate::linear_identifier! {
+            $ty($tag) from $params;
+            description $description;
+            orders { $($orders)* }
+            impl {
+                fn min_samples(&self) -> usize {
+                    self.inner.min_samples()
                 }
-                v.push(("delay", OrderValue::Int(r.delay)));
-                if $bias {
-                    v.push(("lambda_beta", OrderValue::Real(r.tuning.lambda_beta)));
+                fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
+                    self.inner.identify(u, y)
                 }
-                v
-            }
-            fn min_samples(&self) -> usize {
-                self.inner.min_samples()
-            }
-            fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-                self.inner.identify(u, y)
-            }
-            fn identify_predict_many(
-                &self,
-                inputs: &[(usize, &[f64])],
-                y: &[f64],
-                split: usize,
-                outs: &mut [Vec<f64>],
-            ) -> Vec<Result<crate::Identified, IdError>> {
-                self.inner.identify_predict_many(inputs, y, split, outs)
-            }
-            fn box_clone(&self) -> Box<dyn LinearIdentifier> {
-                Box::new(*self)
+                fn identify_predict_many(
+                    &self,
+                    inputs: &[(usize, &[f64])],
+                    y: &[f64],
+                    split: usize,
+                    outs: &mut [Vec<f64>],
+                ) -> Vec<Result<crate::Identified, IdError>> {
+                    self.inner.identify_predict_many(inputs, y, split, outs)
+                }
             }
         }
     };
@@ -477,122 +447,47 @@ fn skip_p(p: &usize) -> bool {
     *p == 0
 }
 
-recursive_identifier!(
-    Armax,
-    ArmaxParams,
-    "ArmaxParams",
-    "armax",
-    false,
+recursive_identifier! {
+    Armax, ArmaxParams, "ArmaxParams", "armax", false,
     "ARMAX, eq. (4), by recursive extended least squares (Karra & Karim without the bias).",
-    n = 2,
-    m = 2,
-    p = 2,
-    has_p = true
-);
+    n = 2, m = 2, p = 2, has_p = true,
+    description "ARMAX (eq. 4) by recursive extended least squares (Karra & Karim, no bias)";
+    orders {
+        n: Int(2), "order of A(q)", |q| q.n;
+        m: Int(2), "order of B(q) (b1 q^-1 .. bm q^-m)", |q| q.m;
+        p: Int(2), "order of C(q) (moving average)", |q| q.p;
+        delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |q| q.delay;
+    }
+}
 
-recursive_identifier!(
+recursive_identifier! {
     Earx, EarxParams, "EarxParams", "earx", true,
     "EARX, eq. (7): ARX plus a time-varying bias η_k, by the decoupled recursive estimator of Karra & Karim.",
-    n = 2, m = 2, p = 0, has_p = false
-);
+    n = 2, m = 2, p = 0, has_p = false,
+    description "EARX (eq. 7): ARX + time-varying bias, decoupled recursive LS with forgetting";
+    orders {
+        n: Int(2), "order of A(q)", |q| q.n;
+        m: Int(2), "order of B(q) (b1 q^-1 .. bm q^-m)", |q| q.m;
+        delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |q| q.delay;
+        lambda_beta: Real(0.8),
+            "forgetting factor of the time-varying bias (smaller tracks faster)",
+            |q| q.tuning.lambda_beta;
+    }
+}
 
-recursive_identifier!(
+recursive_identifier! {
     Earmax, EarmaxParams, "EarmaxParams", "earmax", true,
     "EARMAX, eq. (8): ARMAX plus a time-varying bias η_k, by the decoupled recursive estimator of Karra & Karim.",
-    n = 2, m = 2, p = 2, has_p = true
-);
-
-const N_SPEC: OrderSpec = OrderSpec {
-    name: "n",
-    default: OrderValue::Int(2),
-    meaning: "order of A(q)",
-};
-const M_SPEC: OrderSpec = OrderSpec {
-    name: "m",
-    default: OrderValue::Int(2),
-    meaning: "order of B(q) (b1 q^-1 .. bm q^-m)",
-};
-const P_SPEC: OrderSpec = OrderSpec {
-    name: "p",
-    default: OrderValue::Int(2),
-    meaning: "order of C(q) (moving average)",
-};
-const DELAY_SPEC: OrderSpec = OrderSpec {
-    name: "delay",
-    default: OrderValue::Int(0),
-    meaning: "dead time t_d in samples (first input lag is 1 + delay)",
-};
-const LAMBDA_BETA_SPEC: OrderSpec = OrderSpec {
-    name: "lambda_beta",
-    default: OrderValue::Real(0.8),
-    meaning: "forgetting factor of the time-varying bias (smaller tracks faster)",
-};
-
-const ARMAX_ORDERS: [OrderSpec; 4] = [N_SPEC, M_SPEC, P_SPEC, DELAY_SPEC];
-const EARX_ORDERS: [OrderSpec; 4] = [N_SPEC, M_SPEC, DELAY_SPEC, LAMBDA_BETA_SPEC];
-const EARMAX_ORDERS: [OrderSpec; 5] = [N_SPEC, M_SPEC, P_SPEC, DELAY_SPEC, LAMBDA_BETA_SPEC];
-
-fn build_armax(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut v = resolve("armax", &ARMAX_ORDERS, pairs)?;
-    Ok(Box::new(
-        Armax::params()
-            .n(v.int()?)
-            .m(v.int()?)
-            .p(v.int()?)
-            .delay(v.int()?)
-            .check()?,
-    ))
-}
-
-fn build_earx(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut v = resolve("earx", &EARX_ORDERS, pairs)?;
-    Ok(Box::new(
-        Earx::params()
-            .n(v.int()?)
-            .m(v.int()?)
-            .delay(v.int()?)
-            .lambda_beta(v.real()?)
-            .check()?,
-    ))
-}
-
-fn build_earmax(pairs: &[(String, OrderValue)]) -> Result<Box<dyn LinearIdentifier>, IdError> {
-    let mut v = resolve("earmax", &EARMAX_ORDERS, pairs)?;
-    Ok(Box::new(
-        Earmax::params()
-            .n(v.int()?)
-            .m(v.int()?)
-            .p(v.int()?)
-            .delay(v.int()?)
-            .lambda_beta(v.real()?)
-            .check()?,
-    ))
-}
-
-inventory::submit! {
-    IdentifierEntry {
-        name: "armax",
-        description: "ARMAX (eq. 4) by recursive extended least squares (Karra & Karim, no bias)",
-        orders: &ARMAX_ORDERS,
-        build: build_armax,
-    }
-}
-
-inventory::submit! {
-    IdentifierEntry {
-        name: "earx",
-        description: "EARX (eq. 7): ARX + time-varying bias, decoupled recursive LS with forgetting",
-        orders: &EARX_ORDERS,
-        build: build_earx,
-    }
-}
-
-inventory::submit! {
-    IdentifierEntry {
-        name: "earmax",
-        description: "EARMAX (eq. 8): ARMAX + time-varying bias, decoupled recursive ELS with forgetting",
-        orders: &EARMAX_ORDERS,
-        build: build_earmax,
+    n = 2, m = 2, p = 2, has_p = true,
+    description "EARMAX (eq. 8): ARMAX + time-varying bias, decoupled recursive ELS with forgetting";
+    orders {
+        n: Int(2), "order of A(q)", |q| q.n;
+        m: Int(2), "order of B(q) (b1 q^-1 .. bm q^-m)", |q| q.m;
+        p: Int(2), "order of C(q) (moving average)", |q| q.p;
+        delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |q| q.delay;
+        lambda_beta: Real(0.8),
+            "forgetting factor of the time-varying bias (smaller tracks faster)",
+            |q| q.tuning.lambda_beta;
     }
 }
 

@@ -1,105 +1,70 @@
 //! He et al. (2007): static friction band `fs` and kinetic friction `fd`.
 
-use serde::{Deserialize, Serialize};
+use crate::{check_io, Constraint, Equivalent, FastPaths, InitialState, StictionError, ValveState};
 
-use crate::{
-    check_io, non_negative, Constraint, Equivalent, InitialState, ModelEntry, ParamSpec,
-    StictionError, StictionModel, ValveState,
-};
-
-/// He et al. (2007): the valve slips when the accumulated force `u_r + Δu` exceeds `fs`, and
-/// then lags OP by `fd`.
-///
-/// | name | default | meaning | valid range |
-/// |------|---------|---------|-------------|
-/// | `fs` | 0 | static friction band | `0 <= fs <= span(OP)` |
-/// | `fd` | 0 | kinetic friction | `0 <= fd <= fs` |
-///
-/// Equivalent Kano parameters (paper eq. 1): `S = fs + fd`, `J = fs - fd`. The two models agree
-/// at reversals and differ in slow unidirectional motion (specification §2.4).
-///
-/// Initial state: the residual force is `u_r0 = d0 * fd` (the valve last moved in direction
-/// `d0`), and `MV(0) = OP(0) - u_r0` unless a position is given. The `stuck` flag and
-/// `stuck_at` of [`InitialState`] do not apply to this model.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "HeParams", into = "HeParams")]
-pub struct He {
-    fs: f64,
-    fd: f64,
-}
-
-/// Unchecked parameters of [`He`].
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct HeParams {
-    /// Static friction band.
-    pub fs: f64,
-    /// Kinetic friction.
-    pub fd: f64,
-}
-
-impl HeParams {
-    /// Set `fs`.
-    pub fn fs(mut self, fs: f64) -> Self {
-        self.fs = fs;
-        self
+crate::stiction_model! {
+    /// He et al. (2007): the valve slips when the accumulated force `u_r + Δu` exceeds `fs`, and
+    /// then lags OP by `fd`.
+    ///
+    /// | name | default | meaning | valid range |
+    /// |------|---------|---------|-------------|
+    /// | `fs` | 0 | static friction band | `0 <= fs <= span(OP)` |
+    /// | `fd` | 0 | kinetic friction | `0 <= fd <= fs` |
+    ///
+    /// Equivalent Kano parameters (paper eq. 1): `S = fs + fd`, `J = fs - fd`. The two models agree
+    /// at reversals and differ in slow unidirectional motion (specification §2.4).
+    ///
+    /// Initial state: the residual force is `u_r0 = d0 * fd` (the valve last moved in direction
+    /// `d0`), and `MV(0) = OP(0) - u_r0` unless a position is given. The `stuck` flag and
+    /// `stuck_at` of [`InitialState`] do not apply to this model.
+    pub struct He("he") {
+        /// Static friction band.
+        fs: "fs", "static friction band (= (S+J)/2)", span 1.0;
+        /// Kinetic friction.
+        fd: "fd", "kinetic friction (= (S-J)/2)", span 0.5;
     }
-    /// Set `fd`.
-    pub fn fd(mut self, fd: f64) -> Self {
-        self.fd = fd;
-        self
-    }
-    /// Validate (finite, non-negative, `fd <= fs`, i.e. `J >= 0`) and build the model.
-    pub fn check(self) -> Result<He, StictionError> {
-        non_negative("he", "fs", self.fs)?;
-        non_negative("he", "fd", self.fd)?;
-        if self.fd > self.fs {
-            return Err(StictionError::InvalidParameter {
-                model: "he",
-                name: "fd".into(),
-                value: self.fd,
-                expected: format!("0 <= fd <= fs (= {})", self.fs),
-            });
+    params HeParams;
+    description "He et al. (2007): static friction fs and kinetic friction fd; S = fs+fd, J = fs-fd";
+    constraints [Constraint::AtMost { param: "fd", bound: "fs" }];
+    impl {
+        fn equivalent(&self) -> Equivalent {
+            Equivalent {
+                s: self.fs + self.fd,
+                j: self.fs - self.fd,
+            }
         }
-        Ok(He {
-            fs: self.fs,
-            fd: self.fd,
-        })
-    }
-}
-
-impl TryFrom<HeParams> for He {
-    type Error = StictionError;
-    fn try_from(p: HeParams) -> Result<Self, Self::Error> {
-        p.check()
-    }
-}
-
-impl From<He> for HeParams {
-    fn from(h: He) -> Self {
-        HeParams { fs: h.fs, fd: h.fd }
+        fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
+            Ok(Box::new(self.start_state(op0, init)?))
+        }
+        fn simulate_into(
+            &self,
+            op: &[f64],
+            init: &InitialState,
+            mv: &mut [f64],
+        ) -> Result<(), StictionError> {
+            check_io(op, mv)?;
+            let Some(&op0) = op.first() else {
+                return Ok(());
+            };
+            let mut state = self.start_state(op0, init)?;
+            mv[0] = state.mv_prev;
+            for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
+                *m = state.advance(u);
+            }
+            Ok(())
+        }
+        fn fast_paths(&self) -> Option<&dyn FastPaths> {
+            Some(self)
+        }
     }
 }
 
 impl He {
-    /// Start a parameter builder.
-    pub fn params() -> HeParams {
-        HeParams::default()
-    }
     /// He's model with the parameters equivalent to Kano's (S, J): `fs = (S+J)/2`, `fd = (S-J)/2`.
     pub fn from_sj(s: f64, j: f64) -> Result<He, StictionError> {
         crate::Kano::params().s(s).j(j).check()?;
         He::params().fs((s + j) / 2.0).fd((s - j) / 2.0).check()
     }
-    /// Static friction band.
-    pub fn fs(&self) -> f64 {
-        self.fs
-    }
-    /// Kinetic friction.
-    pub fn fd(&self) -> f64 {
-        self.fd
-    }
-
     fn start_state(&self, op0: f64, init: &InitialState) -> Result<HeState, StictionError> {
         init.validate()?;
         if !op0.is_finite() {
@@ -237,40 +202,7 @@ impl ValveState for HeState {
     }
 }
 
-#[typetag::serde(name = "he")]
-impl StictionModel for He {
-    fn name(&self) -> &'static str {
-        "he"
-    }
-    fn param_values(&self) -> Vec<f64> {
-        vec![self.fs, self.fd]
-    }
-    fn equivalent(&self) -> Equivalent {
-        Equivalent {
-            s: self.fs + self.fd,
-            j: self.fs - self.fd,
-        }
-    }
-    fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
-        Ok(Box::new(self.start_state(op0, init)?))
-    }
-    fn simulate_into(
-        &self,
-        op: &[f64],
-        init: &InitialState,
-        mv: &mut [f64],
-    ) -> Result<(), StictionError> {
-        check_io(op, mv)?;
-        let Some(&op0) = op.first() else {
-            return Ok(());
-        };
-        let mut state = self.start_state(op0, init)?;
-        mv[0] = state.mv_prev;
-        for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
-            *m = state.advance(u);
-        }
-        Ok(())
-    }
+impl FastPaths for He {
     /// Four starts (In.2/In.3) run side by side, one per SIMD lane (`He::four_in_lanes`);
     /// other counts by `kano::lockstep`. The same MV and merge sample either way.
     fn simulate_starts(
@@ -290,45 +222,6 @@ impl StictionModel for He {
             HeState::advance,
             HeState::same,
         )
-    }
-    fn box_clone(&self) -> Box<dyn StictionModel> {
-        Box::new(*self)
-    }
-}
-
-const HE_PARAMS: [ParamSpec; 2] = [
-    ParamSpec {
-        name: "fs",
-        meaning: "static friction band (= (S+J)/2)",
-        default: 0.0,
-        max_span_fraction: 1.0,
-    },
-    ParamSpec {
-        name: "fd",
-        meaning: "kinetic friction (= (S-J)/2)",
-        default: 0.0,
-        max_span_fraction: 0.5,
-    },
-];
-
-fn build_he(values: &[f64]) -> Result<Box<dyn StictionModel>, StictionError> {
-    match values {
-        [fs, fd] => Ok(Box::new(He::params().fs(*fs).fd(*fd).check()?)),
-        _ => Err(StictionError::WrongParameterCount {
-            model: "he",
-            expected: 2,
-            got: values.len(),
-        }),
-    }
-}
-
-inventory::submit! {
-    ModelEntry {
-        name: "he",
-        description: "He et al. (2007): static friction fs and kinetic friction fd; S = fs+fd, J = fs-fd",
-        params: &HE_PARAMS,
-        constraints: &[Constraint::AtMost { param: "fd", bound: "fs" }],
-        build: build_he,
     }
 }
 

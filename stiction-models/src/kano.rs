@@ -1,128 +1,65 @@
 //! Kano's two-parameter stiction model (S, J) and the shared Kano-type core that the
 //! asymmetric variant reuses.
 
-use serde::{Deserialize, Serialize};
-
 use crate::{
-    check_io, non_negative, Constraint, Direction, Equivalent, InitialState, ModelEntry, ParamSpec,
-    StictionError, StictionModel, ValveState,
+    check_io, Constraint, Direction, Equivalent, FastPaths, InitialState, StictionError, ValveState,
 };
 
-/// Kano et al. (2004): deadband plus stickband `S` and slip jump `J`, in OP units.
-///
-/// | name | default | meaning | valid range |
-/// |------|---------|---------|-------------|
-/// | `S`  | 0 | deadband + stickband: OP excursion needed to reverse a stopped valve | `0 <= S <= span(OP)` |
-/// | `J`  | 0 | slip jump; also the OP excursion that restarts a stopped valve in the same direction | `0 <= J <= S` |
-///
-/// The update rule is the one of the algorithm specification (§1.3): a moving valve lags OP by
-/// `d (S - J)/2`; it stops when OP reverses or stays flat, and restarts when OP has moved
-/// strictly more than `S` (reversal) or `J` (same direction) from where it stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "KanoParams", into = "KanoParams")]
-pub struct Kano {
-    s: f64,
-    j: f64,
-}
-
-/// Unchecked parameters of [`Kano`]; [`KanoParams::check`] builds the model.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct KanoParams {
-    /// Deadband plus stickband.
-    #[serde(rename = "S")]
-    pub s: f64,
-    /// Slip jump.
-    #[serde(rename = "J")]
-    pub j: f64,
-}
-
-impl KanoParams {
-    /// Set `S`.
-    pub fn s(mut self, s: f64) -> Self {
-        self.s = s;
-        self
+crate::stiction_model! {
+    /// Kano et al. (2004): deadband plus stickband `S` and slip jump `J`, in OP units.
+    ///
+    /// | name | default | meaning | valid range |
+    /// |------|---------|---------|-------------|
+    /// | `S`  | 0 | deadband + stickband: OP excursion needed to reverse a stopped valve | `0 <= S <= span(OP)` |
+    /// | `J`  | 0 | slip jump; also the OP excursion that restarts a stopped valve in the same direction | `0 <= J <= S` |
+    ///
+    /// The update rule is the one of the algorithm specification (§1.3): a moving valve lags OP by
+    /// `d (S - J)/2`; it stops when OP reverses or stays flat, and restarts when OP has moved
+    /// strictly more than `S` (reversal) or `J` (same direction) from where it stopped.
+    pub struct Kano("kano") {
+        /// Deadband plus stickband.
+        s: "S", "deadband + stickband (OP excursion to reverse a stopped valve)", span 1.0;
+        /// Slip jump.
+        j: "J", "slip jump (also the OP excursion to restart in the same direction)", span 1.0;
     }
-    /// Set `J`.
-    pub fn j(mut self, j: f64) -> Self {
-        self.j = j;
-        self
-    }
-    /// Validate (finite, non-negative, `J <= S`) and build the model.
-    pub fn check(self) -> Result<Kano, StictionError> {
-        non_negative("kano", "S", self.s)?;
-        non_negative("kano", "J", self.j)?;
-        if self.j > self.s {
-            return Err(StictionError::InvalidParameter {
-                model: "kano",
-                name: "J".into(),
-                value: self.j,
-                expected: format!("0 <= J <= S (= {})", self.s),
-            });
+    params KanoParams;
+    description "Kano et al. (2004): deadband+stickband S and slip jump J; the paper's default";
+    constraints [Constraint::AtMost { param: "J", bound: "S" }];
+    impl {
+        fn equivalent(&self) -> Equivalent {
+            Equivalent {
+                s: self.s,
+                j: self.j,
+            }
         }
-        Ok(Kano {
-            s: self.s,
-            j: self.j,
-        })
-    }
-}
-
-impl TryFrom<KanoParams> for Kano {
-    type Error = StictionError;
-    fn try_from(p: KanoParams) -> Result<Self, Self::Error> {
-        p.check()
-    }
-}
-
-impl From<Kano> for KanoParams {
-    fn from(k: Kano) -> Self {
-        KanoParams { s: k.s, j: k.j }
+        fn start(
+            &self,
+            op0: f64,
+            init: &InitialState,
+        ) -> Result<Box<dyn ValveState>, StictionError> {
+            Ok(Box::new(self.core().start(op0, init)?))
+        }
+        fn simulate_into(
+            &self,
+            op: &[f64],
+            init: &InitialState,
+            mv: &mut [f64],
+        ) -> Result<(), StictionError> {
+            self.core().simulate_into(op, init, mv)
+        }
+        fn fast_paths(&self) -> Option<&dyn FastPaths> {
+            Some(self)
+        }
     }
 }
 
 impl Kano {
-    /// Start a parameter builder (`Kano::params().s(4.0).j(1.0).check()?`).
-    pub fn params() -> KanoParams {
-        KanoParams::default()
-    }
-    /// Deadband plus stickband.
-    pub fn s(&self) -> f64 {
-        self.s
-    }
-    /// Slip jump.
-    pub fn j(&self) -> f64 {
-        self.j
-    }
     fn core(&self) -> KanoCore {
         KanoCore::symmetric(self.s, self.j)
     }
 }
 
-#[typetag::serde(name = "kano")]
-impl StictionModel for Kano {
-    fn name(&self) -> &'static str {
-        "kano"
-    }
-    fn param_values(&self) -> Vec<f64> {
-        vec![self.s, self.j]
-    }
-    fn equivalent(&self) -> Equivalent {
-        Equivalent {
-            s: self.s,
-            j: self.j,
-        }
-    }
-    fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
-        Ok(Box::new(self.core().start(op0, init)?))
-    }
-    fn simulate_into(
-        &self,
-        op: &[f64],
-        init: &InitialState,
-        mv: &mut [f64],
-    ) -> Result<(), StictionError> {
-        self.core().simulate_into(op, init, mv)
-    }
+impl FastPaths for Kano {
     fn simulate_starts(
         &self,
         op: &[f64],
@@ -133,45 +70,6 @@ impl StictionModel for Kano {
     }
     fn event_rule(&self) -> Option<crate::EventRule> {
         Some(self.core().into())
-    }
-    fn box_clone(&self) -> Box<dyn StictionModel> {
-        Box::new(*self)
-    }
-}
-
-const KANO_PARAMS: [ParamSpec; 2] = [
-    ParamSpec {
-        name: "S",
-        meaning: "deadband + stickband (OP excursion to reverse a stopped valve)",
-        default: 0.0,
-        max_span_fraction: 1.0,
-    },
-    ParamSpec {
-        name: "J",
-        meaning: "slip jump (also the OP excursion to restart in the same direction)",
-        default: 0.0,
-        max_span_fraction: 1.0,
-    },
-];
-
-fn build_kano(values: &[f64]) -> Result<Box<dyn StictionModel>, StictionError> {
-    match values {
-        [s, j] => Ok(Box::new(Kano::params().s(*s).j(*j).check()?)),
-        _ => Err(StictionError::WrongParameterCount {
-            model: "kano",
-            expected: 2,
-            got: values.len(),
-        }),
-    }
-}
-
-inventory::submit! {
-    ModelEntry {
-        name: "kano",
-        description: "Kano et al. (2004): deadband+stickband S and slip jump J; the paper's default",
-        params: &KANO_PARAMS,
-        constraints: &[Constraint::AtMost { param: "J", bound: "S" }],
-        build: build_kano,
     }
 }
 
@@ -265,7 +163,7 @@ impl KanoCore {
 }
 
 impl KanoCore {
-    /// Lockstep simulation from several starts (see [`StictionModel::simulate_starts`]).
+    /// Lockstep simulation from several starts (see [`FastPaths::simulate_starts`]).
     pub(crate) fn simulate_starts(
         &self,
         op: &[f64],
@@ -284,7 +182,7 @@ impl KanoCore {
 }
 
 /// Step several valve states in lockstep until they all equal the first, then only the first
-/// (see [`StictionModel::simulate_starts`]). `same` must be true only for states that produce
+/// (see [`FastPaths::simulate_starts`]). `same` must be true only for states that produce
 /// identical futures for any input.
 pub(crate) fn lockstep<S: ValveState>(
     op: &[f64],

@@ -1,13 +1,8 @@
 //! Kano's valve followed by an installed flow characteristic (a Hammerstein chain: stiction,
 //! characteristic, then the linear model).
 
-use serde::{Deserialize, Serialize};
-
 use crate::kano::KanoCore;
-use crate::{
-    non_negative, Constraint, Equivalent, InitialState, ModelEntry, ParamSpec, StictionError,
-    StictionModel, ValveState,
-};
+use crate::{Bound, Constraint, Equivalent, FastPaths, InitialState, StictionError, ValveState};
 
 /// Largest |a| accepted: `e^20` is a gain ratio of 5·10⁸ over the span, far beyond any valve.
 pub const MAX_SHAPE: f64 = 20.0;
@@ -29,110 +24,66 @@ pub fn characteristic(a: f64, x: f64) -> f64 {
     }
 }
 
-/// A Kano valve (S, J) seen through the installed characteristic of shape `a`
-/// ([`characteristic`]): MV is `f_a` of Kano's valve position, so the linear model after it
-/// sees the flow, not the stem position. All three in OP units (% of span) except `a`,
-/// which is dimensionless.
-///
-/// | name | default | meaning | valid range |
-/// |------|---------|---------|-------------|
-/// | `S`  | 0 | Kano's deadband + stickband | `0 <= S <= span(OP)` |
-/// | `J`  | 0 | Kano's slip jump | `0 <= J <= S` |
-/// | `a`  | 0 | shape: > 0 equal-percentage-like, < 0 quick-opening-like, 0 linear (then exactly [`crate::Kano`]) | `|a| <= 20` |
-///
-/// OP must be the absolute opening in % of span for `a` to mean what it says (the readers
-/// rescale OP to % of its span). The registry's grid does not search `a` (its
-/// `max_span_fraction` is 0, so a grid fixes `a = 0`); `stiction diagnose` fits it by a local
-/// search (cause `valve-characteristic`). The equivalent (S, J) are Kano's.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "KanoCharParams", into = "KanoCharParams")]
-pub struct KanoChar {
-    s: f64,
-    j: f64,
-    a: f64,
-}
-
-/// Unchecked parameters of [`KanoChar`].
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct KanoCharParams {
-    /// Deadband plus stickband.
-    #[serde(rename = "S")]
-    pub s: f64,
-    /// Slip jump.
-    #[serde(rename = "J")]
-    pub j: f64,
-    /// Shape of the characteristic.
-    #[serde(default)]
-    pub a: f64,
-}
-
-impl KanoCharParams {
-    /// Set `S`.
-    pub fn s(mut self, s: f64) -> Self {
-        self.s = s;
-        self
+crate::stiction_model! {
+    /// A Kano valve (S, J) seen through the installed characteristic of shape `a`
+    /// ([`characteristic`]): MV is `f_a` of Kano's valve position, so the linear model after it
+    /// sees the flow, not the stem position. All three in OP units (% of span) except `a`,
+    /// which is dimensionless.
+    ///
+    /// | name | default | meaning | valid range |
+    /// |------|---------|---------|-------------|
+    /// | `S`  | 0 | Kano's deadband + stickband | `0 <= S <= span(OP)` |
+    /// | `J`  | 0 | Kano's slip jump | `0 <= J <= S` |
+    /// | `a`  | 0 | shape: > 0 equal-percentage-like, < 0 quick-opening-like, 0 linear (then exactly [`crate::Kano`]) | `|a| <= 20` |
+    ///
+    /// OP must be the absolute opening in % of span for `a` to mean what it says (the readers
+    /// rescale OP to % of its span). The registry's grid does not search `a` (its
+    /// `max_span_fraction` is 0, so a grid fixes `a = 0`); `stiction diagnose` fits it by a local
+    /// search (cause `valve-characteristic`). The equivalent (S, J) are Kano's.
+    pub struct KanoChar("kano-char") {
+        /// Deadband plus stickband.
+        s: "S", "Kano's deadband + stickband", span 1.0;
+        /// Slip jump.
+        j: "J", "Kano's slip jump", span 1.0;
+        /// Shape of the characteristic.
+        #[serde(default)]
+        a: "a",
+            "shape of the installed characteristic f(x) = 100 (e^(a x/100) - 1)/(e^a - 1): > 0 equal-percentage, < 0 quick-opening, 0 linear (not gridded: a grid fixes a = 0)",
+            span 0.0, Bound::AbsAtMost(MAX_SHAPE);
     }
-    /// Set `J`.
-    pub fn j(mut self, j: f64) -> Self {
-        self.j = j;
-        self
-    }
-    /// Set `a`.
-    pub fn a(mut self, a: f64) -> Self {
-        self.a = a;
-        self
-    }
-    /// Validate (S, J as [`crate::Kano`]; `|a| <= 20`) and build the model.
-    pub fn check(self) -> Result<KanoChar, StictionError> {
-        non_negative("kano-char", "S", self.s)?;
-        non_negative("kano-char", "J", self.j)?;
-        if self.j > self.s {
-            return Err(StictionError::InvalidParameter {
-                model: "kano-char",
-                name: "J".into(),
-                value: self.j,
-                expected: format!("0 <= J <= S (= {})", self.s),
-            });
+    params KanoCharParams;
+    description "Kano (S, J) then an installed flow characteristic of shape a (equal-percentage a > 0, quick-opening a < 0)";
+    constraints [Constraint::AtMost { param: "J", bound: "S" }];
+    impl {
+        fn equivalent(&self) -> Equivalent {
+            Equivalent {
+                s: self.s,
+                j: self.j,
+            }
         }
-        if !(self.a.is_finite() && self.a.abs() <= MAX_SHAPE) {
-            return Err(StictionError::InvalidParameter {
-                model: "kano-char",
-                name: "a".into(),
-                value: self.a,
-                expected: format!("a finite number with |a| <= {MAX_SHAPE}"),
-            });
+        fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
+            Ok(Box::new(CharState {
+                inner: Box::new(self.core().start(op0, init)?),
+                a: self.a,
+            }))
         }
-        Ok(KanoChar {
-            s: self.s,
-            j: self.j,
-            a: self.a,
-        })
-    }
-}
-
-impl TryFrom<KanoCharParams> for KanoChar {
-    type Error = StictionError;
-    fn try_from(p: KanoCharParams) -> Result<Self, Self::Error> {
-        p.check()
-    }
-}
-
-impl From<KanoChar> for KanoCharParams {
-    fn from(k: KanoChar) -> Self {
-        KanoCharParams {
-            s: k.s,
-            j: k.j,
-            a: k.a,
+        fn simulate_into(
+            &self,
+            op: &[f64],
+            init: &InitialState,
+            mv: &mut [f64],
+        ) -> Result<(), StictionError> {
+            self.core().simulate_into(op, init, mv)?;
+            self.map(mv);
+            Ok(())
+        }
+        fn fast_paths(&self) -> Option<&dyn FastPaths> {
+            Some(self)
         }
     }
 }
 
 impl KanoChar {
-    /// Start a parameter builder.
-    pub fn params() -> KanoCharParams {
-        KanoCharParams::default()
-    }
     /// The shape `a`.
     pub fn shape(&self) -> f64 {
         self.a
@@ -176,36 +127,7 @@ impl ValveState for CharState {
     }
 }
 
-#[typetag::serde(name = "kano-char")]
-impl StictionModel for KanoChar {
-    fn name(&self) -> &'static str {
-        "kano-char"
-    }
-    fn param_values(&self) -> Vec<f64> {
-        vec![self.s, self.j, self.a]
-    }
-    fn equivalent(&self) -> Equivalent {
-        Equivalent {
-            s: self.s,
-            j: self.j,
-        }
-    }
-    fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
-        Ok(Box::new(CharState {
-            inner: Box::new(self.core().start(op0, init)?),
-            a: self.a,
-        }))
-    }
-    fn simulate_into(
-        &self,
-        op: &[f64],
-        init: &InitialState,
-        mv: &mut [f64],
-    ) -> Result<(), StictionError> {
-        self.core().simulate_into(op, init, mv)?;
-        self.map(mv);
-        Ok(())
-    }
+impl FastPaths for KanoChar {
     fn simulate_starts(
         &self,
         op: &[f64],
@@ -225,57 +147,12 @@ impl StictionModel for KanoChar {
     fn event_rule(&self) -> Option<crate::EventRule> {
         (self.a == 0.0).then(|| self.core().into())
     }
-    fn box_clone(&self) -> Box<dyn StictionModel> {
-        Box::new(*self)
-    }
-}
-
-const KANO_CHAR_PARAMS: [ParamSpec; 3] = [
-    ParamSpec {
-        name: "S",
-        meaning: "Kano's deadband + stickband",
-        default: 0.0,
-        max_span_fraction: 1.0,
-    },
-    ParamSpec {
-        name: "J",
-        meaning: "Kano's slip jump",
-        default: 0.0,
-        max_span_fraction: 1.0,
-    },
-    ParamSpec {
-        name: "a",
-        meaning: "shape of the installed characteristic f(x) = 100 (e^(a x/100) - 1)/(e^a - 1): > 0 equal-percentage, < 0 quick-opening, 0 linear (not gridded: a grid fixes a = 0)",
-        default: 0.0,
-        max_span_fraction: 0.0,
-    },
-];
-
-fn build_kano_char(values: &[f64]) -> Result<Box<dyn StictionModel>, StictionError> {
-    match values {
-        [s, j, a] => Ok(Box::new(KanoChar::params().s(*s).j(*j).a(*a).check()?)),
-        _ => Err(StictionError::WrongParameterCount {
-            model: "kano-char",
-            expected: 3,
-            got: values.len(),
-        }),
-    }
-}
-
-inventory::submit! {
-    ModelEntry {
-        name: "kano-char",
-        description: "Kano (S, J) then an installed flow characteristic of shape a (equal-percentage a > 0, quick-opening a < 0)",
-        params: &KANO_CHAR_PARAMS,
-        constraints: &[Constraint::AtMost { param: "J", bound: "S" }],
-        build: build_kano_char,
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Kano;
+    use crate::{Kano, StictionModel};
 
     #[test]
     fn a_zero_is_kano_bit_for_bit() {

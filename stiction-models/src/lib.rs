@@ -20,6 +20,8 @@
 //! OP is rejected with the index of the first bad sample.
 
 pub mod cancel;
+#[doc(hidden)]
+pub mod declare;
 mod events;
 mod he;
 mod init;
@@ -28,6 +30,7 @@ mod kano_asym;
 mod kano_char;
 mod registry;
 
+pub use declare::Bound;
 pub use events::{run_valve_indexed, EventRule, OpIndex};
 pub use he::{He, HeParams};
 pub use init::{
@@ -39,8 +42,14 @@ pub use kano_asym::{KanoAsym, KanoAsymParams};
 pub use kano_char::{characteristic, KanoChar, KanoCharParams, MAX_SHAPE};
 pub use registry::{find_model, registry, BuildFn, Constraint, ModelEntry, ParamSpec};
 
+// The paths that `stiction_model!` writes (`stiction_models::serde`) resolve here too.
+extern crate self as stiction_models;
+
 /// Re-exported so that plugin crates use the same `inventory` as the registry.
 pub use inventory;
+/// Re-exported for the serde implementations that `stiction_model!` writes.
+#[doc(hidden)]
+pub use serde;
 /// Re-exported so that plugin crates use the same `typetag` as the trait.
 pub use typetag;
 
@@ -184,33 +193,39 @@ pub trait StictionModel: Send + Sync + fmt::Debug {
         Ok(())
     }
 
-    /// Simulate from several starts at once (In.2/In.3 use the four `(stp, d)` starts).
-    ///
-    /// Fills `out[i]` (each as long as `op`) with the run from `starts[i]` up to the returned
-    /// sample `merge`, and `out[0]` completely: from `merge` on every run is guaranteed equal to
-    /// `out[0]` (their whole valve states coincided, so they stay identical), and the other
-    /// buffers are not written there. The default runs every start to the end and returns
-    /// `op.len()`; built-in models step the starts in lockstep and stop the extra runs once
-    /// their states coincide, which makes In.3 cost little more than one run.
-    fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError> {
-        for (s, o) in starts.iter().zip(out.iter_mut()) {
-            o.resize(op.len(), 0.0);
-            self.simulate_into(op, s, o)?;
-        }
-        Ok(op.len())
-    }
-
     /// Simulate MV for the whole OP record.
     fn simulate(&self, op: &[f64], init: &InitialState) -> Result<Vec<f64>, StictionError> {
         let mut mv = vec![0.0; op.len()];
         self.simulate_into(op, init, &mut mv)?;
         Ok(mv)
     }
+
+    /// The model's optional fast paths ([`FastPaths`]), if it has any (`None` by default:
+    /// every start simulated on its own, sample by sample).
+    fn fast_paths(&self) -> Option<&dyn FastPaths> {
+        None
+    }
+
+    /// A boxed copy.
+    fn box_clone(&self) -> Box<dyn StictionModel>;
+}
+
+/// Optional fast paths of a [`StictionModel`], reached through
+/// [`StictionModel::fast_paths`]; the results are bit for bit those of the plain methods.
+pub trait FastPaths {
+    /// Simulate from several starts at once (In.2/In.3 use the four `(stp, d)` starts).
+    ///
+    /// Fills `out[i]` (each as long as `op`) with the run from `starts[i]` up to the returned
+    /// sample `merge`, and `out[0]` completely: from `merge` on every run is guaranteed equal to
+    /// `out[0]` (their whole valve states coincided, so they stay identical), and the other
+    /// buffers are not written there. Built-in models step the starts in lockstep and stop the
+    /// extra runs once their states coincide, which makes In.3 cost little more than one run.
+    fn simulate_starts(
+        &self,
+        op: &[f64],
+        starts: &[InitialState],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError>;
 
     /// The model as a Kano-type interval rule, if it is one: then [`run_valve_indexed`] runs
     /// it event by event (stuck and moving intervals found by range queries on OP) instead of
@@ -219,9 +234,31 @@ pub trait StictionModel: Send + Sync + fmt::Debug {
     fn event_rule(&self) -> Option<EventRule> {
         None
     }
+}
 
-    /// A boxed copy.
-    fn box_clone(&self) -> Box<dyn StictionModel>;
+impl dyn StictionModel + '_ {
+    /// [`FastPaths::simulate_starts`] when the model has it; otherwise every start run to the
+    /// end (the returned merge sample is then `op.len()`).
+    pub fn simulate_starts(
+        &self,
+        op: &[f64],
+        starts: &[InitialState],
+        out: &mut [Vec<f64>],
+    ) -> Result<usize, StictionError> {
+        if let Some(fast) = self.fast_paths() {
+            return fast.simulate_starts(op, starts, out);
+        }
+        for (s, o) in starts.iter().zip(out.iter_mut()) {
+            o.resize(op.len(), 0.0);
+            self.simulate_into(op, s, o)?;
+        }
+        Ok(op.len())
+    }
+
+    /// [`FastPaths::event_rule`] when the model has fast paths, else `None`.
+    pub fn event_rule(&self) -> Option<EventRule> {
+        self.fast_paths().and_then(FastPaths::event_rule)
+    }
 }
 
 impl Clone for Box<dyn StictionModel> {
@@ -256,23 +293,5 @@ pub fn check_finite(op: &[f64]) -> Result<(), StictionError> {
 pub fn clip(op: &mut [f64], lo: f64, hi: f64) {
     for v in op {
         *v = v.clamp(lo, hi);
-    }
-}
-
-/// Validate one parameter: finite and `>= 0`.
-pub(crate) fn non_negative(
-    model: &'static str,
-    name: &str,
-    value: f64,
-) -> Result<(), StictionError> {
-    if value.is_finite() && value >= 0.0 {
-        Ok(())
-    } else {
-        Err(StictionError::InvalidParameter {
-            model,
-            name: name.to_string(),
-            value,
-            expected: "a finite number >= 0 (OP units)".to_string(),
-        })
     }
 }

@@ -1,6 +1,6 @@
 //! The registry of stiction models, filled by `inventory::submit!` in each model's crate.
 
-use crate::{StictionError, StictionModel};
+use crate::{Bound, StictionError, StictionModel};
 
 /// One parameter of a registered model.
 #[derive(Debug, Clone, Copy)]
@@ -11,8 +11,15 @@ pub struct ParamSpec {
     pub meaning: &'static str,
     /// Value when not given.
     pub default: f64,
-    /// Upper end of the valid range as a fraction of the OP span (the lower end is 0).
+    /// The upper end of the range a grid search scans, as a fraction of the OP span (the lower
+    /// end is 0): a grid over OP span `span` takes values in `[0, max_span_fraction * span]`,
+    /// and [`ModelEntry::admissible`] rejects values above it. 1 for a width that may reach
+    /// the whole span (`S`), 0.5 for one bounded by half of it (He's `fd <= fs`, `fs + fd <=
+    /// span`), 0 for a parameter the grid does not scan (it stays at its default, e.g.
+    /// `kano-char`'s shape `a`).
     pub max_span_fraction: f64,
+    /// The valid values, checked whenever a model is built.
+    pub bound: Bound,
 }
 
 /// A constraint between parameters that a grid must respect.

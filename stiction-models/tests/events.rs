@@ -11,7 +11,7 @@ use common::{he, kano, kano_asym};
 
 use proptest::prelude::*;
 use stiction_models::{
-    run_valve_indexed, run_valve_with, Direction, InitialState, Initialization, OpIndex,
+    run_valve_indexed, run_valve_with, Direction, FastPaths, InitialState, Initialization, OpIndex,
     StictionModel, ValveScratch,
 };
 

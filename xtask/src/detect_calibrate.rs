@@ -704,6 +704,33 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     table(&valid, &model)?;
     VISIBLE_ONLY.set(false);
 
+    oracle_and_tests(&valid, &model)?;
+    if paper {
+        paper_benchmark(&model)?;
+    }
+    if let Some(dir) = plant_dir.filter(|d| d.join("labels.csv").exists()) {
+        let (plant, refused) = plant_cases(&dir)?;
+        println!(
+            "\ntest set: {} plant registrations of {} ({} refused by the reader), never fitted on:",
+            plant.len(),
+            dir.display(),
+            refused.len()
+        );
+        for r in &refused {
+            println!("  refused: {r}");
+        }
+        for (what, m) in [("score.rs as it is", &today), ("fitted here", &model)] {
+            println!("model {what}:");
+            table(&[("plant", plant.clone())], m)?;
+        }
+    }
+    println!("\n[{:.1} s]", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The sticky validation loops whose stiction never showed (by the oracle), the oracle's own
+/// AUC, each test's own AUC, and the first wrong verdicts of `model`.
+fn oracle_and_tests(valid: &[(&str, Vec<Case>)], model: &Model) -> Result<()> {
     let hidden: Vec<&Case> = valid
         .iter()
         .flat_map(|(_, c)| c.iter())
@@ -736,32 +763,12 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     }
     let mut wrong = 0;
     for c in &all {
-        let (s, d) = judge(c, &model)?;
+        let (s, d) = judge(c, model)?;
         if d != Verdict::Inconclusive && (d == Verdict::Stiction) != c.sticky && wrong < 16 {
             wrong += 1;
             println!("  wrong: {} -> {d} (score {s:.2})", c.what);
         }
     }
-    if paper {
-        paper_benchmark(&model)?;
-    }
-    if let Some(dir) = plant_dir.filter(|d| d.join("labels.csv").exists()) {
-        let (plant, refused) = plant_cases(&dir)?;
-        println!(
-            "\ntest set: {} plant registrations of {} ({} refused by the reader), never fitted on:",
-            plant.len(),
-            dir.display(),
-            refused.len()
-        );
-        for r in &refused {
-            println!("  refused: {r}");
-        }
-        for (what, m) in [("score.rs as it is", &today), ("fitted here", &model)] {
-            println!("model {what}:");
-            table(&[("plant", plant.clone())], m)?;
-        }
-    }
-    println!("\n[{:.1} s]", started.elapsed().as_secs_f64());
     Ok(())
 }
 

@@ -631,22 +631,7 @@ impl Scenario {
                 Some(c) if kr >= c.at as i64 => &c.plant,
                 _ => &plant,
             };
-            let mut yk = e[k];
-            for (i, ai) in plant.a.iter().enumerate().skip(1) {
-                if let Some(j) = k.checked_sub(i) {
-                    yk -= ai * y[j];
-                }
-            }
-            for (i, bi) in plant.b.iter().enumerate() {
-                if let Some(j) = k.checked_sub(i + plant.delay) {
-                    yk += bi * u[j];
-                }
-            }
-            for (i, ci) in plant.c.iter().enumerate().skip(1) {
-                if let Some(j) = k.checked_sub(i) {
-                    yk += ci * e[j];
-                }
-            }
+            let mut yk = plant.output(k, &y, &u, &e);
             let pv = match self.disturbance_entry {
                 DisturbanceEntry::Equation => {
                     yk += eta;
@@ -715,6 +700,30 @@ impl Scenario {
             out.pv = swinging_door(&out.pv, dev).0;
         }
         Ok(out)
+    }
+}
+
+impl Plant {
+    /// The ARMAX output at sample `k` from the past outputs `y`, inputs `u` and noise `e`
+    /// (`e[k]` included; samples before 0 are 0), without the disturbance.
+    fn output(&self, k: usize, y: &[f64], u: &[f64], e: &[f64]) -> f64 {
+        let mut yk = e[k];
+        for (i, ai) in self.a.iter().enumerate().skip(1) {
+            if let Some(j) = k.checked_sub(i) {
+                yk -= ai * y[j];
+            }
+        }
+        for (i, bi) in self.b.iter().enumerate() {
+            if let Some(j) = k.checked_sub(i + self.delay) {
+                yk += bi * u[j];
+            }
+        }
+        for (i, ci) in self.c.iter().enumerate().skip(1) {
+            if let Some(j) = k.checked_sub(i) {
+                yk += ci * e[j];
+            }
+        }
+        yk
     }
 }
 

@@ -206,87 +206,58 @@ fn quantise(x: &mut [f64], step: f64) {
     }
 }
 
-fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataError> {
-    if spec.families.is_empty() {
-        return Err(DataError::InvalidParameter {
-            name: "families".into(),
-            value: 0.0,
-            expected: "at least one plant family".into(),
-        });
-    }
-    let seed = spec
-        .seed
-        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        .wrapping_add(index as u64);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let family = spec.families[(index / 2) % spec.families.len()];
-    let sticky = index.is_multiple_of(2);
-    let ts = log_uniform(&mut rng, spec.sample_time[0], spec.sample_time[1]);
-    let samples = log_uniform(
-        &mut rng,
-        spec.samples[0] as f64,
-        spec.samples[1] as f64 + 0.999,
-    )
-    .floor() as usize;
-    let quiet = chance(&mut rng, 1.0 / 16.0);
-
-    // Process, in continuous time (seconds), discretised at `ts`.
-    let (taus, dead, gain): (Vec<f64>, f64, f64) = match family {
+/// The process of a `family`, in continuous time (seconds): its lag time constants, dead
+/// time and gain.
+fn process(rng: &mut ChaCha8Rng, family: Family) -> (Vec<f64>, f64, f64) {
+    match family {
         Family::Flow => (
-            vec![uniform(&mut rng, 1.0, 15.0)],
-            uniform(&mut rng, 0.0, 3.0),
-            log_uniform(&mut rng, 0.3, 3.0),
+            vec![uniform(rng, 1.0, 15.0)],
+            uniform(rng, 0.0, 3.0),
+            log_uniform(rng, 0.3, 3.0),
         ),
         Family::Pressure => {
-            let t1 = log_uniform(&mut rng, 5.0, 120.0);
-            let taus = if chance(&mut rng, 0.5) {
-                vec![t1, t1 * uniform(&mut rng, 0.1, 0.5)]
+            let t1 = log_uniform(rng, 5.0, 120.0);
+            let taus = if chance(rng, 0.5) {
+                vec![t1, t1 * uniform(rng, 0.1, 0.5)]
             } else {
                 vec![t1]
             };
-            (
-                taus,
-                uniform(&mut rng, 0.0, 10.0),
-                log_uniform(&mut rng, 0.3, 3.0),
-            )
+            (taus, uniform(rng, 0.0, 10.0), log_uniform(rng, 0.3, 3.0))
         }
         Family::Composition => {
-            let t1 = log_uniform(&mut rng, 60.0, 600.0);
+            let t1 = log_uniform(rng, 60.0, 600.0);
             (
-                vec![t1, t1 * uniform(&mut rng, 0.2, 1.0)],
-                uniform(&mut rng, 10.0, 120.0),
-                log_uniform(&mut rng, 0.3, 3.0),
+                vec![t1, t1 * uniform(rng, 0.2, 1.0)],
+                uniform(rng, 10.0, 120.0),
+                log_uniform(rng, 0.3, 3.0),
             )
         }
         Family::Level => {
-            let fill = log_uniform(&mut rng, 60.0, 1200.0);
-            let taus = if chance(&mut rng, 0.5) {
-                vec![uniform(&mut rng, 2.0, 30.0)]
+            let fill = log_uniform(rng, 60.0, 1200.0);
+            let taus = if chance(rng, 0.5) {
+                vec![uniform(rng, 2.0, 30.0)]
             } else {
                 Vec::new()
             };
-            (taus, uniform(&mut rng, 0.0, 10.0), 1.0 / fill)
+            (taus, uniform(rng, 0.0, 10.0), 1.0 / fill)
         }
-    };
-    let delay = ((dead / ts).round() as usize).min(MAX_DELAY);
-    let (lags, lag_gain) = lag_poly(ts, &taus);
-    let (a, b1) = if family.integrating() {
-        // y(k) = y(k-1) + gain·Ts·u(k-1) through the lags.
-        (convolve(&lags, &[1.0, -1.0]), gain * ts * lag_gain)
-    } else {
-        (lags, gain * lag_gain)
-    };
-    let c1 = uniform(&mut rng, -0.3, 0.9);
-    let plant = Plant {
-        c: convolve(&a, &[1.0, c1]),
-        a,
-        b: vec![0.0, b1],
-        delay,
-    };
-    // Tuning: closed-loop time constant λ = factor × the process's.
+    }
+}
+
+/// PI tuning for a closed-loop time constant `factor` × the process's (λ tuning), detuned
+/// tenfold for a quiet loop and by 0.8 until stable: `(kc, ki, the tuning in words)`.
+fn tune(
+    rng: &mut ChaCha8Rng,
+    family: Family,
+    (ts, dead, gain): (f64, f64, f64),
+    taus: &[f64],
+    quiet: bool,
+    plant: &Plant,
+    index: usize,
+) -> Result<(f64, f64, &'static str), DataError> {
     let tau_sum: f64 = taus.iter().sum();
     let theta = dead + ts / 2.0 + taus.iter().skip(1).sum::<f64>() / 2.0;
-    let factor = log_uniform(&mut rng, 0.3, 4.0);
+    let factor = log_uniform(rng, 0.3, 4.0);
     let (mut kc, ti) = if family.integrating() {
         let lambda = factor * (theta + tau_sum + 60.0);
         (1.0 / (gain * (lambda + theta)), 4.0 * (lambda + theta))
@@ -325,29 +296,39 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
     } else {
         "moderate"
     };
+    Ok((kc, ki, tuning))
+}
 
-    // Noise and excitation (PV in % of span; disturbances in % of valve travel through B(1)).
+/// Measurement noise (PV in % of span) and excitation: set-point moves, load steps, drift and
+/// an external oscillation, each by chance (none for a quiet loop), the disturbances in % of
+/// valve travel through the input gain `b1`; with the parts in words.
+fn excitation(
+    rng: &mut ChaCha8Rng,
+    quiet: bool,
+    ts: f64,
+    samples: usize,
+    input_gain: f64,
+) -> (f64, Setpoint, Vec<Disturbance>, Vec<&'static str>) {
     let noise = if quiet {
-        log_uniform(&mut rng, 0.002, 0.01)
+        log_uniform(rng, 0.002, 0.01)
     } else {
-        log_uniform(&mut rng, 0.02, 0.5)
+        log_uniform(rng, 0.02, 0.5)
     };
-    let input_gain = b1;
     let duration = samples as f64 * ts;
     let mut parts = Vec::new();
     let mut disturbances = Vec::new();
     let mut setpoint = Setpoint::constant();
-    let r_sp = chance(&mut rng, 0.4);
-    let r_load = chance(&mut rng, 0.4);
-    let r_drift = chance(&mut rng, 0.3);
-    let r_sine = chance(&mut rng, 0.3);
-    let sp_step = log_uniform(&mut rng, 0.5, 5.0);
-    let sp_every = log_uniform(&mut rng, 20.0, 300.0);
-    let load_sigma = log_uniform(&mut rng, 0.5, 5.0);
-    let load_every_s = log_uniform(&mut rng, 0.05, 0.5) * duration;
-    let drift_total = uniform(&mut rng, -5.0, 5.0);
-    let sine_amp = log_uniform(&mut rng, 0.3, 3.0);
-    let sine_period = log_uniform(&mut rng, 10.0, (samples as f64 / 3.0).max(11.0));
+    let r_sp = chance(rng, 0.4);
+    let r_load = chance(rng, 0.4);
+    let r_drift = chance(rng, 0.3);
+    let r_sine = chance(rng, 0.3);
+    let sp_step = log_uniform(rng, 0.5, 5.0);
+    let sp_every = log_uniform(rng, 20.0, 300.0);
+    let load_sigma = log_uniform(rng, 0.5, 5.0);
+    let load_every_s = log_uniform(rng, 0.05, 0.5) * duration;
+    let drift_total = uniform(rng, -5.0, 5.0);
+    let sine_amp = log_uniform(rng, 0.3, 3.0);
+    let sine_period = log_uniform(rng, 10.0, (samples as f64 / 3.0).max(11.0));
     if !quiet {
         if r_sp {
             setpoint = Setpoint {
@@ -382,20 +363,39 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
     if parts.is_empty() {
         parts.push(if quiet { "quiet" } else { "noise only" });
     }
+    (noise, setpoint, disturbances, parts)
+}
 
-    // Valve.
+/// The valve: for a sticky loop one of Kano, He, asymmetric Kano or Kano with an
+/// equal-percentage characteristic (S sometimes far larger: stuck long), else a free valve
+/// (sometimes equal-percentage); with its description, its characteristic, its S and whether
+/// it is stuck long.
+#[allow(clippy::type_complexity)]
+fn valve(
+    rng: &mut ChaCha8Rng,
+    sticky: bool,
+) -> Result<
+    (
+        Box<dyn StictionModel>,
+        String,
+        Option<Characteristic>,
+        f64,
+        bool,
+    ),
+    DataError,
+> {
     let kind = rng.random_range(0..4u32);
-    let stuck_long = chance(&mut rng, 1.0 / 8.0);
+    let stuck_long = chance(rng, 1.0 / 8.0);
     let (s, j) = if stuck_long {
-        let s = uniform(&mut rng, 10.0, 25.0);
-        (s, s * uniform(&mut rng, 0.0, 0.2))
+        let s = uniform(rng, 10.0, 25.0);
+        (s, s * uniform(rng, 0.0, 0.2))
     } else {
-        let s = log_uniform(&mut rng, 0.5, 10.0);
+        let s = log_uniform(rng, 0.5, 10.0);
         (s, s * rng.random::<f64>())
     };
-    let asym = uniform(&mut rng, 0.2, 1.0);
-    let rangeability = log_uniform(&mut rng, 10.0, 50.0);
-    let healthy_char = chance(&mut rng, 0.25);
+    let asym = uniform(rng, 0.2, 1.0);
+    let rangeability = log_uniform(rng, 10.0, 50.0);
+    let healthy_char = chance(rng, 0.25);
     let mut characteristic = None;
     let (valve, valve_what): (Box<dyn StictionModel>, String) = if sticky {
         match kind {
@@ -436,6 +436,67 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
             },
         )
     };
+    Ok((valve, valve_what, characteristic, s, stuck_long))
+}
+
+fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataError> {
+    if spec.families.is_empty() {
+        return Err(DataError::InvalidParameter {
+            name: "families".into(),
+            value: 0.0,
+            expected: "at least one plant family".into(),
+        });
+    }
+    let seed = spec
+        .seed
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add(index as u64);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let family = spec.families[(index / 2) % spec.families.len()];
+    let sticky = index.is_multiple_of(2);
+    let ts = log_uniform(&mut rng, spec.sample_time[0], spec.sample_time[1]);
+    let samples = log_uniform(
+        &mut rng,
+        spec.samples[0] as f64,
+        spec.samples[1] as f64 + 0.999,
+    )
+    .floor() as usize;
+    let quiet = chance(&mut rng, 1.0 / 16.0);
+
+    // Process, in continuous time (seconds), discretised at `ts`.
+    let (taus, dead, gain) = process(&mut rng, family);
+    let delay = ((dead / ts).round() as usize).min(MAX_DELAY);
+    let (lags, lag_gain) = lag_poly(ts, &taus);
+    let (a, b1) = if family.integrating() {
+        // y(k) = y(k-1) + gain·Ts·u(k-1) through the lags.
+        (convolve(&lags, &[1.0, -1.0]), gain * ts * lag_gain)
+    } else {
+        (lags, gain * lag_gain)
+    };
+    let c1 = uniform(&mut rng, -0.3, 0.9);
+    let plant = Plant {
+        c: convolve(&a, &[1.0, c1]),
+        a,
+        b: vec![0.0, b1],
+        delay,
+    };
+    // Tuning: closed-loop time constant λ = factor × the process's.
+    let tau_sum: f64 = taus.iter().sum();
+    let (kc, ki, tuning) = tune(
+        &mut rng,
+        family,
+        (ts, dead, gain),
+        &taus,
+        quiet,
+        &plant,
+        index,
+    )?;
+
+    // Noise and excitation (PV in % of span; disturbances in % of valve travel through B(1)).
+    let (noise, setpoint, disturbances, parts) = excitation(&mut rng, quiet, ts, samples, b1);
+
+    // Valve.
+    let (valve, valve_what, characteristic, s, stuck_long) = valve(&mut rng, sticky)?;
 
     // Historian.
     let compress = chance(&mut rng, 0.25).then(|| noise * uniform(&mut rng, 0.5, 3.0));

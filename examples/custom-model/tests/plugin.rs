@@ -67,7 +67,7 @@ fn plugin_parameters_are_validated_by_the_plugin() {
     assert_eq!(code, 2);
     assert_eq!(
         err.trim(),
-        "error: backlash: parameter B = -1 is out of range: expected a finite number >= 0"
+        "error: backlash: parameter B = -1 is out of range: expected a finite number >= 0 (OP units)"
     );
 }
 
