@@ -76,7 +76,8 @@ impl std::str::FromStr for GapPolicy {
 /// **Flat stretches** (records of 20 rows or more). Runs of exactly repeated PV or OP values (historian compression, a frozen
 /// transmitter) are reported in a note when the longest run is 5 samples or more or repeats are
 /// 5 % of the samples or more; a PV or OP flat over more than half of the rows (but not all of
-/// them, which is [`DataError::Constant`]) is refused ([`DataError::Flat`]).
+/// them, which is [`DataError::Constant`]) is refused ([`DataError::Flat`]), or kept with a note
+/// under [`ReadOptions::accept_constant`].
 ///
 /// A column named explicitly (`Some`) must exist, even an optional one; an optional column
 /// found by its default name whose cells are all empty or NaN is ignored with a note.
@@ -110,8 +111,9 @@ pub struct ReadOptions {
     pub op_range: OpRange,
     /// Input limits (bytes, line and cell length, rows).
     pub limits: Limits,
-    /// Keep a PV or OP that is constant over the whole record, with a note, instead of
-    /// refusing it ([`DataError::Constant`]). For a detector, which answers such a record
+    /// Keep a PV or OP that is constant over the whole record, or flat over more than half of
+    /// it, with a note, instead of refusing it ([`DataError::Constant`], [`DataError::Flat`]).
+    /// For a detector, which answers such a record
     /// itself (`inconclusive`: the valve was never asked to move, or the transmitter is
     /// frozen); identification has nothing to fit and keeps the default, `false`.
     pub accept_constant: bool,
@@ -842,7 +844,7 @@ fn finish(
     let mode_cut = select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
     check_time(&file, opts.gaps, &mut columns, &mut lines, &mut notes)?;
     keep_window(&mut columns, &mut lines, opts.window, &mut notes);
-    check_flat(&file, &columns, &lines, &mut notes)?;
+    check_flat(&file, &columns, &lines, opts.accept_constant, &mut notes)?;
     check_compression(&columns, &mut notes);
     check_quantisation(&columns, &mut notes);
 
@@ -1298,11 +1300,13 @@ fn check_time(
 /// filled by holding, says nothing about historian compression).
 const FLAT_MIN_ROWS: usize = 20;
 
-/// Exactly repeated PV / OP values: noted, refused over more than half of the rows.
+/// Exactly repeated PV / OP values: noted, refused over more than half of the rows (kept with a
+/// note under [`ReadOptions::accept_constant`]: a detector answers such a record itself).
 fn check_flat(
     file: &str,
     columns: &[Column],
     lines: &[u64],
+    accept: bool,
     notes: &mut Vec<Note>,
 ) -> Result<(), DataError> {
     let n = lines.len();
@@ -1327,6 +1331,13 @@ fn check_flat(
         }
         if best == n {
             continue; // constant: refused later with its own message
+        }
+        if 2 * best > n && accept {
+            notes.push(Note::new(NoteKind::Flat, format!(
+                "column {}: the same value for {best} of {n} rows from row {} (a stuck valve, a frozen transmitter or historian compression); kept",
+                col.name, lines[best_start]
+            )));
+            continue;
         }
         if 2 * best > n {
             return Err(DataError::Flat {
