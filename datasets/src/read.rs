@@ -83,7 +83,8 @@ impl std::str::FromStr for GapPolicy {
 /// **Flat stretches** (records of 20 rows or more). Runs of exactly repeated PV or OP values (historian compression, a frozen
 /// transmitter) are reported in a note when the longest run is 5 samples or more or repeats are
 /// 5 % of the samples or more; a PV or OP flat over more than half of the rows (but not all of
-/// them, which is [`DataError::Constant`]) is refused ([`DataError::Flat`]).
+/// them, which is [`DataError::Constant`]) is refused ([`DataError::Flat`]), or kept with a note
+/// under [`ReadOptions::accept_constant`].
 ///
 /// A column named explicitly (`Some`) must exist, even an optional one; an optional column
 /// found by its default name whose cells are all empty or NaN is ignored with a note.
@@ -117,8 +118,9 @@ pub struct ReadOptions {
     pub op_range: OpRange,
     /// Input limits (bytes, line and cell length, rows).
     pub limits: Limits,
-    /// Keep a PV or OP that is constant over the whole record, with a note, instead of
-    /// refusing it ([`DataError::Constant`]). For a detector, which answers such a record
+    /// Keep a PV or OP that is constant over the whole record, or flat over more than half of
+    /// it, with a note, instead of refusing it ([`DataError::Constant`], [`DataError::Flat`]).
+    /// For a detector, which answers such a record
     /// itself (`inconclusive`: the valve was never asked to move, or the transmitter is
     /// frozen); identification has nothing to fit and keeps the default, `false`.
     pub accept_constant: bool,

@@ -488,6 +488,31 @@ fn flat_stretches_are_reported_or_refused() {
     );
 }
 
+/// Under `accept_constant` (the detector's reading) a PV flat over more than half of the rows
+/// is kept with a note: a flat PV under a moving OP is the detector's to answer.
+#[test]
+fn a_long_flat_stretch_is_kept_with_a_note_when_the_caller_accepts_it() {
+    let mut text = String::from("t,PV,OP\n");
+    for i in 0..40 {
+        let pv = if i >= 15 { 60.0 } else { 50.0 + i as f64 };
+        text.push_str(&format!("{i},{pv},{}\n", (i as f64).sin()));
+    }
+    let opts = ReadOptions {
+        accept_constant: true,
+        ..ReadOptions::default()
+    };
+    let d = read_with(&text, &opts).unwrap();
+    assert_eq!(d.op.len(), 40);
+    assert!(
+        d.notes
+            .iter()
+            .any(|n| n.contains("the same value for 25 of 40 rows from row 17")),
+        "{:?}",
+        d.notes
+    );
+    assert!(read(&text).is_err());
+}
+
 #[test]
 fn start_time_comes_from_time_stamps() {
     let d = read(

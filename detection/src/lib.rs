@@ -78,6 +78,17 @@ pub use inventory;
 /// Fewest samples a registration needs (about three periods of a fast limit cycle).
 pub const MIN_SAMPLES: usize = 100;
 
+/// OP span (1st to 99th percentile, OP's units: % of travel as the reader gives it) below
+/// which a record cannot be judged ([`DetectionError::BarelyMoves`]): the smallest stiction
+/// band worth finding is 0.5 % and a limit cycle's OP spans at least its S. The simulated
+/// populations label such loops "cannot be judged" by the same number
+/// (`datasets::simulate::population::BARELY_MOVES`).
+pub const BARELY_MOVES: f64 = 0.5;
+
+/// Fewest quantisation steps OP's span must cover to be judged: with fewer, every move of the
+/// valve is one or two steps of the logging and a stick cannot be told from the rounding.
+pub const MIN_OP_STEPS: f64 = 5.0;
+
 /// Errors of the detection tests. A test that cannot judge a registration says why with one
 /// of these; [`detect`] turns it into an `inconclusive` outcome carrying the sentence.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -122,6 +133,28 @@ pub enum DetectionError {
         signal: &'static str,
         /// What that means for detection.
         why: &'static str,
+    },
+    /// PV holds one exact value over more than half of the record (not all of it): a valve
+    /// stuck that long and a frozen transmitter (or a historian that stopped logging PV) give
+    /// the same PV and OP, and no test can tell them apart.
+    #[error("PV holds one value for {run} of {rows} samples (from sample {start}) while OP moves over {op_span:.2} meanwhile: a valve stuck that long and a frozen transmitter look the same in these data, which cannot tell which")]
+    Frozen {
+        /// Length of the run.
+        run: usize,
+        /// Samples in the record.
+        rows: usize,
+        /// First sample of the run (0-based).
+        start: usize,
+        /// OP's range over the run.
+        op_span: f64,
+    },
+    /// OP barely moves: the valve was never asked to cross a stiction band.
+    #[error("OP moves over only {span:.3} between its 1st and 99th percentiles{why}: the valve was barely asked to move, so no stiction band can show")]
+    BarelyMoves {
+        /// OP's 1st-to-99th-percentile span.
+        span: f64,
+        /// What it is small against (empty, or its quantisation).
+        why: String,
     },
     /// The test needs a regular oscillation and the loop has none.
     #[error("no regular oscillation to analyse (regularity {regularity:.2})")]
@@ -496,6 +529,21 @@ impl<'a> Registration<'a> {
                 why: "the measurement does not move (a dead or frozen transmitter?)",
             });
         }
+        moves_enough(self.op)?;
+        let (start, run) = signal::longest_run(self.pv);
+        if 2 * run > n {
+            let (lo, hi) = self.op[start..start + run]
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                    (a.min(v), b.max(v))
+                });
+            return Err(DetectionError::Frozen {
+                run,
+                rows: n,
+                start,
+                op_span: hi - lo,
+            });
+        }
         let raw_error: Vec<f64> = match self.sp {
             Some(sp) => sp.iter().zip(self.pv).map(|(s, p)| s - p).collect(),
             None => self.pv.iter().map(|p| -p).collect(),
@@ -511,4 +559,32 @@ impl<'a> Registration<'a> {
             oscillation,
         })
     }
+}
+
+/// Whether OP moves enough to show a stiction band: its 1st-to-99th-percentile span at least
+/// [`BARELY_MOVES`] and at least [`MIN_OP_STEPS`] steps of its quantisation (the smallest
+/// non-zero change between samples).
+fn moves_enough(op: &[f64]) -> Result<(), DetectionError> {
+    let span = signal::percentile_span(op);
+    let quantum = op
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|&d| d > 1e-12 * span)
+        .fold(f64::INFINITY, f64::min);
+    if span < BARELY_MOVES {
+        return Err(DetectionError::BarelyMoves {
+            span,
+            why: String::new(),
+        });
+    }
+    if span < MIN_OP_STEPS * quantum {
+        return Err(DetectionError::BarelyMoves {
+            span,
+            why: format!(
+                ", {:.1} steps of its quantisation {quantum:.3}",
+                span / quantum
+            ),
+        });
+    }
+    Ok(())
 }

@@ -38,6 +38,18 @@ fn stat(o: &TestOutcome) -> Option<f64> {
     o.statistic.filter(|v| v.is_finite())
 }
 
+/// Rows a likelihood ratio of the score is expressed for ([`per_rows`]).
+pub const REFERENCE_ROWS: f64 = 500.0;
+
+/// A likelihood ratio `N ln(RSS₀/RSS₁)` as the score reads it: per row (the mean
+/// log-likelihood gain, `ln(RSS₀/RSS₁)`, which does not grow with the record's length), times
+/// [`REFERENCE_ROWS`]. A ratio that grew with `N` made the verdict depend on how much of a
+/// record was exported: the first half of a sticky record scored lower than the whole.
+fn per_rows(o: &TestOutcome, lr: f64) -> Option<f64> {
+    let rows = o.value("rows").filter(|r| *r > 0.0)?;
+    Some(REFERENCE_ROWS * lr.max(0.0) / rows)
+}
+
 /// The score's inputs, in the order of [`WEIGHTS`]. The oscillation's regularity is not one of
 /// them: a regular oscillation is a condition of the `stiction` verdict (or stick-slip), not
 /// evidence for it — healthy loops oscillate too (external disturbances, tuning), and on the
@@ -82,16 +94,17 @@ pub const FEATURES: [Feature; 8] = [
     Feature {
         name: "hammerstein_oe",
         test: "hammerstein",
-        meaning: "ln(1 + LR) / ln 100 − 0.5 of the output-error Kano valve against a free one",
-        extract: |o| stat(o).map(|lr| (1.0 + lr.max(0.0)).ln() / 100f64.ln() - 0.5),
+        meaning: "ln(1 + LR₅₀₀) / ln 100 − 0.5 of the output-error Kano valve against a free one, LR₅₀₀ the likelihood ratio per row × 500",
+        extract: |o| stat(o).and_then(|lr| per_rows(o, lr)).map(|lr| (1.0 + lr).ln() / 100f64.ln() - 0.5),
     },
     Feature {
         name: "hammerstein_arx",
         test: "hammerstein",
-        meaning: "ln(1 + LR) / ln 100 − 0.5, at least 0, of the one-step ARX Kano valve against a free one",
+        meaning: "ln(1 + LR₅₀₀) / ln 100 − 0.5, at least 0, of the one-step ARX Kano valve against a free one",
         extract: |o| {
             o.value("lr_arx")
-                .map(|lr| ((1.0 + lr.max(0.0)).ln() / 100f64.ln() - 0.5).max(0.0))
+                .and_then(|lr| per_rows(o, lr))
+                .map(|lr| ((1.0 + lr).ln() / 100f64.ln() - 0.5).max(0.0))
         },
     },
 ];
@@ -99,10 +112,10 @@ pub const FEATURES: [Feature; 8] = [
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (the training
 /// population of `datasets::simulate::population`, 320 loops, seed 1, ridge 0.1; no plant
 /// registration in the fit).
-pub const INTERCEPT: f64 = -0.5019;
+pub const INTERCEPT: f64 = -0.1865;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]).
 pub const WEIGHTS: [f64; 8] = [
-    0.0946, 0.7893, 2.7277, -0.2157, -0.9885, 1.1245, 1.6465, 2.5138,
+    0.4143, 0.7997, 3.5204, -0.0643, -0.4677, 0.8002, 2.1083, 2.9652,
 ];
 
 /// Score at or above which the verdict may be `stiction`: with [`NO_STICTION_AT`], the pair
@@ -194,9 +207,76 @@ pub fn detect(reg: &Registration<'_>) -> Detection {
     detect_with(reg, &Model::calibrated())
 }
 
-/// Run every registered test on `reg` and combine them with `model`.
+/// Run every registered test on `reg` and combine them with `model`; a conclusive verdict
+/// stands only when the parts of the record do not contradict it ([`settle`]).
 pub fn detect_with(reg: &Registration<'_>, model: &Model) -> Detection {
-    combine(reg, run_all(reg), model)
+    settle(reg, model, combine(reg, run_all(reg), model))
+}
+
+/// A conclusive verdict stands only when no part of the record says the opposite: its first
+/// half, its second half, and every second sample (at twice the sampling time), each judged
+/// on its own (tests and score, as [`combine`] judges a record). A part may be `inconclusive`
+/// (less data); a part that says `no-stiction` of a record called `stiction`, or the reverse,
+/// makes the verdict `inconclusive` with the reason. So a record exported in part (either
+/// half, every second row) never gets the opposite verdict of the whole: the part's own
+/// verdict is one of those checked here.
+pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection {
+    let opposite = match d.verdict {
+        Verdict::Stiction => Verdict::NoStiction,
+        Verdict::NoStiction => Verdict::Stiction,
+        Verdict::Inconclusive => return d,
+    };
+    let n = reg.len();
+    let h = n / 2;
+    let every_second = |x: &[f64]| -> Vec<f64> { x.iter().step_by(2).copied().collect() };
+    let (pv2, op2) = (every_second(reg.pv()), every_second(reg.op()));
+    let sp2 = reg.sp().map(every_second);
+    let part = |pv: &[f64], op: &[f64], sp: Option<&[f64]>, ts: f64| -> Option<Verdict> {
+        let r = Registration::new(pv, op, ts)
+            .ok()?
+            .integrating(reg.is_integrating());
+        let r = match sp {
+            Some(sp) => r.with_sp(sp).ok()?,
+            None => r,
+        };
+        Some(combine(&r, run_all(&r), model).verdict)
+    };
+    let ts = reg.sample_time();
+    let parts: [(&str, Option<Verdict>); 3] = [
+        (
+            "its first half",
+            part(
+                &reg.pv()[..h],
+                &reg.op()[..h],
+                reg.sp().map(|s| &s[..h]),
+                ts,
+            ),
+        ),
+        (
+            "its second half",
+            part(
+                &reg.pv()[h..],
+                &reg.op()[h..],
+                reg.sp().map(|s| &s[h..]),
+                ts,
+            ),
+        ),
+        (
+            "every second sample",
+            part(&pv2, &op2, sp2.as_deref(), 2.0 * ts),
+        ),
+    ];
+    match parts.iter().find(|(_, v)| *v == Some(opposite)) {
+        None => d,
+        Some((what, _)) => Detection {
+            verdict: Verdict::Inconclusive,
+            reason: format!(
+                "{}, but {what} alone says {opposite}: the evidence does not hold across the record",
+                d.reason
+            ),
+            ..d
+        },
+    }
 }
 
 /// Combine already computed outcomes (e.g. with extra evidence appended by the caller).

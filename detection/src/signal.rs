@@ -300,6 +300,32 @@ pub(crate) fn noise_scale(x: &[f64]) -> f64 {
     median(&d) / (std::f64::consts::SQRT_2 * 0.6745)
 }
 
+/// The longest run of exactly repeated values: `(first index, length)` (`(0, 0)` when empty).
+pub(crate) fn longest_run(x: &[f64]) -> (usize, usize) {
+    let (mut best, mut best_start, mut run_start) = (0usize, 0usize, 0usize);
+    for i in 1..=x.len() {
+        if i == x.len() || x[i] != x[i - 1] {
+            if i - run_start > best {
+                best = i - run_start;
+                best_start = run_start;
+            }
+            run_start = i;
+        }
+    }
+    (best_start, best)
+}
+
+/// The span between the 1st and the 99th percentiles (0 when empty).
+pub(crate) fn percentile_span(x: &[f64]) -> f64 {
+    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    at(0.99) - at(0.01)
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {

@@ -254,6 +254,44 @@ fn degenerate_records_are_never_called_sticky_and_never_panic() {
     assert!(Registration::new(&flat, &flat, 0.0).is_err());
 }
 
+/// Records that cannot show stiction get `inconclusive` with the reason, never a verdict: PV
+/// frozen over most of the record under a moving OP (a stuck valve or a frozen transmitter,
+/// which the data cannot tell apart), OP that spans 0.08 % (a valve barely asked to move), and
+/// OP quantised to steps a fifth of its span.
+#[test]
+fn records_that_cannot_show_stiction_are_inconclusive_with_the_reason() {
+    let l = sticky(false, 1);
+    let n = l.pv.len();
+    let mut frozen = l.pv.clone();
+    let k0 = n / 3;
+    let v0 = frozen[k0];
+    frozen[k0..].iter_mut().for_each(|v| *v = v0);
+    let quiet_op: Vec<f64> = l.op.iter().map(|v| 1.85 + 0.002 * (v - 50.0)).collect();
+    let lo = l.op.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = l.op.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let step = (hi - lo) / 4.0;
+    let coarse_op: Vec<f64> = l.op.iter().map(|v| (v / step).round() * step).collect();
+    for (what, pv, op, reason) in [
+        ("frozen PV", &frozen, &l.op, "frozen transmitter"),
+        ("quiet OP", &l.pv, &quiet_op, "barely asked to move"),
+        ("coarse OP", &l.pv, &coarse_op, "steps of its quantisation"),
+    ] {
+        let reg = Registration::new(pv, op, 1.0)
+            .unwrap()
+            .with_sp(&l.sp)
+            .unwrap();
+        let d = detection::detect(&reg);
+        assert_eq!(d.verdict, Verdict::Inconclusive, "{what}: {}", d.reason);
+        assert!(d.reason.contains(reason), "{what}: {}", d.reason);
+    }
+    // the untouched loop is judged
+    let reg = Registration::new(&l.pv, &l.op, 1.0)
+        .unwrap()
+        .with_sp(&l.sp)
+        .unwrap();
+    assert_ne!(detection::detect(&reg).verdict, Verdict::Inconclusive);
+}
+
 /// The combined verdict on the same loops: the calibrated score calls the sticky
 /// self-regulating loop sticky, never the healthy one with an external oscillation, and gives
 /// degenerate records `inconclusive` with the reason.

@@ -30,7 +30,7 @@ use anyhow::{bail, Context, Result};
 use datasets::simulate::population::{Family, Label, PopulationSpec};
 use datasets::simulate::{Disturbance, PlantPreset, PlantSpec, Scenario};
 use detection::hammerstein::{oracle_lr, REGION_LR};
-use detection::score::{features, Model, FEATURES, NO_STICTION_AT, STICTION_AT};
+use detection::score::{features, settle, Model, FEATURES, NO_STICTION_AT, STICTION_AT};
 use detection::{combine, logistic, registry, run_all, Registration, TestOutcome, Verdict};
 use rayon::prelude::*;
 use stiction_models::Kano;
@@ -556,7 +556,8 @@ fn thresholds(cases: &[&&Case], model: &Model) -> Result<(f64, f64)> {
 
 /// Score and verdict of `case` under `model`.
 fn judge(case: &Case, model: &Model) -> Result<(f64, Verdict)> {
-    let d = combine(&case.registration()?, case.outcomes.clone(), model);
+    let reg = case.registration()?;
+    let d = settle(&reg, model, combine(&reg, case.outcomes.clone(), model));
     Ok((d.score, d.verdict))
 }
 

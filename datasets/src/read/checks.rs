@@ -38,7 +38,7 @@ pub(crate) fn finish(
     let mode_cut = select_closed_loop(&file, &mut columns, &mut lines, &mut notes)?;
     check_time(&file, opts.gaps, &mut columns, &mut lines, &mut notes)?;
     keep_window(&mut columns, &mut lines, opts.window, &mut notes);
-    check_flat(&file, &columns, &lines, &mut notes)?;
+    check_flat(&file, &columns, &lines, opts.accept_constant, &mut notes)?;
     check_compression(&columns, &mut notes);
     check_quantisation(&columns, &mut notes);
 
@@ -566,11 +566,13 @@ pub(crate) fn check_time(
 /// filled by holding, says nothing about historian compression).
 pub(crate) const FLAT_MIN_ROWS: usize = 20;
 
-/// Exactly repeated PV / OP values: noted, refused over more than half of the rows.
+/// Exactly repeated PV / OP values: noted, refused over more than half of the rows (kept with a
+/// note under [`ReadOptions::accept_constant`]: a detector answers such a record itself).
 pub(crate) fn check_flat(
     file: &str,
     columns: &[Column],
     lines: &[u64],
+    accept: bool,
     notes: &mut Vec<Note>,
 ) -> Result<(), DataError> {
     let n = lines.len();
@@ -595,6 +597,13 @@ pub(crate) fn check_flat(
         }
         if best == n {
             continue; // constant: refused later with its own message
+        }
+        if 2 * best > n && accept {
+            notes.push(Note::new(NoteKind::Flat, format!(
+                "column {}: the same value for {best} of {n} rows from row {} (a stuck valve, a frozen transmitter or historian compression); kept",
+                col.name, lines[best_start]
+            )));
+            continue;
         }
         if 2 * best > n {
             return Err(DataError::Flat {

@@ -32,6 +32,11 @@
 //!   move or disturbance, a sluggish controller). A loop whose OP spans less than
 //!   [`BARELY_MOVES`] % (1st to 99th percentile) is labelled [`Label::CannotJudge`] whatever
 //!   its valve: no record can show stiction the valve was never asked to cross.
+//! * **A frozen transmitter**: about one loop in sixteen logs PV at one value from 30-45 % of
+//!   the record to its end while the controller integrates the error it sees. A loop whose PV
+//!   holds one value over more than half of the record is labelled [`Label::CannotJudge`]
+//!   whatever its valve: a valve stuck that long and a frozen transmitter give the same PV and
+//!   OP.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -97,7 +102,8 @@ pub enum Label {
     Sticky,
     /// The valve is free.
     Healthy,
-    /// OP barely moves: the record cannot show whether the valve sticks (expected
+    /// OP barely moves, or PV holds one value over more than half of the record (a stuck valve
+    /// or a frozen transmitter): the record cannot show whether the valve sticks (expected
     /// `inconclusive`).
     CannotJudge,
 }
@@ -198,6 +204,20 @@ fn percentile_span(x: &[f64]) -> f64 {
     }
     let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
     at(0.99) - at(0.01)
+}
+
+/// The longest run of exactly repeated values.
+fn longest_run(x: &[f64]) -> usize {
+    let (mut best, mut run) = (0usize, 0usize);
+    for i in 0..x.len() {
+        run = if i > 0 && x[i] == x[i - 1] {
+            run + 1
+        } else {
+            1
+        };
+        best = best.max(run);
+    }
+    best
 }
 
 fn quantise(x: &mut [f64], step: f64) {
@@ -529,8 +549,27 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         quantise(&mut sim.op, step);
         historian.push(format!("quantised {step:.3}"));
     }
+    // A frozen transmitter (drawn last, so that every other loop of a population stays what it
+    // was): from a point on to the end of the record PV is logged at one value, and the
+    // controller, which reads it, integrates the constant error it sees.
+    let frozen = chance(&mut rng, 1.0 / 16.0).then(|| uniform(&mut rng, 0.3, 0.45));
+    if let Some(at) = frozen {
+        let k0 = ((samples as f64 * at) as usize).max(1);
+        let v0 = sim.pv[k0];
+        let mut err_prev = sim.sp[k0 - 1] - sim.pv[k0 - 1];
+        for k in k0..samples {
+            sim.pv[k] = v0;
+            let err = sim.sp[k] - v0;
+            sim.op[k] = (sim.op[k - 1] + kc * (err - err_prev) + ki * err).clamp(0.0, 100.0);
+            err_prev = err;
+        }
+        if let Some(step) = quant {
+            quantise(&mut sim.op[k0..], step);
+        }
+        historian.push(format!("PV frozen from sample {k0}"));
+    }
     let op_span = percentile_span(&sim.op);
-    let label = if op_span < BARELY_MOVES {
+    let label = if op_span < BARELY_MOVES || 2 * longest_run(&sim.pv) > samples {
         Label::CannotJudge
     } else if sticky {
         Label::Sticky
@@ -586,6 +625,28 @@ mod tests {
         // another seed, another population
         let other = PopulationSpec::wide(8).generate(5).unwrap();
         assert_ne!(other.sim.pv, loops[5].sim.pv);
+    }
+
+    #[test]
+    fn a_frozen_transmitter_cannot_be_judged() {
+        let spec = PopulationSpec {
+            seed: 11,
+            families: vec![Family::Flow],
+            sample_time: [5.0, 5.0],
+            samples: [300, 300],
+        };
+        let frozen: Vec<PopulationLoop> = (0..200)
+            .map(|i| spec.generate(i).unwrap())
+            .filter(|l| l.what.contains("PV frozen"))
+            .take(3)
+            .collect();
+        assert_eq!(frozen.len(), 3);
+        for l in &frozen {
+            assert_eq!(l.label, Label::CannotJudge, "{}", l.what);
+            assert!(2 * longest_run(&l.sim.pv) > l.sim.len(), "{}", l.what);
+            let last = l.sim.pv[l.sim.len() - 1];
+            assert_eq!(l.sim.pv[l.sim.len() / 2], last, "{}", l.what);
+        }
     }
 
     #[test]

@@ -1,0 +1,221 @@
+//! The same verdict however the record was exported: the first half of the rows, the second
+//! half, every second row, the file renamed without its tag letters, PV and SP in other units
+//! (scaled and offset), OP as a fraction of travel. Each variant is written as CSV and read as
+//! `stiction detect` reads it (the reader's units detection included), the loop kind decided
+//! from the record as `--integrating auto` decides it (a level's tag letter `L` breaking a
+//! tie); a variant may be `inconclusive` on less data, never the opposite verdict. Run on a
+//! simulated population (seeds of its own, never fitted on) and on the shared plant
+//! registrations (`../shared/data/plant`, skipped with a printed reason when absent).
+//! A renamed record whose loop kind the data do not decide is given the other kind (the tag
+//! breaks the tie); a flip there is printed and counted apart, not failed: the kind is the
+//! caller's to decide (`monitoring::Integrating::decide`).
+#![allow(clippy::unwrap_used)]
+
+use std::path::Path;
+
+use datasets::simulate::population::{Family, PopulationSpec};
+use datasets::ReadOptions;
+use detection::{detect, Registration, Verdict};
+
+/// One record as exported: time (s), SP, PV, OP (% of travel).
+struct Record {
+    name: String,
+    t: Vec<f64>,
+    sp: Option<Vec<f64>>,
+    pv: Vec<f64>,
+    op: Vec<f64>,
+}
+
+/// The variants of a record: name, rows kept, PV/SP `a·x + b`, OP scale, file name.
+fn variants(r: &Record) -> Vec<(&'static str, Record)> {
+    let n = r.pv.len();
+    let pick = |rows: Vec<usize>, scale: (f64, f64), op_scale: f64, name: String| Record {
+        name,
+        t: rows.iter().map(|&k| r.t[k]).collect(),
+        sp: r
+            .sp
+            .as_ref()
+            .map(|sp| rows.iter().map(|&k| scale.0 * sp[k] + scale.1).collect()),
+        pv: rows.iter().map(|&k| scale.0 * r.pv[k] + scale.1).collect(),
+        op: rows.iter().map(|&k| op_scale * r.op[k]).collect(),
+    };
+    let all: Vec<usize> = (0..n).collect();
+    let bare: String = r
+        .name
+        .chars()
+        .filter(|c| !c.is_ascii_alphabetic())
+        .collect();
+    vec![
+        (
+            "first half",
+            pick((0..n / 2).collect(), (1.0, 0.0), 1.0, r.name.clone()),
+        ),
+        (
+            "second half",
+            pick((n / 2..n).collect(), (1.0, 0.0), 1.0, r.name.clone()),
+        ),
+        (
+            "every second row",
+            pick((0..n).step_by(2).collect(), (1.0, 0.0), 1.0, r.name.clone()),
+        ),
+        (
+            "renamed without tag letters",
+            pick(all.clone(), (1.0, 0.0), 1.0, format!("record{bare}")),
+        ),
+        (
+            "PV and SP in other units",
+            pick(all.clone(), (0.37, 120.0), 1.0, r.name.clone()),
+        ),
+        (
+            "OP as a fraction",
+            pick(all, (1.0, 0.0), 0.01, r.name.clone()),
+        ),
+    ]
+}
+
+/// The verdict `stiction detect` gives the record written as CSV and read back.
+fn verdict(r: &Record) -> Result<(Verdict, String, bool), String> {
+    let mut csv = String::from(if r.sp.is_some() {
+        "t,SP,PV,OP\n"
+    } else {
+        "t,PV,OP\n"
+    });
+    for k in 0..r.pv.len() {
+        match &r.sp {
+            Some(sp) => csv.push_str(&format!("{},{},{},{}\n", r.t[k], sp[k], r.pv[k], r.op[k])),
+            None => csv.push_str(&format!("{},{},{}\n", r.t[k], r.pv[k], r.op[k])),
+        }
+    }
+    let opts = ReadOptions {
+        accept_constant: true,
+        ..ReadOptions::default()
+    };
+    let d = datasets::read_csv(csv.as_bytes(), &r.name, &opts).map_err(|e| e.to_string())?;
+    let t = d.t.clone().unwrap();
+    let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let ts = dts[dts.len() / 2];
+    let level_tag = r
+        .name
+        .chars()
+        .find(|c| c.is_ascii_alphabetic())
+        .is_some_and(|c| c == 'L');
+    let pv = d.require_pv().unwrap().to_vec();
+    let by_data = detection::kind::evidence(&pv, &d.op).and_then(|e| e.integrating);
+    let integrating = by_data.unwrap_or(level_tag);
+    let reg = Registration::new(&pv, &d.op, ts)
+        .unwrap()
+        .integrating(integrating);
+    let reg = match &d.sp {
+        Some(sp) => reg.with_sp(sp).unwrap(),
+        None => reg,
+    };
+    let det = detect(&reg);
+    Ok((
+        det.verdict,
+        format!("score {:.2}: {}", det.score, det.reason),
+        by_data.is_some(),
+    ))
+}
+
+/// Flips (`stiction` ↔ `no-stiction`) and unread variants over `records`, printed: `(flips,
+/// flips of a renamed record whose kind the data did not decide, unread, runs)`. Renaming
+/// changes what the detector is given only through the tag letter that breaks a tie of the
+/// loop kind (`monitoring::Integrating::decide`); such a flip is counted apart.
+fn flips(records: &[Record]) -> (usize, usize, usize, usize) {
+    let (mut flipped, mut tie, mut unread, mut runs) = (0, 0, 0, 0);
+    for r in records {
+        let Ok((base, why, decided)) = verdict(r) else {
+            continue;
+        };
+        for (what, v) in variants(r) {
+            runs += 1;
+            match verdict(&v) {
+                Err(e) => {
+                    unread += 1;
+                    println!("{}, {what}: not read: {e}", r.name);
+                }
+                Ok((got, got_why, _)) => {
+                    let flip = matches!(
+                        (base, got),
+                        (Verdict::Stiction, Verdict::NoStiction)
+                            | (Verdict::NoStiction, Verdict::Stiction)
+                    );
+                    if flip && what.starts_with("renamed") && !decided {
+                        tie += 1;
+                        println!(
+                            "{}, {what} (loop kind a tie, decided by the tag): {base} ({why}) -> {got} ({got_why})",
+                            r.name
+                        );
+                    } else if flip {
+                        flipped += 1;
+                        println!("{}, {what}: {base} ({why}) -> {got} ({got_why})", r.name);
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "{runs} variant runs: {flipped} flips, {tie} flips of a renamed record through the tag's tie-break, {unread} not read"
+    );
+    (flipped, tie, unread, runs)
+}
+
+#[test]
+fn the_verdict_does_not_flip_with_the_export_on_simulated_loops() {
+    let spec = PopulationSpec {
+        seed: 9_100_003,
+        families: vec![
+            Family::Flow,
+            Family::Pressure,
+            Family::Level,
+            Family::Composition,
+        ],
+        sample_time: [1.0, 60.0],
+        samples: [400, 2000],
+    };
+    let records: Vec<Record> = (0..24)
+        .map(|i| {
+            let l = spec.generate(i).unwrap();
+            let tag = if l.integrating { "LIC" } else { "FIC" };
+            Record {
+                name: format!("{i:02}{tag}{i:03}.csv"),
+                t: (0..l.sim.len()).map(|k| k as f64 * l.sample_time).collect(),
+                sp: Some(l.sim.sp),
+                pv: l.sim.pv,
+                op: l.sim.op,
+            }
+        })
+        .collect();
+    let (flipped, _tie, unread, runs) = flips(&records);
+    assert_eq!(runs, 24 * 6);
+    assert_eq!(unread, 0);
+    assert_eq!(flipped, 0);
+}
+
+#[test]
+fn the_verdict_does_not_flip_with_the_export_on_the_plant_data() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/plant");
+    let Ok(labels) = std::fs::read_to_string(dir.join("labels.csv")) else {
+        println!("skipped: {} not found", dir.join("labels.csv").display());
+        return;
+    };
+    let mut records = Vec::new();
+    for line in labels.lines().skip(1) {
+        let file = line.split(',').next().unwrap();
+        let Ok(d) = datasets::read_path(dir.join(file), &ReadOptions::default()) else {
+            continue;
+        };
+        records.push(Record {
+            name: file.to_string(),
+            t: d.t.clone().unwrap(),
+            sp: d.sp.clone(),
+            pv: d.require_pv().unwrap().to_vec(),
+            op: d.op.clone(),
+        });
+    }
+    let (flipped, _tie, unread, runs) = flips(&records);
+    assert_eq!(runs, records.len() * 6);
+    assert_eq!(unread, 0);
+    assert_eq!(flipped, 0);
+}
