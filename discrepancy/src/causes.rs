@@ -797,8 +797,9 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
             }
         }
     }
-    // (dead time, best score, its node) at every dead time that could be evaluated
-    let scan: Vec<(usize, f64, Vec<f64>)> = (0..=ctx.options.max_delay)
+    // (dead time, best score, its node, every node) at every dead time that could be
+    // evaluated
+    let scan: Vec<(usize, f64, Vec<f64>, Vec<grid_search::NodeFit>)> = (0..=ctx.options.max_delay)
         .into_par_iter()
         .filter_map(|d| {
             let id = spec.identifier(d).ok()?;
@@ -811,13 +812,13 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
             )
             .ok()?;
             let best = nodes
-                .into_iter()
+                .iter()
                 .filter(|n| n.score(crit).is_finite())
                 .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))?;
-            Some((d, best.score(crit), best.params))
+            Some((d, best.score(crit), best.params.clone(), nodes))
         })
         .collect();
-    let scores: Vec<(usize, f64)> = scan.iter().map(|(d, f, _)| (*d, *f)).collect();
+    let scores: Vec<(usize, f64)> = scan.iter().map(|(d, f, _, _)| (*d, *f)).collect();
     let current = spec.fixed_delay();
     let coarse_pick = pick_delay(&scores, current);
     let max = ctx.options.max_delay.max(coarse_pick);
@@ -827,8 +828,12 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         let identifier = spec.identifier(d)?;
         let evaluator =
             Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+        // the scan's nodes at this dead time: the same model, not evaluated again
+        if let Some((_, _, _, scanned)) = scan.iter().find(|(k, _, _, _)| *k == d) {
+            evaluator.remember(scanned.iter().cloned());
+        }
         let mut nodes = axis_search(ctx, &evaluator, &start)?;
-        if let Some((_, _, p)) = scan.iter().find(|(k, _, _)| *k == d) {
+        if let Some((_, _, p, _)) = scan.iter().find(|(k, _, _, _)| *k == d) {
             let p: Vec<f64> = p.iter().map(|v| snap(*v, fine)).collect();
             if p != start {
                 nodes.extend(axis_search(ctx, &evaluator, &p)?);

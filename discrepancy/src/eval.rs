@@ -6,9 +6,11 @@
 //! search's initialization → identification on `[valid_from, split)` → one-step prediction and
 //! free-run simulation scored by F_PV on `[split, N)`.
 
+use std::collections::{HashMap, HashSet};
+use std::sync::Mutex;
 use std::time::Instant;
 
-use grid_search::{NodeEvaluator, NodeFit, SearchOptions};
+use grid_search::{NodeEvaluator, NodeFit, Problem, SearchError, SearchOptions};
 use linear_id::{IdentifierEntry, LinearIdentifier};
 use stiction_models::ModelEntry;
 
@@ -70,8 +72,81 @@ impl LocalFit {
     }
 }
 
-/// A node evaluator with a boxed identifier's model.
-pub(crate) type Evaluator<'a> = NodeEvaluator<'a, dyn LinearIdentifier + 'a>;
+/// A node evaluator with a boxed identifier's model that remembers every node it evaluated:
+/// the lattices and pattern searches of one extension share it and revisit nodes (a pattern
+/// search starts at the best node of the lattice before it, and its first steps land on that
+/// lattice), so a node already evaluated on this model is returned from memory (a node's
+/// fits depend on its parameters only: the same bits).
+pub(crate) struct Evaluator<'a> {
+    inner: NodeEvaluator<'a, dyn LinearIdentifier + 'a>,
+    samples: usize,
+    identifier: &'a (dyn LinearIdentifier + 'a),
+    max_work: f64,
+    seen: Mutex<HashMap<Vec<u64>, NodeFit>>,
+}
+
+impl<'a> Evaluator<'a> {
+    /// [`NodeEvaluator::new`].
+    pub fn new(
+        entry: &'a ModelEntry,
+        identifier: &'a (dyn LinearIdentifier + 'a),
+        problem: Problem<'a>,
+        options: &SearchOptions,
+    ) -> Result<Self, SearchError> {
+        Ok(Evaluator {
+            inner: NodeEvaluator::new(entry, identifier, problem, options)?,
+            samples: problem.op.len(),
+            identifier,
+            max_work: options.max_work,
+            seen: Mutex::new(HashMap::new()),
+        })
+    }
+
+    /// Remember `fits`, nodes evaluated on the same model (entry, identifier, data and
+    /// options) elsewhere, e.g. by [`grid_search::evaluate_nodes`].
+    pub fn remember(&self, fits: impl IntoIterator<Item = NodeFit>) {
+        let mut seen = self.seen.lock().unwrap_or_else(|e| e.into_inner());
+        for f in fits {
+            seen.insert(f.params.iter().map(|v| v.to_bits()).collect(), f);
+        }
+    }
+
+    /// [`NodeEvaluator::evaluate`]: the nodes not evaluated before on this model evaluated
+    /// (in parallel, in the given order), the others from memory; in the given order.
+    pub fn evaluate(&self, nodes: Vec<Vec<f64>>) -> Result<Vec<NodeFit>, SearchError> {
+        // the same work check as for the whole list
+        grid_search::budget::check_work(
+            nodes.len(),
+            self.samples,
+            self.identifier,
+            self.max_work,
+            "nodes",
+        )?;
+        let key = |p: &[f64]| p.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+        let fresh: Vec<Vec<f64>> = {
+            let seen = self.seen.lock().unwrap_or_else(|e| e.into_inner());
+            let mut asked = HashSet::new();
+            nodes
+                .iter()
+                .filter(|p| !seen.contains_key(&key(p)) && asked.insert(key(p)))
+                .cloned()
+                .collect()
+        };
+        let fits = if fresh.is_empty() {
+            Vec::new()
+        } else {
+            self.inner.evaluate(fresh)?
+        };
+        let mut seen = self.seen.lock().unwrap_or_else(|e| e.into_inner());
+        for f in fits {
+            seen.insert(key(&f.params), f);
+        }
+        Ok(nodes
+            .iter()
+            .filter_map(|p| seen.get(&key(p)).cloned())
+            .collect())
+    }
+}
 
 /// Which parameter vectors a search may evaluate.
 pub(crate) type Admit = dyn Fn(&[f64]) -> bool + Sync;
@@ -156,5 +231,68 @@ impl PatternSearch<'_> {
             }
         }
         Ok(visited)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    /// Every field (NaN fits compare equal; a float's shortest round-trip text is its value).
+    fn shown(nodes: Vec<NodeFit>) -> String {
+        format!("{nodes:?}")
+    }
+
+    /// Nodes asked for again (within one call, across calls, and remembered from an
+    /// evaluation elsewhere) come back as a fresh evaluation gives them, in the order asked.
+    #[test]
+    fn remembered_nodes_are_the_evaluated_ones() {
+        let sim = datasets::simulate::Scenario {
+            valve: Box::new(
+                stiction_models::Kano::params()
+                    .s(9.0)
+                    .j(3.0)
+                    .check()
+                    .unwrap(),
+            ),
+            samples: 1000,
+            ..datasets::simulate::Scenario::default()
+        }
+        .simulate()
+        .unwrap();
+        let problem = Problem {
+            op: &sim.op,
+            pv: &sim.pv,
+            mv: None,
+        };
+        let options = SearchOptions::default();
+        let entry = stiction_models::find_model("kano").unwrap();
+        for linear in ["arx", "earx"] {
+            let combination = run::Combination::named("kano", linear).unwrap();
+            let identifier = combination.identifier(0).unwrap();
+            let fresh = |nodes: Vec<Vec<f64>>| {
+                grid_search::evaluate_nodes(entry, identifier.as_ref(), problem, &options, nodes)
+                    .unwrap()
+            };
+            let evaluator = Evaluator::new(entry, identifier.as_ref(), problem, &options).unwrap();
+            evaluator.remember(fresh(vec![vec![8.0, 2.0]]));
+            let first = vec![vec![9.0, 3.0], vec![6.0, 1.0], vec![9.0, 3.0]];
+            assert_eq!(
+                shown(evaluator.evaluate(first.clone()).unwrap()),
+                shown(fresh(first))
+            );
+            let again = vec![
+                vec![6.0, 1.0],
+                vec![8.0, 2.0],
+                vec![4.0, 4.0],
+                vec![9.0, 2.0],
+                vec![9.0, 3.0],
+            ];
+            assert_eq!(
+                shown(evaluator.evaluate(again.clone()).unwrap()),
+                shown(fresh(again))
+            );
+        }
     }
 }
