@@ -644,7 +644,7 @@ pub struct Diagnosis {
     pub steps: Vec<Vec<Finding>>,
     /// Index in each step of the cause it added (one fewer than `steps` when the last step
     /// found nothing, or when the open set dropped the cause that step had picked: that
-    /// finding is then marked not significant, see `backward_under_change`).
+    /// finding is then marked not significant, see `stretches::retest`).
     pub picks: Vec<usize>,
     /// Final (joint) model minus baseline F_PV on validation data (0 when none).
     pub gain_fit_pv_val: f64,
@@ -1799,7 +1799,7 @@ fn summarise(
                 .iter()
                 .map(|f| {
                     if f.lr > f.threshold && f.threshold.is_finite() {
-                        // significant on the whole window, dropped by `backward_under_change`
+                        // significant on the whole window, dropped by `stretches::retest`
                         format!(
                             "{} (LR {:.0} vs {:.0} on the whole window, gained from the process change)",
                             f.cause,
