@@ -12,8 +12,9 @@ use crate::{Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Fitt
 /// Whether the extensions that refit the model on a grid (or from its (S, J)) keep the
 /// current stiction model: not `kano-char`, whose shape `a` a grid does not search (a grid
 /// fixes `a = 0`) and `kano-asym` cannot carry. On a `kano-char` model found by
-/// `valve-characteristic` these causes are not tested again; the forward selection's second
-/// path (from the runner-up) finds a characteristic on top of them instead.
+/// `valve-characteristic` these causes are not tested again (but for `time-delay`, whose
+/// search on a valve of three parameters is local and keeps `a`); the forward selection's
+/// second path (from the runner-up) finds a characteristic on top of them instead.
 fn keeps_stiction_model(ctx: &Context<'_>) -> bool {
     ctx.baseline.stiction.name != "kano-char"
 }
@@ -606,7 +607,9 @@ impl Cause for TimeDelay {
         "time-delay"
     }
     fn applies(&self, ctx: &Context<'_>) -> bool {
-        keeps_stiction_model(ctx)
+        // on kano-char too: the dead time is then searched with the valve's three parameters
+        // from the current valve (`local_delay`), which keeps the characteristic's shape
+        (keeps_stiction_model(ctx) || ctx.baseline.stiction.name == "kano-char")
             && ctx
                 .baseline_spec
                 .linear
@@ -869,7 +872,8 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
     Ok(ext)
 }
 
-/// The dead-time extension of a model whose valve has three parameters (`kano-asym`): every
+/// The dead-time extension of a model whose valve has three parameters (`kano-asym`,
+/// `kano-char`: the characteristic's shape searched with S and J): every
 /// dead time in `0..=max_delay` scored at the current valve, then a pattern search from the
 /// current valve at the best dead time other than the current one, instead of a coarse grid
 /// per dead time and a full grid at the best. The grids took 1.0 s of a 2.2 s diagnosis (suite

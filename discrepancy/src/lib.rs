@@ -1016,7 +1016,15 @@ pub fn diagnose_with_progress(
     // A change the chosen causes absorbed: the open set is not significant on the final model
     // but is on the baseline. The chosen causes are then re-tested on the changed process in
     // the same way; the change is named only if they drop and it shows on what remains.
+    // ... or on the model of a cause the first round found significant and the selection did
+    // not choose (`stretches::change_on_causes`)
+    let mut seen = if open.as_ref().is_some_and(|f| !f.significant) {
+        stretches::change_on_causes(problem, &findings, &causes, options)
+    } else {
+        None
+    };
     let changed = open.as_ref().is_some_and(|f| f.significant)
+        || seen.is_some()
         || (open.is_some()
             && chosen.is_some_and(|i| findings[i].cause != "no-stiction")
             && open_set(problem, &base, options).is_some_and(|f| f.significant));
@@ -1053,6 +1061,13 @@ pub fn diagnose_with_progress(
                     .map(Some)
                     // named on the final model already: the change stands as found there
                     .or_else(|| open.as_ref().is_some_and(|f| f.significant).then_some(None))
+                    // seen on a competing cause's model only: where the open set can see it,
+                    // before the validation window (see `stretches::change_on_causes`)
+                    .or_else(|| {
+                        seen.take()
+                            .filter(|_| check.change_at < base.result.split_index)
+                            .map(Some)
+                    })
             };
             if kept == chain {
                 if open.as_ref().is_some_and(|f| f.significant) {

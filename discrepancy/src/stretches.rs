@@ -15,8 +15,8 @@ use serde::Serialize;
 use stiction_models::{Direction, InitialState, Initialization};
 
 use crate::{
-    causes, diagnosis_combination, registry, test_cause, Baseline, Context, DiagnoseOptions,
-    Fitted, ResidualAnalysis,
+    causes, diagnosis_combination, open_set, registry, test_cause, Baseline, Context,
+    DiagnoseOptions, Finding, Fitted, ResidualAnalysis,
 };
 
 /// The shortest stretch tested, in samples: with the validation split inside the stretch
@@ -323,4 +323,62 @@ fn test_stretch(
             })
         })
         .collect()
+}
+
+/// The open set tested on the model of each cause the first round found significant but the
+/// forward selection did not choose (its extension of the baseline; not `no-stiction`, not a
+/// cause of `chain`): the one whose likelihood ratio passes its threshold by the most, its
+/// evidence saying on which model, `None` when it passes on none.
+///
+/// A cause with extra freedom can absorb a change of the process: on its model, and on the
+/// final model built on it, the recent part of the record no longer predicts better than the
+/// whole, and on a baseline whose valve the change misplaced neither. A competing cause's
+/// model, one that fits the record significantly better than the baseline without absorbing
+/// the change, still shows it. Then the chosen causes are tested on the stationary stretches
+/// as for a change seen on the final model ([`retest`]). The models of the chosen path are not
+/// asked: a change seen on the first cause's model and gone once the next chosen cause is
+/// added is what that cause explains (an installed characteristic's gain, which varies with
+/// the operating point, reads as a change on a model without it: on the suite's
+/// characteristic + dead time loops 6021 and 6022 the dead time's model showed it, LR 99 over
+/// 50, and counting it dropped both true causes). A change seen so is named only when it is
+/// located before the validation window: the open set compares identifications on the
+/// identification window, so a change it sees lies there (suite loop 6021, a characteristic
+/// and a dead time without change, had it located at sample 2425 of 3000, inside the
+/// validation window, from the model of `disturbance`).
+pub(crate) fn change_on_causes(
+    problem: Problem<'_>,
+    findings: &[Finding],
+    chain: &[&'static str],
+    options: &DiagnoseOptions,
+) -> Option<Finding> {
+    let tested: Vec<(&'static str, Finding)> = findings
+        .par_iter()
+        .filter(|f| f.significant && f.cause != "no-stiction" && !chain.contains(&f.cause))
+        .filter_map(|f| Some((f.cause, open_set(problem, f.fitted.as_ref()?, options)?)))
+        .collect();
+    let (cause, mut open) = tested
+        .into_iter()
+        .filter(|(_, o)| o.significant)
+        // the first of equal margins (the registry's order): the same answer on any thread count
+        .fold(None::<(&'static str, Finding)>, |best, (c, o)| match best {
+            Some(b) if b.1.lr - b.1.threshold >= o.lr - o.threshold => Some(b),
+            _ => Some((c, o)),
+        })?;
+    open.evidence = open
+        .evidence
+        .replacen(
+            "the final model's linear part",
+            &format!("the {cause} extension's linear part"),
+            1,
+        )
+        .replacen(
+            "In the final model,",
+            &format!("In the {cause} extension's model,"),
+            1,
+        );
+    open.evidence.push_str(&format!(
+        " The change was tested on the model of each cause the first round found significant: it is not significant on the final model nor on the baseline, where a cause absorbed it, but it is on the {cause} extension's model."
+    ));
+    open.reference = format!("the {cause} extension");
+    Some(open)
 }

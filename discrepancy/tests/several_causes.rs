@@ -175,3 +175,23 @@ fn two_causes_that_mask_each_other_are_named_together() {
     let without = c.diagnose(&[discrepancy::PAIRS.to_string()]);
     assert_eq!(without.causes, ["asymmetric-stiction"]);
 }
+
+/// A characteristic and a dead time: suite loop 6003 (an equal-percentage
+/// valve of rangeability 38.5 and 6 samples of extra dead time). The characteristic is chosen
+/// first; the dead time is then tested on its `kano-char` model (the valve's three parameters
+/// searched from the current valve at the best dead time, the characteristic's shape kept) and
+/// added. Without that test the causes are `[valve-characteristic]`.
+#[test]
+fn a_dead_time_is_found_on_top_of_a_characteristic() {
+    let c = case(6003, Effect::CharacteristicDelay, 3000);
+    let d = c.diagnose(&[]);
+    let final_s = d.final_fit().map(|f| f.result.s);
+    println!(
+        "{} causes {:?}, final S {final_s:?} (true {:.2})",
+        c.what, d.causes, c.s
+    );
+    assert_eq!(d.causes, ["valve-characteristic", "time-delay"]);
+    let last = d.final_fit().expect("a final model");
+    assert_eq!(last.stiction.name, "kano-char");
+    assert!(last.delay >= 1, "dead time {}", last.delay);
+}

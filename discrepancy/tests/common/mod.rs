@@ -40,6 +40,9 @@ pub enum Effect {
     /// PV logged through a swinging-door archive (deviation 0.3-0.8 PV units) and read back by
     /// linear interpolation: `compression`, named alone.
     Compression,
+    /// An installed flow characteristic (as `Characteristic`) and an extra dead time (as
+    /// `Delay`) at once.
+    CharacteristicDelay,
 }
 
 impl Effect {
@@ -53,7 +56,7 @@ impl Effect {
             Effect::Order => "process-order",
             Effect::Oscillation => "no-stiction",
             Effect::DisturbanceDelay | Effect::DisturbanceAsymmetric => "disturbance",
-            Effect::DelayAsymmetric => "time-delay",
+            Effect::DelayAsymmetric | Effect::CharacteristicDelay => "time-delay",
             Effect::Characteristic => "valve-characteristic",
             Effect::ProcessChange => "unexplained",
             Effect::Compression => "compression",
@@ -67,6 +70,7 @@ impl Effect {
             Effect::DisturbanceDelay => vec!["disturbance", "time-delay"],
             Effect::DisturbanceAsymmetric => vec!["asymmetric-stiction", "disturbance"],
             Effect::DelayAsymmetric => vec!["asymmetric-stiction", "time-delay"],
+            Effect::CharacteristicDelay => vec!["time-delay", "valve-characteristic"],
             e => vec![e.cause()],
         }
     }
@@ -149,6 +153,43 @@ fn draw_delay(rng: &mut ChaCha8Rng, plant: &mut Plant, gain: &mut f64) -> String
     format!("extra dead time {d} samples")
 }
 
+/// An installed characteristic (equal-percentage or quick-opening, rangeability 20-50) drawn
+/// from `rng`, the set point's random walk widened and the PI `gain` lowered until the loop
+/// is stable where the characteristic's gain is highest in the range it visits.
+fn draw_characteristic(
+    rng: &mut ChaCha8Rng,
+    plant: &Plant,
+    gain: &mut f64,
+    setpoint: &mut datasets::simulate::Setpoint,
+) -> (Characteristic, String) {
+    let rangeability = uniform(rng, 20.0, 50.0);
+    let c = if rng.random::<f64>() < 0.5 {
+        Characteristic::EqualPercentage { rangeability }
+    } else {
+        Characteristic::QuickOpening { rangeability }
+    };
+    let what = format!(
+        "{} R = {rangeability:.1} (a = {:+.2})",
+        if c.shape() > 0.0 {
+            "equal-percentage"
+        } else {
+            "quick-opening"
+        },
+        c.shape()
+    );
+    // A characteristic matters over the range the valve travels: a set point that wanders 2.5
+    // times as far (random-walk step 5 instead of 2) makes the valve cover enough of its span
+    // for the local gain to change by 1.5 or more.
+    setpoint.step = 5.0;
+    // The loop must stay stable where the characteristic's gain is highest in the range it
+    // visits (25 % of span from the operating point): PI gains lowered as for a dead time.
+    let peak = (c.shape().abs() * 0.25).exp();
+    while plant.check_stability(*gain * peak, *gain * peak).is_err() {
+        *gain *= 0.8;
+    }
+    (c, what)
+}
+
 /// Generate the loop of `seed` with `effect`, `samples` long.
 pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1A6);
@@ -219,33 +260,15 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
             what = format!("linear valve, sine amplitude {amplitude:.2} frequency {frequency:.3}");
         }
         Effect::Characteristic => {
-            let rangeability = uniform(&mut rng, 20.0, 50.0);
-            let c = if rng.random::<f64>() < 0.5 {
-                Characteristic::EqualPercentage { rangeability }
-            } else {
-                Characteristic::QuickOpening { rangeability }
-            };
-            what = format!(
-                "{} R = {rangeability:.1} (a = {:+.2})",
-                if c.shape() > 0.0 {
-                    "equal-percentage"
-                } else {
-                    "quick-opening"
-                },
-                c.shape()
-            );
+            let (c, w) = draw_characteristic(&mut rng, &plant, &mut gain, &mut setpoint);
+            what = w;
             characteristic = Some(c);
-            // A characteristic matters over the range the valve travels: a set point that
-            // wanders 2.5 times as far (random-walk step 5 instead of 2) makes the valve cover
-            // enough of its span for the local gain to change by 1.5 or more.
-            setpoint.step = 5.0;
-            // The loop must stay stable where the characteristic's gain is highest in the
-            // range it visits (25 % of span from the operating point): PI gains lowered as
-            // for a dead time.
-            let peak = (c.shape().abs() * 0.25).exp();
-            while plant.check_stability(gain * peak, gain * peak).is_err() {
-                gain *= 0.8;
-            }
+        }
+        Effect::CharacteristicDelay => {
+            let a = draw_delay(&mut rng, &mut plant, &mut gain);
+            let (c, b) = draw_characteristic(&mut rng, &plant, &mut gain, &mut setpoint);
+            what = format!("{a}; {b}");
+            characteristic = Some(c);
         }
         Effect::ProcessChange => {
             // the dynamics change at 20-33 % of the record: the other preset's poles and
@@ -292,7 +315,8 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
     let mut sim = scenario.simulate().expect("stable scenario");
     // With a characteristic the valve must stay inside its travel (5-95 % of span): a set
     // point beyond what the valve can deliver winds OP up for good. Such a loop is drawn again
-    // with the next simulator seed (only this effect draws further numbers).
+    // with the next simulator seed (only the effects with a characteristic draw further
+    // numbers).
     while characteristic.is_some() && sim.mv.iter().any(|&m| !(5.0..=95.0).contains(&m)) {
         scenario.seed = rng.random::<u64>() % 1_000_000;
         sim = scenario.simulate().expect("stable scenario");
