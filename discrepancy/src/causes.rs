@@ -1013,14 +1013,12 @@ impl Cause for NoStiction {
             reference: "baseline".into(),
         })
     }
-    fn overrides(&self) -> bool {
-        true
-    }
 }
 
 inventory::submit! {
     CauseEntry {
         name: "disturbance",
+        role: crate::Role::Extension,
         description: "external disturbance: ARX -> EARX, ARMAX -> EARMAX (time-varying bias), or ARX -> HARX (a sine, notched at its frequency)",
         statistic: "low-frequency power of the simulation residuals / white noise's",
         build: || Box::new(Disturbance),
@@ -1030,6 +1028,7 @@ inventory::submit! {
 inventory::submit! {
     CauseEntry {
         name: "asymmetric-stiction",
+        role: crate::Role::Extension,
         description: "friction differs by direction: kano -> kano-asym (D, J_up, J_dn)",
         statistic: "Welch t of the prediction residual, valve opening vs closing",
         build: || Box::new(AsymmetricStiction),
@@ -1039,6 +1038,7 @@ inventory::submit! {
 inventory::submit! {
     CauseEntry {
         name: "time-delay",
+        role: crate::Role::Extension,
         description: "unmodelled dead time: the delay is estimated (0..=max_delay) and the model refitted",
         statistic: "largest cross-correlation of the prediction residuals with past MV, in standard errors",
         build: || Box::new(TimeDelay),
@@ -1048,6 +1048,7 @@ inventory::submit! {
 inventory::submit! {
     CauseEntry {
         name: "no-stiction",
+        role: crate::Role::NullHypothesis,
         description: "the oscillation is not the valve's: a valve with negligible stiction (S <= 0.2 %) explains PV as well",
         statistic: "likelihood-ratio loss of removing the stiction parameters",
         build: || Box::new(NoStiction),
@@ -1057,6 +1058,7 @@ inventory::submit! {
 inventory::submit! {
     CauseEntry {
         name: "compression",
+        role: crate::Role::Reframe,
         description: "PV read back from a historian's compressed storage: named first, the baseline stands with a warning, no other cause is tested",
         statistic: "share of the PV samples on exactly straight sloped segments",
         build: || Box::new(crate::Compression),
