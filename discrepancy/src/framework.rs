@@ -34,6 +34,42 @@ pub struct Extension {
     pub extra_params: i32,
     /// What the LR compares against, in words (`baseline`, or a nested reference).
     pub reference: String,
+    /// The record as the extended model sees it, when the extension transformed the data
+    /// before the fit (`None`: the record itself).
+    pub data: Option<Transformed>,
+}
+
+/// The record as an extension's model sees it when the extension transformed the data
+/// before the fit (e.g. `travel-limit`: OP clipped at the fitted limit). PV's validation
+/// samples stay the record's: every likelihood ratio compares predictions of them. The
+/// forward selection tests the causes after it on these data, the open set runs the model's
+/// valve on them, the final refit extends again from the record.
+#[derive(Debug, Clone)]
+pub struct Transformed {
+    /// OP as the model sees it.
+    pub op: Vec<f64>,
+    /// PV as the model sees it.
+    pub pv: Vec<f64>,
+    /// The measured MV, if any.
+    pub mv: Option<Vec<f64>>,
+    /// What was done, in words (with the fitted values).
+    pub what: String,
+}
+
+impl Transformed {
+    /// The transformed record as a search problem.
+    pub fn problem(&self) -> Problem<'_> {
+        Problem {
+            op: &self.op,
+            pv: &self.pv,
+            mv: self.mv.as_deref(),
+        }
+    }
+}
+
+/// The record `fitted`'s model sees: `data` when given, else `record`.
+pub(crate) fn seen<'a>(record: Problem<'a>, data: Option<&'a Transformed>) -> Problem<'a> {
+    data.map_or(record, Transformed::problem)
 }
 
 /// Everything a cause may look at.

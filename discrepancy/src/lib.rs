@@ -45,7 +45,7 @@ use grid_search::Problem;
 
 pub use run::{Combination, FitSummary, Fitted};
 
-pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay};
+pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay, TravelLimit};
 pub use characteristic::ValveCharacteristic;
 pub use compression::Compression;
 pub use consensus::{consensus, Consensus, Disagreement};
@@ -55,7 +55,7 @@ pub use stretches::{locate_change, StretchTest, Stretches, MIN_STRETCH};
 
 pub use framework::{
     cause_table, op_step, registry, Cause, CauseEntry, CauseRow, Context, Evidence, Extension,
-    Reframe, Role, PAIRS, UNEXPLAINED,
+    Reframe, Role, Transformed, PAIRS, UNEXPLAINED,
 };
 pub use options::{baseline, options_for, orders_without_delay, Baseline, DiagnoseOptions};
 pub use refit::OrderSelection;
@@ -215,8 +215,8 @@ pub fn diagnose_with_progress(
     // which then asks what the best model leaves (a misfit of the given orders is not a
     // change of the process).
     let selected_chain: Vec<&'static str> = sel.causes.clone();
-    let pre = if sel.healthy() {
-        (None, None)
+    let (pre_fit, pre_selection, pre_data) = if sel.healthy() {
+        (None, None, None)
     } else {
         d.refit(&selected_chain, None)
     };
@@ -224,14 +224,15 @@ pub fn diagnose_with_progress(
     let mut open = None;
     if reframed.is_none() && !run_options.disabled.iter().any(|c| c == UNEXPLAINED) {
         let last = sel.selected_model().unwrap_or(&base);
-        let last = pre
-            .0
-            .as_ref()
-            .filter(|r| r.fit_val() > last.fit_val())
-            .unwrap_or(last);
-        open = open_set::open_set(problem, last, run_options);
+        // the record as that model sees it (a cause that transformed the data)
+        let (last, data) = match pre_fit.as_ref().filter(|r| r.fit_val() > last.fit_val()) {
+            Some(refit) => (refit, pre_data.as_ref()),
+            None => (last, sel.selected_data()),
+        };
+        open = open_set::open_set(framework::seen(problem, data), last, run_options);
     }
     let stretch_check = d.check_change(&mut sel, &mut open);
+    let pre = (pre_fit, pre_selection);
     let fin = d.final_refit(
         &sel,
         open.as_ref(),

@@ -140,6 +140,7 @@ pub(crate) fn open_set(
         reference: "the final model".into(),
         significant,
         error: None,
+        data: None,
         window_from: Some(from),
     })
 }
@@ -251,10 +252,12 @@ impl Diagnoser<'_> {
         // the forward selection's model of the causes that hold, in its order
         let remaining = match (first_round, prefix) {
             (None, _) | (_, 0) => None,
-            (Some(i), 1) => sel.findings[i].fitted.as_ref(),
-            (Some(_), k) => sel.steps[k - 2][sel.picks[k - 2]].fitted.as_ref(),
+            (Some(i), 1) => Some(&sel.findings[i]),
+            (Some(_), k) => Some(&sel.steps[k - 2][sel.picks[k - 2]]),
         };
-        let again = open_set(problem, remaining.unwrap_or(base), options)
+        let data = crate::framework::seen(problem, remaining.and_then(|f| f.data.as_ref()));
+        let remaining = remaining.and_then(|f| f.fitted.as_ref());
+        let again = open_set(data, remaining.unwrap_or(base), options)
             .filter(|f| f.significant)
             .map(Some)
             // named on the final model already: the change stands as found there

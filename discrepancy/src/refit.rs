@@ -83,7 +83,7 @@ fn refit_final(
     from: Option<usize>,
     options: &DiagnoseOptions,
     own_cycle: &causes::OwnCycle,
-) -> (Option<Fitted>, Option<OrderSelection>) {
+) -> Refit {
     let data = match from {
         Some(f) => Problem {
             op: &problem.op[f..],
@@ -99,7 +99,7 @@ fn refit_final(
         Some(f) => {
             let ni = base.result.split_index;
             if ni <= f {
-                return (None, None);
+                return (None, None, None);
             }
             let mut o = options.clone();
             o.search.split = ((ni - f) as f64 + 0.5) / data.op.len() as f64;
@@ -121,7 +121,7 @@ fn refit_final(
     let recent = match from {
         Some(_) => match fit(&spec) {
             Some(f) => Some(f),
-            None => return (None, None),
+            None => return (None, None, None),
         },
         None => None,
     };
@@ -152,7 +152,7 @@ fn refit_final(
         }
     }
     let Some(mut current) = start else {
-        return (None, selection);
+        return (None, selection, None);
     };
     let known = registry();
     // after a change, OP's own oscillation on the samples refitted
@@ -162,20 +162,29 @@ fn refit_final(
     } else {
         own_cycle
     };
+    // the record as the current model sees it (a cause that transformed the data)
+    let mut transformed: Option<crate::Transformed> = None;
     for name in chain {
         let Some(entry) = known.iter().find(|e| e.name == *name) else {
-            return (None, selection);
+            return (None, selection, None);
         };
         let Ok(linear) = linear_id::find_identifier(current.linear) else {
-            return (None, selection);
+            return (None, selection, None);
         };
         let mut step =
             diagnosis_combination(&spec, options, current.stiction, linear, current.delay);
         step.orders = orders_without_delay(current.identifier.as_ref());
         let q = &current.result;
-        let res = ResidualAnalysis::new(data.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
+        let seen = crate::framework::seen(data, transformed.as_ref());
+        let res = ResidualAnalysis::new(seen.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
+        let fresh = causes::OwnCycle::default();
+        let own_cycle = if transformed.is_some() {
+            &fresh
+        } else {
+            own_cycle
+        };
         let ctx = Context {
-            problem: data,
+            problem: seen,
             span,
             baseline_spec: &step,
             baseline: &current,
@@ -184,8 +193,11 @@ fn refit_final(
             own_cycle,
         };
         let Ok(ext) = (entry.build)().extend(&ctx) else {
-            return (None, selection);
+            return (None, selection, None);
         };
+        if ext.data.is_some() {
+            transformed = ext.data;
+        }
         current = ext.fitted;
     }
     if let Some(f) = from {
@@ -196,8 +208,15 @@ fn refit_final(
             problem.op.len()
         ));
     }
-    (Some(current), selection)
+    (Some(current), selection, transformed)
 }
+
+/// A refit: the model, how its orders were chosen, the record as it sees it.
+pub(crate) type Refit = (
+    Option<Fitted>,
+    Option<OrderSelection>,
+    Option<crate::Transformed>,
+);
 
 /// The final model as the diagnosis settles it.
 pub(crate) struct FinalRefit {
@@ -216,11 +235,7 @@ pub(crate) struct FinalRefit {
 
 impl Diagnoser<'_> {
     /// [`refit_final`] of the selected `chain` on this diagnosis's record.
-    pub(crate) fn refit(
-        &self,
-        chain: &[&'static str],
-        from: Option<usize>,
-    ) -> (Option<Fitted>, Option<OrderSelection>) {
+    pub(crate) fn refit(&self, chain: &[&'static str], from: Option<usize>) -> Refit {
         refit_final(
             self.problem,
             self.span,
@@ -261,7 +276,8 @@ impl Diagnoser<'_> {
         } else if changed_from.is_none() && chain == selected_chain {
             pre
         } else {
-            self.refit(&chain, changed_from)
+            let (fit, selection, _) = self.refit(&chain, changed_from);
+            (fit, selection)
         };
         // The refit replaces the selected model only when it predicts the validation window
         // (the same samples: after a change too) better. Measured: on the suite's 20

@@ -59,11 +59,17 @@ impl Diagnoser<'_> {
         let mut steps: Vec<Vec<Finding>> = Vec::new();
         let mut picks: Vec<usize> = Vec::new();
         loop {
-            let current = match (steps.last(), picks.last()) {
-                (Some(step), Some(&k)) => step[k].fitted.as_ref(),
-                _ => start.fitted.as_ref(),
+            let at = match (steps.last(), picks.last()) {
+                (Some(step), Some(&k)) => &step[k],
+                _ => start,
             };
-            let Some(current) = current else { break };
+            let Some(current) = at.fitted.as_ref() else {
+                break;
+            };
+            // the record as the current model sees it (a cause that transformed the data)
+            let data = crate::framework::seen(problem, at.data.as_ref());
+            // OP's own oscillation of the transformed record is its own
+            let own_cycle = causes::OwnCycle::default();
             let mut spec = diagnosis_combination(
                 baseline,
                 options,
@@ -75,15 +81,19 @@ impl Diagnoser<'_> {
             spec.orders = orders_without_delay(current.identifier.as_ref());
             let q = &current.result;
             let res =
-                ResidualAnalysis::new(problem.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
+                ResidualAnalysis::new(data.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
             let ctx = Context {
-                problem,
+                problem: data,
                 span,
                 baseline_spec: &spec,
                 baseline: current,
                 residuals: &res,
                 options,
-                own_cycle: self.own_cycle,
+                own_cycle: if at.data.is_some() {
+                    &own_cycle
+                } else {
+                    self.own_cycle
+                },
             };
             let prev = *causes.last().unwrap_or(&"baseline");
             let candidates: Vec<&'static CauseEntry> = registry()
@@ -123,6 +133,9 @@ impl Diagnoser<'_> {
                 .collect();
             let mut step = Vec::new();
             for mut f in tested {
+                if f.data.is_none() {
+                    f.data.clone_from(&at.data);
+                }
                 if f.reference == "baseline" {
                     f.reference = format!("the {prev} extension");
                 }
@@ -189,10 +202,17 @@ pub(crate) fn test_cause(
             };
             overrides = significant && null;
             let s = ext.fitted.summary();
+            let evidence = match &ext.data {
+                Some(t) => format!(
+                    "{} The extension fits the data transformed: {}.",
+                    ev.text, t.what
+                ),
+                None => ev.text,
+            };
             Finding {
                 cause: name,
                 role,
-                evidence: ev.text,
+                evidence,
                 statistic: ev.statistic,
                 gain_fit_pv_val: ext.fitted.fit_val() - base_fit,
                 delta_s: ext.fitted.result.s - bs,
@@ -204,6 +224,7 @@ pub(crate) fn test_cause(
                 reference: ext.reference,
                 significant,
                 error: None,
+                data: ext.data,
                 window_from: None,
             }
         }
@@ -222,6 +243,7 @@ pub(crate) fn test_cause(
             reference: "baseline".into(),
             significant: false,
             error: Some(e.to_string()),
+            data: None,
             window_from: None,
         },
     };
@@ -373,6 +395,16 @@ impl Selection {
     pub fn first_extension(&self) -> Option<usize> {
         self.chosen
             .filter(|&i| self.findings[i].role != Role::NullHypothesis)
+    }
+
+    /// The record as the forward selection's model sees it ([`crate::Transformed`]; `None`:
+    /// the record itself).
+    pub fn selected_data(&self) -> Option<&crate::Transformed> {
+        let finding = match (self.picks.len(), self.picks.last()) {
+            (n, Some(&k)) if n > 0 => Some(&self.steps[n - 1][k]),
+            _ => self.chosen.map(|i| &self.findings[i]),
+        };
+        finding.and_then(|f| f.data.as_ref())
     }
 
     /// The forward selection's model: the last step's pick, else the chosen first cause's

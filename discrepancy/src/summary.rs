@@ -45,6 +45,10 @@ pub struct Finding {
     pub significant: bool,
     /// Why the extension could not be fitted, if it could not.
     pub error: Option<String>,
+    /// The record as the extended model sees it, when its extension (or one before it)
+    /// transformed the data ([`crate::Transformed`]).
+    #[serde(skip)]
+    pub data: Option<crate::Transformed>,
     /// For `unexplained`: the first sample of the recent window whose linear part predicts
     /// the validation data better (where the changed process is seen).
     #[serde(skip)]
@@ -132,6 +136,7 @@ pub(crate) fn reframed_finding(
         // a property of the data, detected from the data: no likelihood ratio decides it
         significant: true,
         error: None,
+        data: None,
         window_from: None,
     };
     if original.search.criterion == criterion {

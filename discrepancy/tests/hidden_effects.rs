@@ -2,7 +2,7 @@
 //! be diagnosed with the right cause.
 //!
 //! CI size: 6 loops per effect (disturbance, asymmetric-stiction, time-delay, no-stiction,
-//! valve-characteristic, a process whose dynamics change during the record, which no plugin
+//! valve-characteristic, travel-limit, a process whose dynamics change during the record, which no plugin
 //! models, PV through a historian's compression, and the three pairs of causes that can
 //! co-occur: disturbance + dead time, disturbance + asymmetric valve, dead time + asymmetric
 //! valve) and 10 clean loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
@@ -68,6 +68,10 @@ fn diagnose_names_the_hidden_effect() {
         for (k, &e) in effects.iter().enumerate() {
             loops.push((1000 + 10 * i + k as u64, e));
         }
+    }
+    // the travel-limit loops have seeds of their own (the others' stay as they were)
+    for i in 0..size {
+        loops.push((6000 + i, Effect::TravelLimit));
     }
     for i in 0..clean {
         loops.push((5000 + i, Effect::Clean));

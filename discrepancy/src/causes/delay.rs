@@ -89,6 +89,7 @@ impl Cause for TimeDelay {
             lr,
             extra_params: 1,
             reference: "baseline".into(),
+            data: None,
         })
     }
 }

@@ -1,16 +1,18 @@
 //! The built-in causes, one module each (`disturbance`, `asymmetric-stiction`, `time-delay`,
-//! `no-stiction`; `valve-characteristic` and `compression` beside this folder), and what
+//! `no-stiction`, `travel-limit`; `valve-characteristic` and `compression` beside this folder), and what
 //! their extensions share: the current valve, the local searches from it, OP's own cycle.
 
 mod asymmetric;
 mod delay;
 mod disturbance;
 mod no_stiction;
+mod travel_limit;
 
 pub use asymmetric::AsymmetricStiction;
 pub use delay::TimeDelay;
 pub use disturbance::Disturbance;
 pub use no_stiction::NoStiction;
+pub use travel_limit::TravelLimit;
 
 use crate::eval::{Evaluator, LocalFit, PatternSearch};
 use crate::{Context, DiagnoseError, Extension, Fitted};

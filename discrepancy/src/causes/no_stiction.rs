@@ -100,6 +100,7 @@ impl Cause for NoStiction {
             lr,
             extra_params: -(spec.stiction.params.len() as i32),
             reference: "baseline".into(),
+            data: None,
         })
     }
 }
