@@ -88,7 +88,7 @@ pub(crate) fn help() -> String {
     let mut table = String::new();
     for row in discrepancy::cause_table() {
         let head = format!(
-            "  {:<21}{:<17}",
+            "  {:<21}{:<19}",
             row.name,
             format!("[{}]", row.role.label())
         );
