@@ -58,7 +58,7 @@ enum Command {
     #[command(after_help = include_str!("../help/simulate.txt"))]
     Simulate(commands::simulate::Args),
     /// What the model gets wrong, its cause, the extended model and the gain (discrepancy).
-    #[command(after_help = include_str!("../help/diagnose.txt"))]
+    /// (long help: `commands::diagnose::help`, the cause table from the registry)
     Diagnose(commands::diagnose::Args),
     /// Follow one valve over repeated registrations: S trend, outliers explained, maintenance verdict.
     #[command(after_help = include_str!("../help/trend.txt"))]
@@ -135,7 +135,8 @@ where
     // Negative numbers are values wherever a flag takes one (`--split -0.1` is a bad split,
     // not an unknown flag `-0`); no flag of ours is a digit.
     let command = <Cli as clap::CommandFactory>::command()
-        .mut_subcommands(|c| c.allow_negative_numbers(true));
+        .mut_subcommands(|c| c.allow_negative_numbers(true))
+        .mut_subcommand("diagnose", |c| c.after_help(commands::diagnose::help()));
     let m = command.try_get_matches_from(args)?;
     // `--png` in a build without PNG support: refused before any work is done.
     let wants_png = m

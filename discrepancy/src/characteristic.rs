@@ -231,6 +231,7 @@ impl Cause for ValveCharacteristic {
 inventory::submit! {
     CauseEntry {
         name: "valve-characteristic",
+        role: crate::Role::Extension,
         description: "installed flow characteristic (equal-percentage, quick-opening): kano -> kano-char (S, J, shape a)",
         statistic: "largest correlation of the prediction residual with the squared valve-position deviation, in standard errors",
         build: || Box::new(ValveCharacteristic),

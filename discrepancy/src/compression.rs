@@ -40,7 +40,7 @@ use grid_search::{Problem, SearchOptions};
 /// 31, 47 samples); at 24 two of them kept their S within tolerance.
 pub const MAX_LAG: usize = 24;
 
-use crate::{Baseline, Cause, Context, DiagnoseError, Evidence, Extension, Reframe};
+use crate::{Baseline, Cause, CauseEntry, Context, DiagnoseError, Evidence, Extension, Reframe};
 
 /// PV reconstructed by a historian from compressed storage (see the module documentation).
 #[derive(Debug, Clone, Copy, Default)]
@@ -108,5 +108,15 @@ impl Cause for Compression {
                 text,
             },
         })
+    }
+}
+
+inventory::submit! {
+    CauseEntry {
+        name: "compression",
+        role: crate::Role::Reframe,
+        description: "PV read back from a historian's compressed storage: named first, the baseline stands with a warning, no other cause is tested",
+        statistic: "share of the PV samples on exactly straight sloped segments",
+        build: || Box::new(Compression),
     }
 }

@@ -68,6 +68,7 @@ impl LocalFit {
             lr,
             extra_params: 1,
             reference: reference.into(),
+            data: None,
         })
     }
 }

@@ -88,7 +88,11 @@ impl Diagnosis {
     /// The decision: what to do, the S to use with its range, the causes in the final model.
     pub fn headline(&self) -> Headline {
         let final_fit = self.final_fit();
-        let no_stiction = self.cause == "no-stiction";
+        // the cause is the chosen finding's: a null hypothesis that holds (`no-stiction`)
+        let no_stiction = self
+            .chosen
+            .and_then(|i| self.findings.get(i))
+            .is_some_and(|f| f.role == crate::Role::NullHypothesis);
         let (fit, model_note) = match final_fit {
             Some(f) => (f, ""),
             None => (&self.baseline_fit, " (the baseline)"),

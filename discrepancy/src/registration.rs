@@ -69,7 +69,7 @@ pub fn diagnose_all(
 /// The diagnosis in one sentence.
 pub fn sentence(dg: &Diagnosis) -> String {
     match dg.chosen.and_then(|i| dg.findings.get(i)) {
-        Some(f) if f.cause == "no-stiction" => format!(
+        Some(f) if f.role == crate::Role::NullHypothesis => format!(
             "diagnosis: no-stiction (a valve with negligible stiction, S {} % at most {} %, explains PV as well as S {:.2} %: validation F_PV {:+.1} points)",
             f.extended.as_ref().map_or("-".into(), |x| format!("{:.2}", x.s)),
             grid_search::NEGLIGIBLE_S,

@@ -15,8 +15,8 @@ use serde::Serialize;
 use stiction_models::{Direction, InitialState, Initialization};
 
 use crate::{
-    causes, diagnosis_combination, open_set, registry, test_cause, Baseline, Context,
-    DiagnoseOptions, Finding, Fitted, ResidualAnalysis,
+    causes, diagnosis_combination, registry, test_cause, Baseline, Context, DiagnoseOptions,
+    Finding, Fitted, ResidualAnalysis, Role,
 };
 
 /// The shortest stretch tested, in samples: with the validation split inside the stretch
@@ -353,8 +353,14 @@ pub(crate) fn change_on_causes(
 ) -> Option<Finding> {
     let tested: Vec<(&'static str, Finding)> = findings
         .par_iter()
-        .filter(|f| f.significant && f.cause != "no-stiction" && !chain.contains(&f.cause))
-        .filter_map(|f| Some((f.cause, open_set(problem, f.fitted.as_ref()?, options)?)))
+        .filter(|f| f.significant && f.role == Role::Extension && !chain.contains(&f.cause))
+        .filter_map(|f| {
+            let data = crate::framework::seen(problem, f.data.as_ref());
+            Some((
+                f.cause,
+                crate::open_set::open_set(data, f.fitted.as_ref()?, options)?,
+            ))
+        })
         .collect();
     let (cause, mut open) = tested
         .into_iter()

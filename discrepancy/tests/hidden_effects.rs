@@ -2,10 +2,11 @@
 //! be diagnosed with the right cause.
 //!
 //! CI size: 6 loops per effect (disturbance, asymmetric-stiction, time-delay, no-stiction,
-//! valve-characteristic, a process whose dynamics change during the record, which no plugin
-//! models, PV through a historian's compression, and the pairs of causes that can co-occur:
-//! disturbance + dead time, disturbance + asymmetric valve, dead time + asymmetric valve, and
-//! characteristic + dead time, printed but not asserted) and 10 clean loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
+//! valve-characteristic, travel-limit, a process whose dynamics change during the record,
+//! which no plugin models, PV through a historian's compression, and the pairs of causes that
+//! can co-occur: disturbance + dead time, disturbance + asymmetric valve, dead time +
+//! asymmetric valve, and characteristic + dead time, printed but not asserted) and 10 clean
+//! loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
 //! max(N, 10) clean ones (`cargo xtask suite` uses 24). `STICTION_SUITE_DISABLE=cause` disables a detector
 //! (the check that the suite fails without it, recorded in docs/DIAGNOSE.md).
 //!
@@ -69,9 +70,12 @@ fn diagnose_names_the_hidden_effect() {
             loops.push((1000 + 10 * i + k as u64, e));
         }
     }
-    // a pair added later: seeds of their own, so that every other loop stays as it was
+    // situations added later have seeds of their own, so that every other loop stays as it was
     for i in 0..size {
         loops.push((6000 + i, Effect::CharacteristicDelay));
+    }
+    for i in 0..size {
+        loops.push((7000 + i, Effect::TravelLimit));
     }
     for i in 0..clean {
         loops.push((5000 + i, Effect::Clean));

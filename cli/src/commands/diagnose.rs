@@ -79,3 +79,34 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         report::text::detection_line(&det.detected)
     ))
 }
+
+/// The long help of `diagnose`: `help/diagnose.txt` with its `{causes}` line replaced by the
+/// table of the causes a diagnosis can name (`discrepancy::cause_table`: name, role, meaning),
+/// so that a registered cause is listed without editing the help.
+pub(crate) fn help() -> String {
+    const WIDTH: usize = 100;
+    let mut table = String::new();
+    for row in discrepancy::cause_table() {
+        let head = format!(
+            "  {:<21}{:<19}",
+            row.name,
+            format!("[{}]", row.role.label())
+        );
+        let indent = " ".repeat(head.len());
+        let mut line = head;
+        for word in row.description.split_whitespace() {
+            if line.len() + 1 + word.len() > WIDTH && line.trim_end().len() > indent.len() {
+                table.push_str(line.trim_end());
+                table.push('\n');
+                line = indent.clone();
+            }
+            if !line.ends_with(' ') {
+                line.push(' ');
+            }
+            line.push_str(word);
+        }
+        table.push_str(line.trim_end());
+        table.push('\n');
+    }
+    include_str!("../../help/diagnose.txt").replace("{causes}\n", &table)
+}

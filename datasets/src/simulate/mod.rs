@@ -252,6 +252,7 @@ pub enum DisturbanceEntry {
 /// | `sample_time` | 1 | seconds per sample, for the `t` column | `> 0` |
 /// | `characteristic` | none (linear valve) | the installed flow [`Characteristic`] between the valve position MV and the plant: `u = (100/a) (e^(a (MV - op_bias)/100) - 1)`, the same local gain as a linear valve at `op_bias` | see [`Characteristic`] |
 /// | `plant_change` | none | another plant from kept sample `at` on ([`PlantChange`]: a process that changes during the record, e.g. fouling; the signals carry over) | a valid plant, the loop stable with it |
+/// | `travel_limit` | none | the valve cannot pass this position (% of span): `MV = min(f(OP), L)`, `f` the valve model | finite |
 /// | `pv_compression` | none | the logged PV as a historian's swinging-door archive with this deviation (PV units), read back by linear interpolation ([`swinging_door`]); the loop itself runs on the true PV | `> 0` |
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -296,6 +297,10 @@ pub struct Scenario {
     /// A change of the process during the record (none: the plant never changes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plant_change: Option<PlantChange>,
+    /// The valve cannot pass this position (% of span): `MV = min(f(OP), L)` (none: no
+    /// limit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub travel_limit: Option<f64>,
 }
 
 /// The plant replaced by `plant` from kept sample `at` on; the past inputs, outputs and noise
@@ -406,6 +411,7 @@ impl Default for Scenario {
             pv_compression: None,
             characteristic: None,
             plant_change: None,
+            travel_limit: None,
         }
     }
 }
@@ -544,6 +550,9 @@ impl Scenario {
         param("pv_bias", self.pv_bias, true, "a finite number")?;
         let ts = self.sample_time;
         param("sample_time", ts, ts > 0.0, "a positive number of seconds")?;
+        if let Some(l) = self.travel_limit {
+            param("travel_limit", l, true, "a finite position")?;
+        }
         if let Some(dev) = self.pv_compression {
             param("pv_compression", dev, dev > 0.0, "a positive deviation")?;
         }
@@ -674,6 +683,8 @@ impl Scenario {
                     mv
                 }
             };
+            // a travel limit: the valve stops at L
+            let mv = self.travel_limit.map_or(mv, |l| mv.min(l));
             if !mv.is_finite() {
                 return Err(DataError::Diverged {
                     signal: "MV",
@@ -895,6 +906,34 @@ mod tests {
         let sim = s.simulate().unwrap();
         assert!(sim.op.iter().all(|&v| (0.0..=100.0).contains(&v)));
         assert!(sim.op.contains(&100.0));
+    }
+
+    /// A travel limit: the valve stops at L while OP winds up to its clamp; without it the
+    /// same loop's valve passes L.
+    #[test]
+    fn travel_limit_stops_the_valve() {
+        let s = Scenario {
+            samples: 400,
+            warmup: 0,
+            setpoint: Setpoint {
+                steps: vec![SetpointStep { at: 50, size: 20.0 }],
+                ..Setpoint::constant()
+            },
+            op_limits: Some([0.0, 100.0]),
+            travel_limit: Some(60.0),
+            ..Scenario::default()
+        };
+        let sim = s.simulate().unwrap();
+        assert!(sim.mv.iter().all(|&m| m <= 60.0));
+        assert!(sim.mv.contains(&60.0));
+        assert!(sim.op.contains(&100.0));
+        let free = Scenario {
+            travel_limit: None,
+            ..s
+        }
+        .simulate()
+        .unwrap();
+        assert!(free.mv.iter().any(|&m| m > 60.0));
     }
 
     #[test]

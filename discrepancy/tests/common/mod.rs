@@ -43,6 +43,12 @@ pub enum Effect {
     /// An installed flow characteristic (as `Characteristic`) and an extra dead time (as
     /// `Delay`) at once.
     CharacteristicDelay,
+    /// The valve cannot pass a position L 4-10 % of span above the operating point
+    /// (`MV = min(f(OP), L)`, `datasets::simulate::Scenario::travel_limit`), OP clamped to
+    /// 0-100 %; a set point without random walk whose steps ask for 3-8 % of span beyond L
+    /// come and go three times, so OP winds up to its clamp while PV stays short of SP:
+    /// `travel-limit`.
+    TravelLimit,
 }
 
 impl Effect {
@@ -60,6 +66,7 @@ impl Effect {
             Effect::Characteristic => "valve-characteristic",
             Effect::ProcessChange => "unexplained",
             Effect::Compression => "compression",
+            Effect::TravelLimit => "travel-limit",
         }
     }
 
@@ -206,6 +213,8 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
     let mut characteristic = None;
     let mut plant_change = None;
     let mut pv_compression = None;
+    let mut travel_limit = None;
+    let mut op_limits = None;
     let mut setpoint = datasets::simulate::Setpoint::default();
     let what;
     match effect {
@@ -296,6 +305,36 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
             pv_compression = Some(deviation);
             what = format!("PV through a swinging door of {deviation:.2}");
         }
+        Effect::TravelLimit => {
+            // the operating point is OP = MV = 50 % (`Scenario::op_bias`)
+            let above = uniform(&mut rng, 4.0, 10.0);
+            let beyond = uniform(&mut rng, 3.0, 8.0);
+            let limit = 50.0 + above;
+            let size = plant.static_gain() * (above + beyond);
+            let n = samples as f64;
+            // three episodes, the last in the validation window (the last third)
+            for (at, sign) in [
+                (0.1, 1.0),
+                (0.2, -1.0),
+                (0.45, 1.0),
+                (0.55, -1.0),
+                (0.8, 1.0),
+                (0.9, -1.0),
+            ] {
+                setpoint.steps.push(datasets::simulate::SetpointStep {
+                    at: (at * n) as usize,
+                    size: sign * size,
+                });
+            }
+            // no random walk: the steps alone ask for the travel beyond L (a walk of the
+            // set point drifts by several % of span over the record and can cancel a step)
+            setpoint.step = 0.0;
+            travel_limit = Some(limit);
+            op_limits = Some([0.0, 100.0]);
+            what = format!(
+                "travel limit L = {limit:.2} % (set point asks for {beyond:.1} % beyond it)"
+            );
+        }
     }
     let sim_seed = rng.random::<u64>() % 1_000_000;
     let mut scenario = Scenario {
@@ -310,6 +349,8 @@ pub fn case(seed: u64, effect: Effect, samples: usize) -> Case {
         setpoint,
         plant_change,
         pv_compression,
+        travel_limit,
+        op_limits,
         ..Scenario::default()
     };
     let mut sim = scenario.simulate().expect("stable scenario");
