@@ -791,6 +791,17 @@ pub fn swinging_door(x: &[f64], dev: f64) -> (Vec<f64>, usize) {
 }
 
 impl SimulatedLoop {
+    /// The sample standard deviation of the control error `SP - PV` from sample `from` on.
+    pub fn error_std(&self, from: usize) -> f64 {
+        let e: Vec<f64> = self.sp[from..]
+            .iter()
+            .zip(&self.pv[from..])
+            .map(|(a, b)| a - b)
+            .collect();
+        let m = e.iter().sum::<f64>() / e.len() as f64;
+        (e.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (e.len() - 1) as f64).sqrt()
+    }
+
     /// Number of kept samples.
     pub fn len(&self) -> usize {
         self.op.len()
