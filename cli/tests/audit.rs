@@ -5,24 +5,16 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::run;
-
-/// A fresh temporary directory.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("stiction-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use common::{run, run_ok, temp_dir};
 
 /// Two simulated registrations of valve V1 (the CLI's `simulate`, 500 samples) and a file the
 /// reader refuses.
 fn registrations(dir: &Path) {
     for (k, s) in ["2", "5"].iter().enumerate() {
         let out = dir.join(format!("V1_2024010{}-0800.csv", k + 1));
-        let sim = run(
+        run_ok(
             &[
                 "simulate",
                 "--valve",
@@ -40,7 +32,6 @@ fn registrations(dir: &Path) {
             ],
             b"",
         );
-        assert_eq!(sim.code, 0, "{}", sim.stderr);
     }
     std::fs::write(dir.join("V1_20240301-0800.csv"), "t,SP,PV,OP\n0,1,2,x\n").unwrap();
 }
@@ -60,14 +51,12 @@ fn audit_appends_each_registration_once() {
         "--step",
         "1",
     ];
-    let first = run(&args, b"");
-    assert_eq!(first.code, 0, "{}", first.stderr);
+    let first = run_ok(&args, b"");
     assert_eq!(
         first.stdout,
         "audit: 3 registration(s): 3 computed, 0 already in audit.sqlite; 6 row(s) added, 6 in the database\n"
     );
-    let second = run(&args, b"");
-    assert_eq!(second.code, 0, "{}", second.stderr);
+    let second = run_ok(&args, b"");
     assert_eq!(
         second.stdout,
         "audit: 3 registration(s): 0 computed, 3 already in audit.sqlite; 0 row(s) added, 6 in the database\n"
@@ -83,7 +72,7 @@ fn audit_appends_each_registration_once() {
     drop(store);
 
     // --valve keeps that valve's files only.
-    let other = run(
+    let other = run_ok(
         &[
             "audit",
             dir.to_str().unwrap(),
@@ -94,7 +83,6 @@ fn audit_appends_each_registration_once() {
         ],
         b"",
     );
-    assert_eq!(other.code, 0, "{}", other.stderr);
     assert!(
         other.stdout.starts_with("audit: 0 registration(s)"),
         "{}",
@@ -161,7 +149,7 @@ fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
     registrations(&dir);
     // a second valve, healthy
     let healthy = dir.join("V2_20240105-0800.csv");
-    let sim = run(
+    run_ok(
         &[
             "simulate",
             "--valve",
@@ -179,7 +167,6 @@ fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
         ],
         b"",
     );
-    assert_eq!(sim.code, 0, "{}", sim.stderr);
     let db = dir.join("audit.sqlite");
     let site = dir.join("site");
     let (d, dbs, sites) = (
@@ -187,11 +174,10 @@ fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
         db.to_str().unwrap(),
         site.to_str().unwrap(),
     );
-    let out = run(
+    let out = run_ok(
         &["audit", d, "--db", dbs, "--step", "0.5", "--report", sites],
         b"",
     );
-    assert_eq!(out.code, 0, "{}", out.stderr);
     assert!(out.stderr.contains("report: "), "{}", out.stderr);
     assert!(
         out.stderr.contains("(2 valves, 1 registration pages"),
@@ -212,8 +198,7 @@ fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
     );
     // from the database alone, the same page
     std::fs::remove_dir_all(&site).unwrap();
-    let again = run(&["audit", "--db", dbs, "--report", sites], b"");
-    assert_eq!(again.code, 0, "{}", again.stderr);
+    let again = run_ok(&["audit", "--db", dbs, "--report", sites], b"");
     // no run without PATH: the ranking's top only
     assert!(again.stdout.starts_with("  #  valve "), "{}", again.stdout);
     assert_eq!(again.stdout.lines().count(), 3, "{}", again.stdout);
@@ -223,7 +208,7 @@ fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
     );
     // --diagnose: the latest registration's page is its diagnosis, the causes the diagnosis'
     std::fs::remove_dir_all(&site).unwrap();
-    let diag = run(
+    run_ok(
         &[
             "audit",
             "--db",
@@ -236,7 +221,6 @@ fn the_fleet_page_ranks_every_valve_and_links_its_latest_registration() {
         ],
         b"",
     );
-    assert_eq!(diag.code, 0, "{}", diag.stderr);
     let linked = std::fs::read_to_string(site.join("valves/V2/index.html")).unwrap();
     assert!(linked.contains("diagnose: loop"), "the diagnosis page");
     assert!(linked.contains("Repair: "), "with what a repair buys");

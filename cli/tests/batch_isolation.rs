@@ -6,19 +6,12 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::run;
+use common::{jsonl, run, run_ok, temp_dir};
 use datasets::simulate::Scenario;
 use serde_json::Value;
 use stiction_models::Kano;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("stiction-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Four good registrations of `valve`, and `<valve>_20240901-0800.csv` with OP x 1e9.
 fn write(dir: &Path, valve: &str) {
@@ -50,14 +43,6 @@ fn write(dir: &Path, valve: &str) {
     }
 }
 
-fn jsonl(path: &Path) -> Vec<Value> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
-        .collect()
-}
-
 /// A registration with OP x 1e9 among good ones aborted the process (allocation failure) with
 /// no CSV written, and resuming aborted at the same file.
 #[test]
@@ -66,17 +51,16 @@ fn a_scaled_op_file_does_not_end_the_batch() {
     write(&dir, "V1");
     let outs = temp_dir("iso-scale-out");
     let out = outs.join("res");
-    let o = run(
+    run_ok(
         &["batch", dir.to_str().unwrap(), "-o", out.to_str().unwrap()],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let rows = jsonl(&outs.join("res.jsonl"));
     assert_eq!(rows.len(), 5);
     assert!(outs.join("res.csv").exists());
     // With an explicit fine step the scaled file's grid is over the budget: its row's error.
     let out2 = outs.join("res2");
-    let o = run(
+    run_ok(
         &[
             "batch",
             dir.to_str().unwrap(),
@@ -87,7 +71,6 @@ fn a_scaled_op_file_does_not_end_the_batch() {
         ],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let rows = jsonl(&outs.join("res2.jsonl"));
     assert_eq!(rows.len(), 5);
     let bad: Vec<&Value> = rows.iter().filter(|r| r["status"] == "error").collect();
@@ -108,11 +91,10 @@ fn a_panicking_registration_is_its_rows_error() {
     // Only this test's file name (the tests of this binary run in parallel).
     std::env::set_var("STICTION_TEST_PANIC_ON", "P9_20240601-0800.csv");
     let out = dir.join("res");
-    let o = run(
+    run_ok(
         &["batch", dir.to_str().unwrap(), "-o", out.to_str().unwrap()],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let rows = jsonl(&dir.join("res.jsonl"));
     assert_eq!(rows.len(), 5);
     let row = rows
@@ -143,8 +125,7 @@ fn a_torn_last_line_is_recomputed_with_a_note() {
     // Tear the last line in the middle.
     let cut = text.trim_end().len() - 40;
     std::fs::write(&path, &text[..cut]).unwrap();
-    let o = run(&args, b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&args, b"");
     assert!(
         o.stderr.contains("line 4 is torn") && o.stderr.contains("computed again"),
         "{}",

@@ -3,12 +3,11 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::run;
+use common::{run, run_ok};
 use serde_json::Value;
 
 fn json(args: &[&str], stdin: &[u8]) -> Value {
-    let o = run(args, stdin);
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(args, stdin);
     serde_json::from_str(&o.stdout).expect("one JSON document")
 }
 
@@ -141,8 +140,7 @@ fn a_flat_record_is_not_called_sticky_and_says_why() {
     let half = record(&|k| if k < 250 { 50.0 } else { 50.0 + wiggle(k) }, &|k| {
         30.0 + (k % 50) as f64 * 0.2
     });
-    let o = run(&["detect", "-"], half.as_bytes());
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["detect", "-"], half.as_bytes());
     let first = o.stdout.lines().next().unwrap_or_default();
     assert!(first.starts_with("-: inconclusive"), "{first}");
     assert!(first.contains("frozen transmitter"), "{first}");
@@ -203,11 +201,10 @@ fn a_generated_sticky_loop_is_stiction_with_the_contract_keys() {
         }
     }
     // The same loop as text: the verdict line first, then the test table.
-    let o = run(
+    let o = run_ok(
         &["detect", "-", "--integrating", "no"],
         sim.stdout.as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stdout.starts_with("-: stiction (score"), "{}", o.stdout);
     assert!(o.stdout.contains("horch-xcorr"), "{}", o.stdout);
 }
@@ -252,11 +249,10 @@ fn report_writes_the_test_table_and_the_two_figures() {
     let file = dir.arg("sticky.csv");
     std::fs::write(&file, &sim.stdout).unwrap();
     let out = dir.arg("report");
-    let o = run(
+    let o = run_ok(
         &["detect", &file, "--integrating", "no", "--report", &out],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stdout.contains(": stiction (score"), "{}", o.stdout);
     assert!(o.stderr.contains("report: "), "{}", o.stderr);
     let html = std::fs::read_to_string(format!("{out}/index.html")).unwrap();

@@ -1,13 +1,12 @@
 //! `stiction diagnose` end to end, in memory.
 
 mod common;
-use common::run;
+use common::{run, run_ok, simulate_dead_time};
 use serde_json::Value;
 
 #[test]
 fn diagnose_json_has_the_contract_keys() {
-    let o = run(&["diagnose", "--example", "paper", "--json"], b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["diagnose", "--example", "paper", "--json"], b"");
     let v: Value = serde_json::from_str(&o.stdout).expect("one JSON document");
     for key in [
         "baseline",
@@ -43,18 +42,10 @@ fn diagnose_json_has_the_contract_keys() {
 
 #[test]
 fn diagnose_finds_a_hidden_dead_time_from_a_file() {
-    let sim = run(
-        &[
-            "simulate", "--param", "S=5", "--param", "J=2", "--delay", "4", "--kc", "0.3", "--ki",
-            "0.2", "--seed", "9",
-        ],
-        b"",
-    );
-    assert_eq!(sim.code, 0, "{}", sim.stderr);
-    let o = run(&["diagnose", "-"], sim.stdout.as_bytes());
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let sim = simulate_dead_time("4", "9");
+    let o = run_ok(&["diagnose", "-"], sim.as_bytes());
     assert!(o.stdout.contains("time-delay"), "{}", o.stdout);
-    let j = run(&["diagnose", "-", "--json"], sim.stdout.as_bytes());
+    let j = run(&["diagnose", "-", "--json"], sim.as_bytes());
     let v: Value = serde_json::from_str(&j.stdout).unwrap();
     assert_eq!(v["cause"], "time-delay", "{}", v["summary"]);
     assert_eq!(v["extended"]["delay"], 4);

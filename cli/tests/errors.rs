@@ -1,7 +1,7 @@
 //! Bad input: one `error:` line naming what is wrong, the right exit status, never a panic.
 
 mod common;
-use common::run;
+use common::{run, run_ok};
 use proptest::prelude::*;
 
 fn err_line(args: &[&str], stdin: &str) -> (i32, String) {
@@ -167,7 +167,6 @@ fn mat_struct_of_loops_needs_a_loop_path() {
     );
     let mut with_loop = args.to_vec();
     with_loop.extend(["--loop", "cdata.chemicals.loop2"]);
-    let o = run(&with_loop, b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&with_loop, b"");
     assert!(o.stdout.starts_with("OP,MV\n40"), "{}", o.stdout);
 }

@@ -5,15 +5,8 @@
 mod common;
 use std::path::{Path, PathBuf};
 
-use common::run;
+use common::{run, run_ok, temp_dir};
 use serde_json::Value;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("stiction-first-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
 
 fn plant(file: &str) -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -28,7 +21,7 @@ fn plant(file: &str) -> Option<PathBuf> {
 }
 
 fn simulated(s: &str, j: &str, seed: &str) -> String {
-    let sim = run(
+    let sim = run_ok(
         &[
             "simulate",
             "--param",
@@ -40,14 +33,12 @@ fn simulated(s: &str, j: &str, seed: &str) -> String {
         ],
         b"",
     );
-    assert_eq!(sim.code, 0, "{}", sim.stderr);
     sim.stdout
 }
 
 #[test]
 fn a_clear_sticky_loop_gets_a_plain_verdict() {
-    let o = run(&["quantify", "-"], simulated("4", "1", "2").as_bytes());
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["quantify", "-"], simulated("4", "1", "2").as_bytes());
     assert!(
         o.stdout.contains("  verdict: the valve sticks"),
         "{}",
@@ -58,8 +49,7 @@ fn a_clear_sticky_loop_gets_a_plain_verdict() {
 
 #[test]
 fn a_slight_stiction_is_not_called_sticking() {
-    let o = run(&["quantify", "-"], simulated("0.6", "0.2", "3").as_bytes());
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["quantify", "-"], simulated("0.6", "0.2", "3").as_bytes());
     let verdict = o
         .stdout
         .lines()
@@ -74,8 +64,7 @@ fn weak_evidence_is_said_on_plant_data() {
         return;
     };
     let p = p.to_str().expect("utf-8");
-    let o = run(&["quantify", p], b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["quantify", p], b"");
     assert!(
         o.stdout.contains("is not to be trusted alone"),
         "{}",
@@ -136,8 +125,7 @@ fn a_folder_skips_files_that_are_not_loops() {
     .expect("write");
     std::fs::write(dir.join("results.csv"), "valve,S\nV7,3\n").expect("write");
     let d = dir.to_str().expect("utf-8");
-    let o = run(&["trend", d, "--no-diagnose", "--json"], b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["trend", d, "--no-diagnose", "--json"], b"");
     // a results table is skipped with a note; a labels table quietly
     assert!(o.stderr.contains("skipped"), "{}", o.stderr);
     assert!(o.stderr.contains("results.csv"), "{}", o.stderr);
@@ -145,8 +133,7 @@ fn a_folder_skips_files_that_are_not_loops() {
     let v: Value = serde_json::from_str(&o.stdout).expect("json");
     assert_eq!(v["valve"], "V7");
     let out = dir.join("rows");
-    let b = run(&["batch", d, "-o", out.to_str().expect("utf-8")], b"");
-    assert_eq!(b.code, 0, "{}", b.stderr);
+    run_ok(&["batch", d, "-o", out.to_str().expect("utf-8")], b"");
     let rows = std::fs::read_to_string(dir.join("rows.jsonl")).expect("rows");
     assert!(!rows.contains("labels.csv"), "{rows}");
     assert!(!rows.contains("results.csv"), "{rows}");
@@ -156,11 +143,10 @@ fn a_folder_skips_files_that_are_not_loops() {
 
 #[test]
 fn json_numbers_sit_on_the_grid() {
-    let o = run(
+    let o = run_ok(
         &["quantify", "-", "--json", "--step", "0.1"],
         simulated("3", "0.3", "4").as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     // No float noise like 0.30000000000000004 in the text of the document.
     assert!(!o.stdout.contains("0000000000"), "{}", o.stdout);
     let v: Value = serde_json::from_str(&o.stdout).expect("json");
@@ -195,8 +181,7 @@ fn split_reads_fractions_and_shows_a_readable_default() {
 
 #[test]
 fn diagnose_says_what_to_do_first() {
-    let o = run(&["diagnose", "--example", "paper"], b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["diagnose", "--example", "paper"], b"");
     // The decision first: the action with the S to use and its range, then the causes held.
     let second = o.stdout.lines().nth(1).expect("two lines");
     assert!(

@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::{column, run};
+use common::{column, run, run_ok, simulate_kano_4_1};
 
 /// The refusal: one line on stderr, nothing on stdout. The loops of [`three_units`] are
 /// counts by design, so the reader's notes that PV and OP sit on a lattice come first; they
@@ -24,28 +24,12 @@ fn err_line(args: &[&str], stdin: &str) -> (i32, String) {
 /// A Kano loop (S = 4, J = 1) whose OP is integer counts of a 0-16383 output, written three
 /// ways: counts, % (counts · 100 / 16383) and fraction (counts / 16383).
 fn three_units() -> [String; 3] {
-    let o = run(
-        &[
-            "simulate",
-            "--valve",
-            "kano",
-            "--param",
-            "S=4",
-            "--param",
-            "J=1",
-            "--seed",
-            "2",
-            "--samples",
-            "1500",
-        ],
-        b"",
-    );
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let csv = simulate_kano_4_1("2", "1500");
     let (t, sp, pv, op) = (
-        column(&o.stdout, "t"),
-        column(&o.stdout, "SP"),
-        column(&o.stdout, "PV"),
-        column(&o.stdout, "OP"),
+        column(&csv, "t"),
+        column(&csv, "SP"),
+        column(&csv, "PV"),
+        column(&csv, "OP"),
     );
     let counts: Vec<f64> = op.iter().map(|v| (v * 16383.0 / 100.0).round()).collect();
     let write = |f: &dyn Fn(f64) -> f64| {
@@ -229,8 +213,7 @@ fn two_pv_columns_say_which_is_used() {
     let csv = rewrite(&three_units()[1], "t,SP,PV,OP,pv", &|c| {
         format!("{},{},{},{},{}", c[0], c[1], c[2], c[3], c[2])
     });
-    let o = run(&["quantify", "-", "--json"], csv.as_bytes());
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["quantify", "-", "--json"], csv.as_bytes());
     assert!(
         o.stderr.contains(
             "PV: 2 columns match; using column 3 (\"PV\"), ignoring column(s) 5 (\"pv\")"

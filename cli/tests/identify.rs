@@ -1,17 +1,16 @@
 //! `stiction identify` end to end.
 
 mod common;
-use common::run;
+use common::{run, run_ok};
 use serde_json::Value;
 
 fn loop_csv() -> String {
-    let sim = run(
+    let sim = run_ok(
         &[
             "simulate", "--param", "S=5", "--param", "J=2", "--seed", "3",
         ],
         b"",
     );
-    assert_eq!(sim.code, 0, "{}", sim.stderr);
     sim.stdout
 }
 
@@ -58,13 +57,12 @@ fn identify_json_has_the_contract_keys_for_every_identifier() {
 #[test]
 fn identify_text_and_column_choice() {
     let csv = loop_csv();
-    let o = run(
+    let o = run_ok(
         &[
             "identify", "-", "--linear", "arx", "--orders", "3,3", "--input", "OP",
         ],
         csv.as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(
         o.stdout.contains("arx from OP to PV (n=3, m=3, delay=0)"),
         "{}",

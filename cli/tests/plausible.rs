@@ -3,36 +3,13 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::{column, run};
+use common::{column, jsonl, run, run_ok, simulate_kano_4_1, temp_dir};
 use std::path::{Path, PathBuf};
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("stiction-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// `stiction simulate` Kano S = 4, J = 1 (seed, samples): columns t, SP, PV, OP.
 fn simulated(seed: &str, samples: &str) -> [Vec<f64>; 4] {
-    let o = run(
-        &[
-            "simulate",
-            "--valve",
-            "kano",
-            "--param",
-            "S=4",
-            "--param",
-            "J=1",
-            "--seed",
-            seed,
-            "--samples",
-            samples,
-        ],
-        b"",
-    );
-    assert_eq!(o.code, 0, "{}", o.stderr);
-    ["t", "SP", "PV", "OP"].map(|c| column(&o.stdout, c))
+    let csv = simulate_kano_4_1(seed, samples);
+    ["t", "SP", "PV", "OP"].map(|c| column(&csv, c))
 }
 
 /// The loop as CSV with OP mapped by `op`.
@@ -100,11 +77,10 @@ fn op_range_is_checked_against_op() {
     let (lo, hi) = cols[3]
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
-    let o = run(
+    let o = run_ok(
         &["quantify", "-", "--step", "1"],
         csv(&cols, |v| v).as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(
         o.stderr
             .contains("warning: --step 1: the 95 % region is a single grid node"),
@@ -169,14 +145,6 @@ fn write_loop(dir: &Path, name: &str, seed: &str) -> PathBuf {
     f
 }
 
-fn jsonl_rows(path: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
-}
-
 /// A second batch on the same output while the first holds it is refused (the old code
 /// appended every row a second time).
 #[test]
@@ -198,9 +166,8 @@ fn a_second_batch_on_the_same_output_is_refused() {
     assert_eq!(code, 1, "{line}");
     assert!(line.contains("another batch run"), "{line}");
     lock.unlock().unwrap();
-    let o = run(&args, b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
-    assert_eq!(jsonl_rows(&dir.join("out.jsonl")).len(), 1);
+    run_ok(&args, b"");
+    assert_eq!(jsonl(&dir.join("out.jsonl")).len(), 1);
 }
 
 /// Resume is keyed by the full path and the content: a file replaced by other bytes of the same
@@ -214,12 +181,11 @@ fn resume_is_keyed_by_path_and_content() {
     std::fs::create_dir_all(&b).unwrap();
     let fa = write_loop(&a, "V1_20240101-0800.csv", "6");
     let out = dir.join("out");
-    let o = run(
+    run_ok(
         &["batch", a.to_str().unwrap(), "-o", out.to_str().unwrap()],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
-    let before = jsonl_rows(&dir.join("out.jsonl"));
+    let before = jsonl(&dir.join("out.jsonl"));
     assert_eq!(before.len(), 1);
     // Other bytes, same length, same modification time.
     let meta = std::fs::metadata(&fa).unwrap();
@@ -232,14 +198,13 @@ fn resume_is_keyed_by_path_and_content() {
     f.set_modified(meta.modified().unwrap()).unwrap();
     drop(f);
     assert_eq!(std::fs::metadata(&fa).unwrap().len(), meta.len());
-    let o = run(
+    let o = run_ok(
         &["batch", a.to_str().unwrap(), "-o", out.to_str().unwrap()],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stdout.contains("1 file(s) computed"), "{}", o.stdout);
     // Both folders: the same name elsewhere is computed, the unchanged file is kept.
-    let o = run(
+    let o = run_ok(
         &[
             "batch",
             a.to_str().unwrap(),
@@ -249,8 +214,7 @@ fn resume_is_keyed_by_path_and_content() {
         ],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
-    assert_eq!(jsonl_rows(&dir.join("out.jsonl")).len(), 2, "{}", o.stdout);
+    assert_eq!(jsonl(&dir.join("out.jsonl")).len(), 2, "{}", o.stdout);
     assert!(o.stdout.contains("1 file(s) computed"), "{}", o.stdout);
 }
 
@@ -271,7 +235,7 @@ fn every_registration_file_gets_a_row_and_duplicates_count_once() {
     std::fs::write(dir.join("V1_20240401-0800.csv"), b"1,2,3\n4,5,6\n").unwrap();
     std::fs::write(dir.join("V1_20240501-0800.csv"), b"# exported\nt,PV,OP\n").unwrap();
     let out = dir.join("out");
-    let o = run(
+    let o = run_ok(
         &[
             "batch",
             dir.to_str().unwrap(),
@@ -281,9 +245,8 @@ fn every_registration_file_gets_a_row_and_duplicates_count_once() {
         ],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stderr.contains("counted once"), "{}", o.stderr);
-    let rows_out = jsonl_rows(Path::new(&format!("{}.jsonl", out.display())));
+    let rows_out = jsonl(Path::new(&format!("{}.jsonl", out.display())));
     let files: std::collections::BTreeSet<String> = rows_out
         .iter()
         .map(|r| r["file"].as_str().unwrap().to_string())
@@ -360,11 +323,10 @@ fn utf16_is_named_and_valve_ignores_pv() {
     }
     let bad_pv = text.replacen(&format!(",{},", cols[2][5]), ",abc,", 1);
     assert_ne!(bad_pv, text);
-    let o = run(
+    let o = run_ok(
         &["valve", "-", "--model", "kano", "--param", "S=3"],
         bad_pv.as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stderr.contains("PV is not needed"), "{}", o.stderr);
 }
 

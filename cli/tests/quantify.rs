@@ -1,16 +1,15 @@
 //! `stiction quantify` and `stiction compare` end to end, in memory.
 
 mod common;
-use common::run;
+use common::{run, run_ok, simulate_dead_time};
 use serde_json::Value;
 
 #[test]
 fn quantify_example_json_has_the_contract_keys() {
-    let o = run(
+    let o = run_ok(
         &["quantify", "--example", "paper", "--json", "--step", "0.5"],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let v: Value = serde_json::from_str(&o.stdout).expect("one JSON document");
     for key in [
         "stiction_model",
@@ -40,17 +39,16 @@ fn quantify_example_json_has_the_contract_keys() {
 
 #[test]
 fn quantify_reads_a_file_and_writes_the_surface() {
-    let sim = run(
+    let sim = run_ok(
         &[
             "simulate", "--param", "S=4", "--param", "J=1", "--seed", "2",
         ],
         b"",
     );
-    assert_eq!(sim.code, 0, "{}", sim.stderr);
     let dir = std::env::temp_dir().join(format!("stiction-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let surface = dir.join("surface.csv");
-    let o = run(
+    let o = run_ok(
         &[
             "quantify",
             "-",
@@ -61,7 +59,6 @@ fn quantify_reads_a_file_and_writes_the_surface() {
         ],
         sim.stdout.as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(o.stdout.contains("S = 4.00"), "{}", o.stdout);
     let text = std::fs::read_to_string(&surface).unwrap();
     let mut lines = text.lines();
@@ -75,7 +72,7 @@ fn quantify_reads_a_file_and_writes_the_surface() {
 
 #[test]
 fn quantify_he_reports_equivalent_s_and_j() {
-    let o = run(
+    let o = run_ok(
         &[
             "quantify",
             "--example",
@@ -88,7 +85,6 @@ fn quantify_he_reports_equivalent_s_and_j() {
         ],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let v: Value = serde_json::from_str(&o.stdout).unwrap();
     let (fs, fd) = (
         v["params"]["fs"].as_f64().unwrap(),
@@ -100,21 +96,13 @@ fn quantify_he_reports_equivalent_s_and_j() {
 
 #[test]
 fn delay_auto_finds_an_added_dead_time() {
-    let sim = run(
-        &[
-            "simulate", "--param", "S=5", "--param", "J=2", "--delay", "3", "--kc", "0.3", "--ki",
-            "0.2", "--seed", "4",
-        ],
-        b"",
-    );
-    assert_eq!(sim.code, 0, "{}", sim.stderr);
-    let o = run(
+    let sim = simulate_dead_time("3", "4");
+    let o = run_ok(
         &[
             "quantify", "-", "--delay", "auto", "--json", "--step", "0.5",
         ],
-        sim.stdout.as_bytes(),
+        sim.as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let v: Value = serde_json::from_str(&o.stdout).unwrap();
     assert_eq!(v["delay"], 3, "{}", v["delay_scan"]);
     assert!((v["S"].as_f64().unwrap() - 5.0).abs() <= 0.5, "{}", v["S"]);
@@ -122,7 +110,7 @@ fn delay_auto_finds_an_added_dead_time() {
 
 #[test]
 fn compare_prints_one_row_per_combination() {
-    let o = run(
+    let o = run_ok(
         &[
             "compare",
             "--example",
@@ -136,7 +124,6 @@ fn compare_prints_one_row_per_combination() {
         ],
         b"",
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let rows: Vec<&str> = o.stdout.lines().skip(2).collect();
     assert_eq!(rows.len(), 4, "{}", o.stdout);
     assert!(rows[0].starts_with("kano") && rows[0].contains("arx"));

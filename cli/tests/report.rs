@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::run;
+use common::{run, run_ok};
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -142,8 +142,7 @@ fn compare_example_report_with_png() {
 fn diagnose_example_report() {
     let dir = TempDir::new("diagnose");
     let out = dir.arg("report");
-    let o = run(&["diagnose", "--example", "paper", "--report", &out], b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    run_ok(&["diagnose", "--example", "paper", "--report", &out], b"");
     let (html, n) = check_report(Path::new(&out), EXAMPLE).unwrap_or_else(|e| panic!("{e}"));
     assert!(n >= 3, "{n} figures");
     detection_section(&html);
@@ -167,8 +166,7 @@ fn detection_section(html: &str) {
 fn quantify_example_report_has_the_detection_section() {
     let dir = TempDir::new("quantify");
     let out = dir.arg("report");
-    let o = run(&["quantify", "--example", "paper", "--report", &out], b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    run_ok(&["quantify", "--example", "paper", "--report", &out], b"");
     let (html, n) = check_report(Path::new(&out), EXAMPLE).unwrap_or_else(|e| panic!("{e}"));
     // Time trends, phase plots, fit surface; PV-OP plot and cross-correlation.
     assert_eq!(n, 5, "figures");

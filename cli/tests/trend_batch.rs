@@ -6,20 +6,12 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::run;
+use common::{jsonl, run, run_ok, temp_dir};
 use datasets::simulate::Scenario;
 use serde_json::Value;
 use stiction_models::Kano;
-
-/// A fresh temporary directory.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("stiction-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Registrations of valve V1 a month apart with S = 2, 3, 4, 5, 6 % (J = 1), plus a file whose
 /// PV is constant.
@@ -48,11 +40,10 @@ fn write_registrations(dir: &Path) -> Vec<f64> {
 fn trend_follows_growing_stiction_and_keeps_the_bad_file_in_its_row() {
     let dir = temp_dir("trend");
     let s_true = write_registrations(&dir);
-    let out = run(
+    let out = run_ok(
         &["trend", dir.to_str().unwrap(), "--json", "--threshold", "3"],
         b"",
     );
-    assert_eq!(out.code, 0, "{}", out.stderr);
     let doc: Value = serde_json::from_str(&out.stdout).unwrap();
     assert_eq!(doc["valve"], "V1");
     assert_eq!(doc["registrations"], 6);
@@ -147,14 +138,6 @@ fn trend_refuses_several_valves_without_valve() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-fn jsonl(path: &Path) -> Vec<Value> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
-}
-
 #[test]
 fn batch_writes_rows_reports_failures_and_resumes() {
     let dir = temp_dir("batch");
@@ -166,8 +149,7 @@ fn batch_writes_rows_reports_failures_and_resumes() {
         "-o",
         out_prefix.to_str().unwrap(),
     ];
-    let out = run(&args, b"");
-    assert_eq!(out.code, 0, "{}", out.stderr);
+    let out = run_ok(&args, b"");
     assert!(
         out.stdout
             .contains("6 file(s): 5 row(s) ok, 1 error row(s); 6 file(s) computed, 0 skipped"),
@@ -220,8 +202,7 @@ fn batch_writes_rows_reports_failures_and_resumes() {
     );
 
     // Again: everything is already done.
-    let out = run(&args, b"");
-    assert_eq!(out.code, 0, "{}", out.stderr);
+    let out = run_ok(&args, b"");
     assert!(
         out.stdout.contains("0 file(s) computed, 6 skipped"),
         "{}",
@@ -262,7 +243,7 @@ fn batch_labels_report_the_auc_of_s_and_of_the_detector_score() {
          V1_20240501-0800.csv,stiction\nV1_20240615-0800.csv,stiction\n",
     )
     .unwrap();
-    let out = run(
+    let out = run_ok(
         &[
             "batch",
             dir.to_str().unwrap(),
@@ -271,7 +252,6 @@ fn batch_labels_report_the_auc_of_s_and_of_the_detector_score() {
         ],
         b"",
     );
-    assert_eq!(out.code, 0, "{}", out.stderr);
     let lines: Vec<&str> = out.stdout.lines().collect();
     let s_line = lines
         .iter()
@@ -310,7 +290,7 @@ fn trend_makes_no_maintenance_call_on_a_valve_the_detector_finds_healthy() {
         let f = format!("2111LIC31102B_202408{day}-2155.csv");
         std::fs::copy(plant.join(&f), dir.join(&f)).unwrap();
     }
-    let out = run(
+    let out = run_ok(
         &[
             "trend",
             dir.to_str().unwrap(),
@@ -324,7 +304,6 @@ fn trend_makes_no_maintenance_call_on_a_valve_the_detector_finds_healthy() {
         ],
         b"",
     );
-    assert_eq!(out.code, 0, "{}", out.stderr);
     let doc: Value = serde_json::from_str(&out.stdout).unwrap();
     let level = doc["level"].as_f64().unwrap();
     assert!(
@@ -380,8 +359,7 @@ fn plant_data_trend_and_batch() {
         return;
     }
     let d = dir.to_str().unwrap();
-    let out = run(&["trend", d, "--valve", "2411FIC20102", "--json"], b"");
-    assert_eq!(out.code, 0, "{}", out.stderr);
+    let out = run_ok(&["trend", d, "--valve", "2411FIC20102", "--json"], b"");
     let doc: Value = serde_json::from_str(&out.stdout).unwrap();
     assert_eq!(doc["registrations"], 23);
     assert_eq!(doc["verdict"], "schedule maintenance", "{}", doc["reason"]);
@@ -396,7 +374,7 @@ fn plant_data_trend_and_batch() {
     }
 
     // a level (its tag's L), given as such: the trend's verdict is under test, not the kind
-    let out = run(
+    let out = run_ok(
         &[
             "trend",
             d,
@@ -408,18 +386,16 @@ fn plant_data_trend_and_batch() {
         ],
         b"",
     );
-    assert_eq!(out.code, 0, "{}", out.stderr);
     let doc: Value = serde_json::from_str(&out.stdout).unwrap();
     assert_eq!(doc["registrations"], 9);
     assert!(doc["level"].as_f64().unwrap() < 1.0, "{}", doc["level"]);
     assert_ne!(doc["verdict"], "schedule maintenance");
 
     let labels = format!("{d}/labels.csv");
-    let out = run(
+    let out = run_ok(
         &["batch", d, "--valve", "FIC10112", "--labels", &labels],
         b"",
     );
-    assert_eq!(out.code, 0, "{}", out.stderr);
     // without -o the table carries each registration's label
     assert!(
         out.stdout.lines().next().unwrap().contains(" label "),
@@ -466,8 +442,7 @@ fn trend_explains_a_disturbed_registration_with_the_diagnosis() {
         let f = std::fs::File::create(dir.join(format!("V2_2024{:02}01-0800.csv", k + 1))).unwrap();
         sim.write_csv(f).unwrap();
     }
-    let o = run(&["trend", dir.to_str().unwrap(), "--json"], b"");
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let o = run_ok(&["trend", dir.to_str().unwrap(), "--json"], b"");
     let v: Value = serde_json::from_str(&o.stdout).unwrap();
     let rows = v["combinations"][0]["registrations"].as_array().unwrap();
     assert_eq!(rows.len(), 6);

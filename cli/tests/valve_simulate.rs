@@ -1,7 +1,7 @@
 //! `stiction valve` and `stiction simulate` end to end, in memory.
 
 mod common;
-use common::{column, run};
+use common::{column, run, run_ok};
 
 #[test]
 fn valve_reproduces_the_golden_vector() {
@@ -14,13 +14,12 @@ fn valve_reproduces_the_golden_vector() {
         .chain(op.iter().map(|v| v.to_string()))
         .collect::<Vec<_>>()
         .join("\n");
-    let o = run(
+    let o = run_ok(
         &[
             "valve", "-", "--model", "kano", "--param", "S=4", "--param", "J=1", "--start", "up",
         ],
         csv.as_bytes(),
     );
-    assert_eq!(o.code, 0, "{}", o.stderr);
     let mv = column(&o.stdout, "MV");
     let golden = [
         48.5, 48.5, 48.5, 50.5, 52.5, 54.5, 54.5, 54.5, 56.0, 56.5, 56.5, 56.5, 54.5, 53.5, 53.0,
@@ -29,14 +28,13 @@ fn valve_reproduces_the_golden_vector() {
     assert_eq!(mv, golden);
     assert_eq!(column(&o.stdout, "OP"), op);
 
-    let he = run(
+    let he = run_ok(
         &[
             "valve", "-", "--model", "he", "--param", "fs=2.5", "--param", "fd=1.5", "--start",
             "up",
         ],
         csv.as_bytes(),
     );
-    assert_eq!(he.code, 0, "{}", he.stderr);
     let golden_he = [
         48.5, 48.5, 48.5, 50.5, 52.5, 54.5, 54.5, 54.5, 56.0, 56.0, 56.0, 56.0, 54.5, 54.5, 53.0,
         53.0, 53.0, 53.0, 53.0, 54.5,
@@ -63,14 +61,12 @@ fn simulated_op_fed_to_valve_reproduces_mv() {
         for p in &params {
             args.extend(["--param", p]);
         }
-        let sim = run(&args, b"");
-        assert_eq!(sim.code, 0, "{}", sim.stderr);
+        let sim = run_ok(&args, b"");
         let mut vargs = vec!["valve", "-", "--model", model];
         for p in &params {
             vargs.extend(["--param", p]);
         }
-        let valve = run(&vargs, sim.stdout.as_bytes());
-        assert_eq!(valve.code, 0, "{}", valve.stderr);
+        let valve = run_ok(&vargs, sim.stdout.as_bytes());
         assert_eq!(
             column(&valve.stdout, "MV"),
             column(&sim.stdout, "MV"),
@@ -93,8 +89,7 @@ fn simulate_is_reproducible_and_seed_dependent() {
 
 #[test]
 fn simulate_without_stiction_tracks_the_set_point_and_with_stiction_limit_cycles() {
-    let lin = run(&["simulate", "--plant", "paper", "--samples", "3000"], b"");
-    assert_eq!(lin.code, 0, "{}", lin.stderr);
+    let lin = run_ok(&["simulate", "--plant", "paper", "--samples", "3000"], b"");
     let sp = column(&lin.stdout, "SP");
     let pv = column(&lin.stdout, "PV");
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
@@ -112,7 +107,7 @@ fn simulate_without_stiction_tracks_the_set_point_and_with_stiction_limit_cycles
     );
     assert!(mean(&err).abs() < 0.1, "mean error {}", mean(&err));
 
-    let sticky = run(
+    let sticky = run_ok(
         &[
             "simulate",
             "--plant",
@@ -126,7 +121,6 @@ fn simulate_without_stiction_tracks_the_set_point_and_with_stiction_limit_cycles
         ],
         b"",
     );
-    assert_eq!(sticky.code, 0, "{}", sticky.stderr);
     let mv = column(&sticky.stdout, "MV");
     let op = column(&sticky.stdout, "OP");
     // Stick-slip: MV is held most of the time and moves in jumps of about J or more.
@@ -164,8 +158,8 @@ fn simulate_without_stiction_tracks_the_set_point_and_with_stiction_limit_cycles
 
 #[test]
 fn print_config_round_trips() {
-    let cfg = run(
-        &[
+    let asym = |tail: &[&str]| {
+        let mut args = vec![
             "simulate",
             "--valve",
             "kano-asym",
@@ -173,34 +167,20 @@ fn print_config_round_trips() {
             "D=2",
             "--param",
             "J_dn=1",
-            "--print-config",
-        ],
-        b"",
-    );
-    assert_eq!(cfg.code, 0, "{}", cfg.stderr);
+        ];
+        args.extend_from_slice(tail);
+        run_ok(&args, b"")
+    };
+    let cfg = asym(&["--print-config"]);
     assert!(
         cfg.stdout.contains("\"kind\": \"kano-asym\""),
         "{}",
         cfg.stdout
     );
-    let direct = run(
-        &[
-            "simulate",
-            "--valve",
-            "kano-asym",
-            "--param",
-            "D=2",
-            "--param",
-            "J_dn=1",
-            "--samples",
-            "200",
-        ],
-        b"",
-    );
-    let via = run(
+    let direct = asym(&["--samples", "200"]);
+    let via = run_ok(
         &["simulate", "--config", "-", "--samples", "200"],
         cfg.stdout.as_bytes(),
     );
-    assert_eq!(via.code, 0, "{}", via.stderr);
     assert_eq!(direct.stdout, via.stdout);
 }

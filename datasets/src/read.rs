@@ -325,26 +325,12 @@ pub fn read_csv(
         lines.push(row);
         for col in &mut columns {
             let text = &record[col.index];
-            let value = if col.role == Role::Time {
-                parse_time(text, &mut time_kind)
-            } else if col.role == Role::Mode {
-                parse_mode(text)
-            } else {
-                parse_number(text, delimiter == b';', &mut decimal_commas)
+            let value = match col.role {
+                Role::Time => parse_time(text, &mut time_kind),
+                Role::Mode => parse_mode(text),
+                _ => parse_number(text, delimiter == b';', &mut decimal_commas),
             };
-            match value {
-                Cell::Gap => col.values.push(None),
-                Cell::Value(v) => col.values.push(Some(v)),
-                bad if col.role == Role::Pv && !col.required => {
-                    unread_pv.get_or_insert_with(|| {
-                        refuse(bad, file.clone(), row, col.name.clone(), excerpt(text))
-                    });
-                    col.values.push(None);
-                }
-                bad => {
-                    return Err(refuse(bad, file, row, col.name.clone(), excerpt(text)));
-                }
-            }
+            col.push_cell(value, text, (&file, row), &mut unread_pv)?;
         }
     }
     leave_out_unread_pv(&file, unread_pv, &mut columns, &mut notes);
@@ -405,6 +391,40 @@ fn leave_out_unread_pv(
 }
 
 /// The error for a cell the parsers refused (`cell` is not a gap or a value).
+impl Column {
+    /// Push the cell read from `text` (at `row` of `file`): a gap or a value; an unreadable
+    /// PV that is not required becomes a gap (its first refusal kept in `unread_pv`); any
+    /// other unreadable cell is the error.
+    fn push_cell(
+        &mut self,
+        value: Cell,
+        text: &str,
+        (file, row): (&str, u64),
+        unread_pv: &mut Option<DataError>,
+    ) -> Result<(), DataError> {
+        match value {
+            Cell::Gap => self.values.push(None),
+            Cell::Value(v) => self.values.push(Some(v)),
+            bad if self.role == Role::Pv && !self.required => {
+                unread_pv.get_or_insert_with(|| {
+                    refuse(bad, file.to_string(), row, self.name.clone(), excerpt(text))
+                });
+                self.values.push(None);
+            }
+            bad => {
+                return Err(refuse(
+                    bad,
+                    file.to_string(),
+                    row,
+                    self.name.clone(),
+                    excerpt(text),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
 fn refuse(cell: Cell, file: String, row: u64, column: String, text: String) -> DataError {
     match cell {
         Cell::BadMode => DataError::BadMode {
@@ -582,17 +602,7 @@ pub fn read_columns(
                 Role::Mode => parse_mode(text),
                 _ => parse_number(text, false, &mut decimal_commas),
             };
-            match value {
-                Cell::Gap => col.values.push(None),
-                Cell::Value(v) => col.values.push(Some(v)),
-                bad if col.role == Role::Pv && !col.required => {
-                    unread_pv.get_or_insert_with(|| {
-                        refuse(bad, file.clone(), row, col.name.clone(), excerpt(text))
-                    });
-                    col.values.push(None);
-                }
-                bad => return Err(refuse(bad, file, row, col.name.clone(), excerpt(text))),
-            }
+            col.push_cell(value, text, (&file, row), &mut unread_pv)?;
         }
     }
     leave_out_unread_pv(&file, unread_pv, &mut located, &mut notes);

@@ -192,40 +192,10 @@ pub(crate) fn zero_crossings(x: &[f64], band: f64) -> Vec<f64> {
 /// A complex number as `(re, im)`.
 pub(crate) type Complex = (f64, f64);
 
-/// In-place radix-2 FFT (`x.len()` a power of two).
+/// In-place radix-2 FFT (`x.len()` a power of two), twiddles exact
+/// ([`linear_id::fft`]).
 pub(crate) fn fft(x: &mut [Complex]) {
-    let n = x.len();
-    if n < 2 {
-        return;
-    }
-    debug_assert!(n.is_power_of_two());
-    let mut j = 0;
-    for i in 1..n {
-        let mut bit = n >> 1;
-        while j & bit != 0 {
-            j ^= bit;
-            bit >>= 1;
-        }
-        j |= bit;
-        if i < j {
-            x.swap(i, j);
-        }
-    }
-    let mut len = 2;
-    while len <= n {
-        let ang = -2.0 * std::f64::consts::PI / len as f64;
-        for start in (0..n).step_by(len) {
-            for k in 0..len / 2 {
-                let (s, c) = (ang * k as f64).sin_cos();
-                let (ar, ai) = x[start + k];
-                let (br, bi) = x[start + k + len / 2];
-                let (tr, ti) = (br * c - bi * s, br * s + bi * c);
-                x[start + k] = (ar + tr, ai + ti);
-                x[start + k + len / 2] = (ar - tr, ai - ti);
-            }
-        }
-        len <<= 1;
-    }
+    linear_id::fft(x, linear_id::Twiddles::Exact);
 }
 
 /// Least-squares fit of `x(k) ≈ a cos(ωk) + b sin(ωk) + c`; returns `(a, b, c)` and the

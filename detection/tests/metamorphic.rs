@@ -11,11 +11,14 @@
 //! caller's to decide (`monitoring::Integrating::decide`).
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::detect_read;
+
 use std::path::Path;
 
 use datasets::simulate::population::{Family, PopulationSpec};
 use datasets::ReadOptions;
-use detection::{detect, Registration, Verdict};
+use detection::Verdict;
 
 /// One record as exported: time (s), SP, PV, OP (% of travel).
 struct Record {
@@ -91,30 +94,15 @@ fn verdict(r: &Record) -> Result<(Verdict, String, bool), String> {
         ..ReadOptions::default()
     };
     let d = datasets::read_csv(csv.as_bytes(), &r.name, &opts).map_err(|e| e.to_string())?;
-    let t = d.t.clone().unwrap();
-    let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let ts = dts[dts.len() / 2];
-    let level_tag = r
-        .name
-        .chars()
-        .find(|c| c.is_ascii_alphabetic())
-        .is_some_and(|c| c == 'L');
-    let pv = d.require_pv().unwrap().to_vec();
-    let by_data = detection::kind::evidence(&pv, &d.op).and_then(|e| e.integrating);
-    let integrating = by_data.unwrap_or(level_tag);
-    let reg = Registration::new(&pv, &d.op, ts)
-        .unwrap()
-        .integrating(integrating);
-    let reg = match &d.sp {
-        Some(sp) => reg.with_sp(sp).unwrap(),
-        None => reg,
-    };
-    let det = detect(&reg);
+    let det = detect_read(&d, &r.name);
+    // whether the record decided the loop kind (else the tag letter did)
+    let by_data = detection::kind::evidence(d.require_pv().unwrap(), &d.op)
+        .and_then(|e| e.integrating)
+        .is_some();
     Ok((
         det.verdict,
         format!("score {:.2}: {}", det.score, det.reason),
-        by_data.is_some(),
+        by_data,
     ))
 }
 

@@ -9,11 +9,11 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::auc;
+use common::{auc, detect_read};
 
 use std::path::Path;
 
-use detection::{detect, Registration, Verdict};
+use detection::Verdict;
 
 #[test]
 fn every_plant_registration_is_scored_and_its_figures_printed() {
@@ -32,26 +32,7 @@ fn every_plant_registration_is_scored_and_its_figures_printed() {
         let Ok(d) = datasets::read_path(dir.join(file), &datasets::ReadOptions::default()) else {
             continue;
         };
-        let t = d.t.clone().unwrap();
-        let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-        dts.sort_by(f64::total_cmp);
-        let ts = dts[dts.len() / 2];
-        let level_tag = file
-            .chars()
-            .find(|c| c.is_ascii_alphabetic())
-            .is_some_and(|c| c == 'L');
-        let pv = d.require_pv().unwrap().to_vec();
-        let integrating = detection::kind::evidence(&pv, &d.op)
-            .and_then(|e| e.integrating)
-            .unwrap_or(level_tag);
-        let reg = Registration::new(&pv, &d.op, ts)
-            .unwrap()
-            .integrating(integrating);
-        let reg = match &d.sp {
-            Some(sp) => reg.with_sp(sp).unwrap(),
-            None => reg,
-        };
-        let det = detect(&reg);
+        let det = detect_read(&d, file);
         assert!(
             (0.0..=1.0).contains(&det.score),
             "{file}: score {}",

@@ -61,11 +61,7 @@ fn kano_arx_exhaustive_step_0_1(bencher: divan::Bencher, path: &str) {
         quantify_with(
             kano,
             arx.as_ref(),
-            Problem {
-                op: &op,
-                pv: &pv,
-                mv: None,
-            },
+            Problem::new(&op, &pv),
             &opts,
             None,
             path,
@@ -99,30 +95,13 @@ fn combination(bencher: divan::Bencher, combo: &(&str, &str)) {
         return;
     };
     let id = (entry.build)(&[]).expect("default orders");
-    bencher.bench(|| {
-        quantify(
-            model,
-            id.as_ref(),
-            Problem {
-                op: &op,
-                pv: &pv,
-                mv: None,
-            },
-            &opts,
-            None,
-        )
-    });
+    bencher.bench(|| quantify(model, id.as_ref(), Problem::new(&op, &pv), &opts, None));
 }
 
 /// The ten `compare` cells on one loop, through `path`.
 fn compare_cells(op: &[f64], pv: &[f64], path: NodePath) -> usize {
-    let (lo, hi) = op
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-            (l.min(v), h.max(v))
-        });
     let opts = SearchOptions {
-        grid: GridPlan::for_span(hi - lo),
+        grid: GridPlan::for_op(op),
         ..SearchOptions::default()
     };
     let mut found = 0;

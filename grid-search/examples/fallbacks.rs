@@ -93,12 +93,7 @@ fn main() {
             continue;
         };
         let Some(pv) = d.pv else { continue };
-        let (lo, hi) =
-            d.op.iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                    (l.min(v), h.max(v))
-                });
         let name = f.file_name().unwrap().to_string_lossy().to_string();
-        run(&name, &d.op, &pv, GridPlan::for_span(hi - lo));
+        run(&name, &d.op, &pv, GridPlan::for_op(&d.op));
     }
 }

@@ -45,11 +45,7 @@ fn main() {
         let q = quantify_with(
             kano,
             arx.as_ref(),
-            Problem {
-                op: &sim.op,
-                pv: &sim.pv,
-                mv: None,
-            },
+            Problem::new(&sim.op, &sim.pv),
             &opts,
             None,
             if std::env::var_os("SAMPLE").is_some() {

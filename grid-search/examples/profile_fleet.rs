@@ -30,14 +30,8 @@ fn main() {
     }
     for seed in 1..=loops {
         let sim = Scenario::fleet(seed).simulate().expect("simulates");
-        let (lo, hi) = sim
-            .op
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
         let opts = SearchOptions {
-            grid: GridPlan::for_span(hi - lo),
+            grid: GridPlan::for_op(&sim.op),
             ..SearchOptions::default()
         };
         for ((model, linear), time, nodes) in &mut spent {
@@ -47,11 +41,7 @@ fn main() {
             let q = quantify_with(
                 m,
                 id.as_ref(),
-                Problem {
-                    op: &sim.op,
-                    pv: &sim.pv,
-                    mv: None,
-                },
+                Problem::new(&sim.op, &sim.pv),
                 &opts,
                 None,
                 NodePath::Fast,

@@ -188,6 +188,14 @@ impl Default for SearchOptions {
     }
 }
 
+impl GridPlan {
+    /// [`GridPlan::for_span`] of OP's span (max - min).
+    pub fn for_op(op: &[f64]) -> GridPlan {
+        let (lo, hi) = summary::min_max(op);
+        GridPlan::for_span(hi - lo)
+    }
+}
+
 /// The data of one loop registration.
 #[derive(Debug, Clone, Copy)]
 pub struct Problem<'a> {
@@ -197,6 +205,13 @@ pub struct Problem<'a> {
     pub pv: &'a [f64],
     /// Measured valve position, when available (enables F_MV).
     pub mv: Option<&'a [f64]>,
+}
+
+impl<'a> Problem<'a> {
+    /// OP and PV, without a measured valve position.
+    pub fn new(op: &'a [f64], pv: &'a [f64]) -> Self {
+        Problem { op, pv, mv: None }
+    }
 }
 
 /// Fit indices of an evaluated node (all in %, the paper's squared-norm F of eq. 9).
@@ -569,8 +584,9 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 outcome,
             }
         };
-        // ARX keeps the node-by-node path: its fits come from sums, without a prediction
-        if self.path == NodePath::Fast && self.identifier.as_arx().is_none() {
+        // an identifier with fast paths (ARX) keeps the node-by-node path: its fits come from
+        // sums, without a prediction
+        if self.path == NodePath::Fast && self.identifier.fast_paths().is_none() {
             let per_batch: Vec<Vec<NodeFit>> = nodes
                 .par_chunks(BATCH)
                 .map_init(BatchScratch::default, |scratch, batch| {
@@ -706,7 +722,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
             NodePath::Sample => None,
         },
         arx_sums: match path {
-            NodePath::Fast => identifier.as_arx().and_then(|a| a.output_sums(pv)),
+            NodePath::Fast => identifier.fast_paths().and_then(|f| f.output_sums(pv)),
             NodePath::Sample => None,
         },
         val_ss: {

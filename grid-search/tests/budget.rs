@@ -109,11 +109,7 @@ fn the_budget_is_configurable() {
     let r = quantify(
         kano,
         &arx,
-        Problem {
-            op: &op,
-            pv: &pv,
-            mv: None,
-        },
+        Problem::new(&op, &pv),
         &SearchOptions {
             grid: GridPlan::Exhaustive { step: 0.1 },
             max_nodes: 100,

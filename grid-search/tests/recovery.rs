@@ -66,11 +66,7 @@ fn recovery(plant: PlantPreset, order: usize, noise: f64, loops: usize, rng_seed
         let q = quantify(
             kano,
             &arx,
-            Problem {
-                op: &d.op,
-                pv: &d.pv,
-                mv: None,
-            },
+            Problem::new(&d.op, &d.pv),
             &SearchOptions {
                 grid: GridPlan::for_span(span),
                 criterion: Criterion::Prediction,

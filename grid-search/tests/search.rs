@@ -3,7 +3,9 @@
 #![allow(clippy::unwrap_used)]
 
 use datasets::simulate::{PlantPreset, PlantSpec, Scenario};
-use grid_search::{quantify, Criterion, GridPlan, Problem, SearchError, SearchOptions};
+use grid_search::{
+    quantify, Criterion, GridPlan, Problem, Quantification, SearchError, SearchOptions,
+};
 use linear_id::Arx;
 use stiction_models::{find_model, Kano};
 
@@ -26,6 +28,16 @@ fn sim(
     .unwrap()
 }
 
+/// Kano with `arx` on `(op, pv, mv)`, over the exhaustive grid of `step`.
+fn kano_grid(
+    arx: &Arx,
+    (op, pv, mv): (&[f64], &[f64], Option<&[f64]>),
+    step: f64,
+) -> Result<Quantification, SearchError> {
+    let kano = find_model("kano").unwrap();
+    quantify(kano, arx, Problem { op, pv, mv }, &opts(step), None)
+}
+
 fn opts(step: f64) -> SearchOptions {
     SearchOptions {
         grid: GridPlan::Exhaustive { step },
@@ -37,20 +49,8 @@ fn opts(step: f64) -> SearchOptions {
 #[test]
 fn g1_no_stiction_no_noise_finds_zero() {
     let d = sim(PlantPreset::Slow, 0.0, 0.0, 0.0, 1);
-    let kano = find_model("kano").unwrap();
     let arx = Arx::params().n(3).m(3).check().unwrap();
-    let q = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &d.op,
-            pv: &d.pv,
-            mv: Some(&d.mv),
-        },
-        &opts(0.5),
-        None,
-    )
-    .unwrap();
+    let q = kano_grid(&arx, (&d.op, &d.pv, Some(&d.mv)), 0.5).unwrap();
     assert_eq!((q.s, q.j), (0.0, 0.0));
     assert!(q.fits.pred_val > 99.999, "{}", q.fits.pred_val);
     // Every other node is worse (the specification's runner-up figure, 99.3-99.6 %, was for
@@ -67,22 +67,10 @@ fn g1_no_stiction_no_noise_finds_zero() {
 /// G2: slow plant, truth (3, 1), noise 0.02-0.1: within one grid step (0.5).
 #[test]
 fn g2_recovers_s_and_j_within_one_step() {
-    let kano = find_model("kano").unwrap();
     let arx = Arx::params().n(3).m(3).check().unwrap();
     for (seed, noise) in [(1, 0.02), (2, 0.1)] {
         let d = sim(PlantPreset::Slow, 3.0, 1.0, noise, seed);
-        let q = quantify(
-            kano,
-            &arx,
-            Problem {
-                op: &d.op,
-                pv: &d.pv,
-                mv: None,
-            },
-            &opts(0.5),
-            None,
-        )
-        .unwrap();
+        let q = kano_grid(&arx, (&d.op, &d.pv, None), 0.5).unwrap();
         assert!(
             (q.s - 3.0).abs() <= 0.5 + 1e-9 && (q.j - 1.0).abs() <= 0.5 + 1e-9,
             "seed {seed}: ({}, {})",
@@ -97,20 +85,8 @@ fn g2_recovers_s_and_j_within_one_step() {
 #[test]
 fn paper_loop_s9_j3() {
     let d = sim(PlantPreset::Paper, 9.0, 3.0, 0.1, 1);
-    let kano = find_model("kano").unwrap();
     let arx = Arx::params().check().unwrap();
-    let q = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &d.op,
-            pv: &d.pv,
-            mv: Some(&d.mv),
-        },
-        &opts(0.25),
-        None,
-    )
-    .unwrap();
+    let q = kano_grid(&arx, (&d.op, &d.pv, Some(&d.mv)), 0.25).unwrap();
     assert!((q.s - 9.0).abs() <= 0.25, "S = {}", q.s);
     assert!((q.j - 3.0).abs() <= 0.5, "J = {}", q.j);
     assert!(q.fits.mv.unwrap() > 99.0);
@@ -122,27 +98,13 @@ fn paper_loop_s9_j3() {
 #[test]
 fn identical_for_any_thread_count() {
     let d = sim(PlantPreset::Paper, 5.0, 2.0, 0.1, 4);
-    let kano = find_model("kano").unwrap();
     let arx = Arx::params().check().unwrap();
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
-        pool.install(|| {
-            quantify(
-                kano,
-                &arx,
-                Problem {
-                    op: &d.op,
-                    pv: &d.pv,
-                    mv: None,
-                },
-                &opts(0.5),
-                None,
-            )
-            .unwrap()
-        })
+        pool.install(|| kano_grid(&arx, (&d.op, &d.pv, None), 0.5).unwrap())
     };
     let (a, b) = (run(1), run(3));
     // bit for bit (the surface's free-run fits are NaN under the prediction criterion, and
@@ -158,11 +120,7 @@ fn coarse_to_fine_matches_exhaustive() {
     let arx = Arx::params().check().unwrap();
     for (s, j, seed) in [(9.0, 3.0, 1), (5.0, 2.0, 2), (2.0, 1.0, 3)] {
         let d = sim(PlantPreset::Paper, s, j, 0.1, seed);
-        let p = Problem {
-            op: &d.op,
-            pv: &d.pv,
-            mv: None,
-        };
+        let p = Problem::new(&d.op, &d.pv);
         let ex = quantify(kano, &arx, p, &opts(0.1), None).unwrap();
         let span = ex.span;
         let ctf = quantify(
@@ -199,23 +157,11 @@ fn coarse_to_fine_matches_exhaustive() {
 
 #[test]
 fn degenerate_inputs_are_errors_not_estimates() {
-    let kano = find_model("kano").unwrap();
     let arx = Arx::params().check().unwrap();
     let n = 600;
     let op_const = vec![50.0; n];
     let pv: Vec<f64> = (0..n).map(|k| (k as f64 * 0.1).sin()).collect();
-    let e = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &op_const,
-            pv: &pv,
-            mv: None,
-        },
-        &opts(0.5),
-        None,
-    )
-    .unwrap_err();
+    let e = kano_grid(&arx, (&op_const, &pv, None), 0.5).unwrap_err();
     assert!(
         matches!(e, SearchError::Constant { signal: "OP", .. }),
         "{e}"
@@ -224,66 +170,22 @@ fn degenerate_inputs_are_errors_not_estimates() {
         .map(|k| 50.0 + 10.0 * (k as f64 * 0.05).sin())
         .collect();
     let pv_const = vec![1.0; n];
-    let e = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &op,
-            pv: &pv_const,
-            mv: None,
-        },
-        &opts(0.5),
-        None,
-    )
-    .unwrap_err();
+    let e = kano_grid(&arx, (&op, &pv_const, None), 0.5).unwrap_err();
     assert!(
         matches!(e, SearchError::Constant { signal: "PV", .. }),
         "{e}"
     );
-    let e = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &op[..20],
-            pv: &pv[..20],
-            mv: None,
-        },
-        &opts(0.5),
-        None,
-    )
-    .unwrap_err();
+    let e = kano_grid(&arx, (&op[..20], &pv[..20], None), 0.5).unwrap_err();
     assert!(matches!(e, SearchError::TooFewSamples { .. }), "{e}");
     let ramp: Vec<f64> = (0..n)
         .map(|k| 20.0 + 0.05 * k as f64 + 0.01 * (k as f64).sin())
         .collect();
-    let e = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &ramp,
-            pv: &pv,
-            mv: None,
-        },
-        &opts(0.5),
-        None,
-    )
-    .unwrap_err();
+    let e = kano_grid(&arx, (&ramp, &pv, None), 0.5).unwrap_err();
     assert!(matches!(e, SearchError::NotIdentifiable { .. }), "{e}");
     assert!(e.to_string().contains("OP never reverses"), "{e}");
     let mut bad = pv.clone();
     bad[7] = f64::NAN;
-    let e = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &op,
-            pv: &bad,
-            mv: None,
-        },
-        &opts(0.5),
-        None,
-    )
-    .unwrap_err();
+    let e = kano_grid(&arx, (&op, &bad, None), 0.5).unwrap_err();
     assert_eq!(e.to_string(), "PV sample 7 is not finite (NaN)");
 }
 
@@ -291,20 +193,8 @@ fn degenerate_inputs_are_errors_not_estimates() {
 #[test]
 fn no_stiction_is_reported_as_such() {
     let d = sim(PlantPreset::Paper, 0.0, 0.0, 0.1, 5);
-    let kano = find_model("kano").unwrap();
     let arx = Arx::params().check().unwrap();
-    let q = quantify(
-        kano,
-        &arx,
-        Problem {
-            op: &d.op,
-            pv: &d.pv,
-            mv: None,
-        },
-        &opts(0.25),
-        None,
-    )
-    .unwrap();
+    let q = kano_grid(&arx, (&d.op, &d.pv, None), 0.25).unwrap();
     assert!(q.s <= 0.5, "S = {}", q.s);
     assert!(q.interval.s[0] == 0.0, "region {:?}", q.interval);
     assert!(

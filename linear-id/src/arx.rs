@@ -11,28 +11,6 @@ pub(crate) const MAX_ORDER: usize = 50;
 /// Largest accepted dead time.
 pub(crate) const MAX_DELAY: usize = 10_000;
 
-/// ARX, eq. (2): `A(q) y_k = B(q) u_{k-delay} + e_k`, by least squares (QR, no normal
-/// equations) on mean-centered data.
-///
-/// | name | default | meaning | valid range |
-/// |------|---------|---------|-------------|
-/// | `n` | 2 | order of A(q) (`a1 … an`) | 0 ..= 50 |
-/// | `m` | 2 | order of B(q) (`b1 q^-1 … bm q^-m`) | 1 ..= 50 |
-/// | `delay` | 0 | dead time `t_d`: first input lag is `1 + delay` | 0 ..= 10000 |
-///
-/// | `centering` | `"operating_point"` | offset handling, see [`Centering`] | |
-///
-/// A regression whose column-equilibrated QR has a relative pivot below 1e-10 is
-/// [`IdError::Singular`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(try_from = "ArxParams", into = "ArxParams")]
-pub struct Arx {
-    n: usize,
-    m: usize,
-    delay: usize,
-    centering: Centering,
-}
-
 /// How ARX handles the signals' offsets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -48,74 +26,44 @@ pub enum Centering {
     Mean,
 }
 
-/// Unchecked parameters of [`Arx`]; [`ArxParams::check`] builds the identifier.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ArxParams {
-    /// Order of A(q).
-    pub n: usize,
-    /// Order of B(q).
-    pub m: usize,
-    /// Dead time in samples.
-    pub delay: usize,
-    /// Offset handling.
-    pub centering: Centering,
-}
-
-impl Default for ArxParams {
-    fn default() -> Self {
-        ArxParams {
-            n: 2,
-            m: 2,
-            delay: 0,
-            centering: Centering::OperatingPoint,
-        }
+crate::declare::identifier_params! {
+    /// ARX, eq. (2): `A(q) y_k = B(q) u_{k-delay} + e_k`, by least squares (QR, no normal
+    /// equations) on mean-centered data.
+    ///
+    /// | name | default | meaning | valid range |
+    /// |------|---------|---------|-------------|
+    /// | `n` | 2 | order of A(q) (`a1 … an`) | 0 ..= 50 |
+    /// | `m` | 2 | order of B(q) (`b1 q^-1 … bm q^-m`) | 1 ..= 50 |
+    /// | `delay` | 0 | dead time `t_d`: first input lag is `1 + delay` | 0 ..= 10000 |
+    ///
+    /// | `centering` | `"operating_point"` | offset handling, see [`Centering`] | |
+    ///
+    /// A regression whose column-equilibrated QR has a relative pivot below 1e-10 is
+    /// [`IdError::Singular`].
+    #[derive(Eq)]
+    pub struct Arx;
+    /// Unchecked parameters of [`Arx`]; [`ArxParams::check`] builds the identifier.
+    #[derive(Eq)]
+    pub struct ArxParams {
+        /// Order of A(q).
+        n: usize = 2,
+        /// Order of B(q).
+        m: usize = 2,
+        /// Dead time in samples.
+        delay: usize = 0,
+        /// Offset handling.
+        centering: Centering = Centering::OperatingPoint,
+    }
+    check |p| {
+        check_order("arx", "n", p.n, 0, MAX_ORDER)?;
+        check_order("arx", "m", p.m, 1, MAX_ORDER)?;
+        check_order("arx", "delay", p.delay, 0, MAX_DELAY)?;
     }
 }
 
-impl ArxParams {
-    /// Set `n`.
-    pub fn n(mut self, n: usize) -> Self {
-        self.n = n;
-        self
-    }
-    /// Set `m`.
-    pub fn m(mut self, m: usize) -> Self {
-        self.m = m;
-        self
-    }
-    /// Set `delay`.
-    pub fn delay(mut self, delay: usize) -> Self {
-        self.delay = delay;
-        self
-    }
-    /// Set the offset handling.
-    pub fn centering(mut self, centering: Centering) -> Self {
-        self.centering = centering;
-        self
-    }
-    /// Validate and build.
-    pub fn check(self) -> Result<Arx, IdError> {
-        check_order("arx", "n", self.n, 0, MAX_ORDER)?;
-        check_order("arx", "m", self.m, 1, MAX_ORDER)?;
-        check_order("arx", "delay", self.delay, 0, MAX_DELAY)?;
-        Ok(Arx {
-            n: self.n,
-            m: self.m,
-            delay: self.delay,
-            centering: self.centering,
-        })
-    }
-}
-
-impl From<Arx> for ArxParams {
-    fn from(a: Arx) -> Self {
-        ArxParams {
-            n: a.n,
-            m: a.m,
-            delay: a.delay,
-            centering: a.centering,
-        }
+impl crate::FastPaths for Arx {
+    fn output_sums(&self, y: &[f64]) -> Option<crate::ArxOutputSums> {
+        Arx::output_sums(self, y)
     }
 }
 
@@ -287,7 +235,7 @@ crate::linear_identifier! {
                 None => self.identify(u, y),
             }
         }
-        fn as_arx(&self) -> Option<&Arx> {
+        fn fast_paths(&self) -> Option<&dyn crate::FastPaths> {
             Some(self)
         }
     }

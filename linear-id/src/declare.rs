@@ -105,3 +105,114 @@ macro_rules! __take {
         $v.bool()?
     };
 }
+
+/// A builder setter per field: `fn field(mut self, value: T) -> Self` (in an `impl` block of
+/// a parameter builder).
+macro_rules! setters {
+    ($($field:ident: $ty:ty),+ $(,)?) => {
+        $(
+            #[doc = concat!("Set `", stringify!($field), "`.")]
+            pub fn $field(mut self, value: $ty) -> Self {
+                self.$field = value;
+                self
+            }
+        )+
+    };
+}
+pub(crate) use setters;
+
+/// A built-in identifier that holds exactly the fields of its parameter builder, from one
+/// list of fields: the `Copy` identifier, its builder (public fields, defaults, a setter per
+/// field, `check()`: the given checks on `p`, then the identifier), `From<Identifier>` for
+/// the builder, and serde through the builder (a read identifier is checked).
+macro_rules! identifier_params {
+    (
+        $(#[$meta:meta])*
+        pub struct $model:ident;
+        $(#[$pmeta:meta])*
+        pub struct $params:ident {
+            $($(#[$fmeta:meta])* $field:ident: $ty:ty = $default:expr,)+
+        }
+        check |$p:ident| $check:block
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        pub struct $model {
+            $($field: $ty,)+
+        }
+
+        $(#[$pmeta])*
+        #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct $params {
+            $($(#[$fmeta])* pub $field: $ty,)+
+        }
+
+        impl Default for $params {
+            fn default() -> Self {
+                $params {
+                    $($field: $default,)+
+                }
+            }
+        }
+
+        impl $params {
+            $crate::declare::setters!($($field: $ty),+);
+            /// Validate and build.
+            pub fn check(self) -> Result<$model, $crate::IdError> {
+                let $p = &self;
+                $check
+                Ok($model {
+                    $($field: self.$field,)+
+                })
+            }
+        }
+
+        impl From<$model> for $params {
+            fn from(m: $model) -> Self {
+                $params {
+                    $($field: m.$field,)+
+                }
+            }
+        }
+
+        impl serde::Serialize for $model {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                serde::Serialize::serialize(&$params::from(*self), s)
+            }
+        }
+
+        impl<'de> serde::Deserialize<'de> for $model {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let p = <$params as serde::Deserialize>::deserialize(d)?;
+                p.check().map_err(<D::Error as serde::de::Error>::custom)
+            }
+        }
+    };
+}
+pub(crate) use identifier_params;
+
+/// `identify` and `identify_predict_many` of an identifier whose fit comes out of the method
+/// `$fit_bare` without its diagnostics (in the `impl` block of
+/// [`linear_identifier!`](crate::linear_identifier)): `identify` adds them from a prediction,
+/// `identify_predict_many` from the prediction's identification window
+/// ([`predict_many_from_bare`](crate::predict_many_from_bare)).
+macro_rules! identify_from_bare {
+    ($fit_bare:ident) => {
+        fn identify(&self, u: &[f64], y: &[f64]) -> Result<$crate::LinearFit, $crate::IdError> {
+            let mut fit = self.$fit_bare(u, y)?;
+            fit.refresh_info(u, y)?;
+            Ok(fit)
+        }
+        fn identify_predict_many(
+            &self,
+            inputs: &[(usize, &[f64])],
+            y: &[f64],
+            split: usize,
+            outs: &mut [Vec<f64>],
+        ) -> Vec<Result<$crate::Identified, $crate::IdError>> {
+            $crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.$fit_bare(u, y))
+        }
+    };
+}
+pub(crate) use identify_from_bare;

@@ -16,8 +16,6 @@
 //! process (poles, gain, free-run simulation) is `B / A`, and the simulation does not contain
 //! the disturbance, which is only known through the measured output.
 
-use serde::{Deserialize, Serialize};
-
 use crate::arx::MAX_DELAY;
 use crate::error::{check_data, check_order, check_real};
 use crate::{mean, IdError, LinearFit, LinearIdentifier, Structure};
@@ -47,40 +45,38 @@ fn dc_gain(omega: f64) -> f64 {
     (2.0 - 2.0 * c) / (1.0 - 2.0 * rho * c + rho * rho)
 }
 
-/// ARX with a harmonic disturbance at a known frequency ω,
-/// `A(q) y_k = B(q) u_{k-delay} + d_k + e_k` with `d` any sinusoid at ω, identified as the
-/// ARX of the notch-filtered signals (module docs).
-///
-/// | name | default | meaning | valid range |
-/// |------|---------|---------|-------------|
-/// | `n` | 2 | order of A(q) | 0 ..= 50 |
-/// | `m` | 2 | order of B(q) | 1 ..= 50 |
-/// | `delay` | 0 | dead time `t_d` in samples | 0 ..= 10000 |
-/// | `omega` | 0.05 | the disturbance's frequency, rad/sample | [0.005, 3.1] |
-///
-/// The frequency is not estimated here: a caller that does not know it takes the dominant
-/// frequency of a model's residuals ([`dominant_frequency`]), as `stiction diagnose` does.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "HarxParams", into = "HarxParams")]
-pub struct Harx {
-    n: usize,
-    m: usize,
-    delay: usize,
-    omega: f64,
-}
-
-/// Unchecked parameters of [`Harx`]; [`HarxParams::check`] builds the identifier.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct HarxParams {
-    /// Order of A(q).
-    pub n: usize,
-    /// Order of B(q).
-    pub m: usize,
-    /// Dead time in samples.
-    pub delay: usize,
-    /// Frequency of the harmonic disturbance, rad/sample.
-    pub omega: f64,
+crate::declare::identifier_params! {
+    /// ARX with a harmonic disturbance at a known frequency ω,
+    /// `A(q) y_k = B(q) u_{k-delay} + d_k + e_k` with `d` any sinusoid at ω, identified as the
+    /// ARX of the notch-filtered signals (module docs).
+    ///
+    /// | name | default | meaning | valid range |
+    /// |------|---------|---------|-------------|
+    /// | `n` | 2 | order of A(q) | 0 ..= 50 |
+    /// | `m` | 2 | order of B(q) | 1 ..= 50 |
+    /// | `delay` | 0 | dead time `t_d` in samples | 0 ..= 10000 |
+    /// | `omega` | 0.05 | the disturbance's frequency, rad/sample | [0.005, 3.1] |
+    ///
+    /// The frequency is not estimated here: a caller that does not know it takes the dominant
+    /// frequency of a model's residuals ([`dominant_frequency`]), as `stiction diagnose` does.
+    pub struct Harx;
+    /// Unchecked parameters of [`Harx`]; [`HarxParams::check`] builds the identifier.
+    pub struct HarxParams {
+        /// Order of A(q).
+        n: usize = 2,
+        /// Order of B(q).
+        m: usize = 2,
+        /// Dead time in samples.
+        delay: usize = 0,
+        /// Frequency of the harmonic disturbance, rad/sample.
+        omega: f64 = 0.05,
+    }
+    check |p| {
+        check_order("harx", "n", p.n, 0, crate::arx::MAX_ORDER)?;
+        check_order("harx", "m", p.m, 1, crate::arx::MAX_ORDER)?;
+        check_order("harx", "delay", p.delay, 0, MAX_DELAY)?;
+        check_real("harx", "omega", p.omega, HARX_MIN_OMEGA, HARX_MAX_OMEGA)?;
+    }
 }
 
 /// Smallest accepted ω: a period of about 1250 samples (below it `N(q)` tends to the double
@@ -88,64 +84,6 @@ pub struct HarxParams {
 pub const HARX_MIN_OMEGA: f64 = 0.005;
 /// Largest accepted ω (just below the Nyquist frequency π).
 pub const HARX_MAX_OMEGA: f64 = 3.1;
-
-impl Default for HarxParams {
-    fn default() -> Self {
-        HarxParams {
-            n: 2,
-            m: 2,
-            delay: 0,
-            omega: 0.05,
-        }
-    }
-}
-
-impl HarxParams {
-    /// Set `n`.
-    pub fn n(mut self, n: usize) -> Self {
-        self.n = n;
-        self
-    }
-    /// Set `m`.
-    pub fn m(mut self, m: usize) -> Self {
-        self.m = m;
-        self
-    }
-    /// Set `delay`.
-    pub fn delay(mut self, delay: usize) -> Self {
-        self.delay = delay;
-        self
-    }
-    /// Set `omega` (rad/sample).
-    pub fn omega(mut self, omega: f64) -> Self {
-        self.omega = omega;
-        self
-    }
-    /// Validate and build.
-    pub fn check(self) -> Result<Harx, IdError> {
-        check_order("harx", "n", self.n, 0, crate::arx::MAX_ORDER)?;
-        check_order("harx", "m", self.m, 1, crate::arx::MAX_ORDER)?;
-        check_order("harx", "delay", self.delay, 0, MAX_DELAY)?;
-        check_real("harx", "omega", self.omega, HARX_MIN_OMEGA, HARX_MAX_OMEGA)?;
-        Ok(Harx {
-            n: self.n,
-            m: self.m,
-            delay: self.delay,
-            omega: self.omega,
-        })
-    }
-}
-
-impl From<Harx> for HarxParams {
-    fn from(h: Harx) -> Self {
-        HarxParams {
-            n: h.n,
-            m: h.m,
-            delay: h.delay,
-            omega: h.omega,
-        }
-    }
-}
 
 impl Harx {
     /// The disturbance's frequency, rad/sample.
@@ -264,22 +202,7 @@ crate::linear_identifier! {
             // the notch's transient pair)
             self.n.max(self.m + self.delay) + self.n + self.m + 4
         }
-        fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-            let mut fit = self.fit_bare(u, y)?;
-            fit.refresh_info(u, y)?;
-            Ok(fit)
-        }
-        /// As the default, but the fit's diagnostics come from the prediction's identification
-        /// window instead of a second prediction of it (what the grid search calls per node).
-        fn identify_predict_many(
-            &self,
-            inputs: &[(usize, &[f64])],
-            y: &[f64],
-            split: usize,
-            outs: &mut [Vec<f64>],
-        ) -> Vec<Result<crate::Identified, IdError>> {
-            crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.fit_bare(u, y))
-        }
+        crate::declare::identify_from_bare!(fit_bare);
     }
 }
 
@@ -321,12 +244,23 @@ const GOLDEN_STEPS: usize = 12;
 /// their results as they were).
 const DIRECT_GRID_WORK: usize = 20_000_000;
 
-/// In-place radix-2 FFT (`x.len()` a power of two).
-fn fft(x: &mut [(f64, f64)]) {
+/// How [`fft`] computes its twiddle factors `e^(-2πik/len)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Twiddles {
+    /// Each by its own `sin_cos` (exact to round-off).
+    Exact,
+    /// By a rotation recurrence within each stage (one `sin_cos` per stage, cheaper; its
+    /// round-off accumulates along the stage).
+    Recurrence,
+}
+
+/// In-place radix-2 FFT of complex `(re, im)` values (`x.len()` a power of two).
+pub fn fft(x: &mut [(f64, f64)], twiddles: Twiddles) {
     let n = x.len();
     if n < 2 {
         return;
     }
+    debug_assert!(n.is_power_of_two());
     let mut j = 0;
     for i in 1..n {
         let mut bit = n >> 1;
@@ -346,9 +280,16 @@ fn fft(x: &mut [(f64, f64)]) {
         for start in (0..n).step_by(len) {
             let (mut cr, mut ci) = (1.0, 0.0);
             for k in 0..len / 2 {
+                let (c, s) = match twiddles {
+                    Twiddles::Exact => {
+                        let (s, c) = (ang * k as f64).sin_cos();
+                        (c, s)
+                    }
+                    Twiddles::Recurrence => (cr, ci),
+                };
                 let (ar, ai) = x[start + k];
                 let (br, bi) = x[start + k + len / 2];
-                let (tr, ti) = (br * cr - bi * ci, br * ci + bi * cr);
+                let (tr, ti) = (br * c - bi * s, br * s + bi * c);
                 x[start + k] = (ar + tr, ai + ti);
                 x[start + k + len / 2] = (ar - tr, ai - ti);
                 (cr, ci) = (cr * wc - ci * ws, cr * ws + ci * wc);
@@ -425,7 +366,7 @@ pub fn dominant_frequency(x: &[f64], min_period: f64, max_period: f64) -> Option
         let size = (2 * n).next_power_of_two();
         let mut z: Vec<(f64, f64)> = r.iter().map(|&v| (v, 0.0)).collect();
         z.resize(size, (0.0, 0.0));
-        fft(&mut z);
+        fft(&mut z, Twiddles::Recurrence);
         let fine = 2.0 * std::f64::consts::PI / size as f64;
         let (lo_w, hi_w) = (k0 as f64 * step, k1 as f64 * step);
         let j0 = (lo_w / fine).ceil() as usize;

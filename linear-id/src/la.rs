@@ -230,21 +230,7 @@ pub(crate) fn lstsq_colmajor(ab: &mut [f64], m: usize, nc: usize) -> Result<LsSo
         equilibrate(ab, m, &mut scale)?;
         let mut mat = faer::MatMut::from_column_major_slice_mut(&mut *ab, m, nc);
         let bs = qr::no_pivoting::factor::recommended_block_size::<f64>(m, nc).max(1);
-        let mut coeff = Mat::<f64>::zeros(bs, nc);
-        let mut buf = MemBuffer::new(qr::no_pivoting::factor::qr_in_place_scratch::<f64>(
-            m,
-            nc,
-            bs,
-            PAR,
-            Default::default(),
-        ));
-        qr::no_pivoting::factor::qr_in_place(
-            mat.as_mut(),
-            coeff.as_mut(),
-            PAR,
-            MemStack::new(&mut buf),
-            Default::default(),
-        );
+        faer_qr_in_place(mat.as_mut(), bs);
         mat[(d, d)].powi(2)
     };
     let r = |i: usize, j: usize| ab[j * m + i];
@@ -263,6 +249,27 @@ pub(crate) fn lstsq_colmajor(ab: &mut [f64], m: usize, nc: usize) -> Result<LsSo
     }
     x.iter_mut().zip(&scale).for_each(|(xi, s)| *xi *= s);
     Ok(LsSolution { x, rss })
+}
+
+/// faer's blocked Householder QR of `mat` in place (block size `bs`): R in the upper
+/// triangle, the reflectors below.
+fn faer_qr_in_place(mat: MatMut<'_, f64>, bs: usize) {
+    let (m, nc) = (mat.nrows(), mat.ncols());
+    let mut coeff = Mat::<f64>::zeros(bs, nc);
+    let mut buf = MemBuffer::new(qr::no_pivoting::factor::qr_in_place_scratch::<f64>(
+        m,
+        nc,
+        bs,
+        PAR,
+        Default::default(),
+    ));
+    qr::no_pivoting::factor::qr_in_place(
+        mat,
+        coeff.as_mut(),
+        PAR,
+        MemStack::new(&mut buf),
+        Default::default(),
+    );
 }
 
 /// [`lstsq_colmajor`] on an owned faer matrix.
@@ -843,21 +850,7 @@ mod tests {
             let mut ours: Vec<f64> = (0..cols).flat_map(|j| m.col_as_slice(j).to_vec()).collect();
             householder_qr_colmajor_simd(&mut ours, rows, cols, cols);
             let mut theirs = m.clone();
-            let mut coeff = Mat::<f64>::zeros(1, cols);
-            let mut buf = MemBuffer::new(qr::no_pivoting::factor::qr_in_place_scratch::<f64>(
-                rows,
-                cols,
-                1,
-                PAR,
-                Default::default(),
-            ));
-            qr::no_pivoting::factor::qr_in_place(
-                theirs.as_mut(),
-                coeff.as_mut(),
-                PAR,
-                MemStack::new(&mut buf),
-                Default::default(),
-            );
+            faer_qr_in_place(theirs.as_mut(), 1);
             for i in 0..cols {
                 let s = (ours[i * rows + i] * theirs[(i, i)]).signum();
                 for j in i..cols {

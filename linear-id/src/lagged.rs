@@ -25,8 +25,6 @@
 //! stability (`A`'s roots are the `r`-th roots of the lag-`r` polynomial's) follow from the
 //! usual code. With `r = 1` it is ARX with an intercept.
 
-use serde::{Deserialize, Serialize};
-
 use crate::arx::{MAX_DELAY, MAX_ORDER};
 use crate::error::{check_data, check_order};
 use crate::{mean, IdError, LinearFit, LinearIdentifier, Structure};
@@ -34,93 +32,35 @@ use crate::{mean, IdError, LinearFit, LinearIdentifier, Structure};
 /// Largest accepted lag (the model's polynomials have `n · lag` and `m · lag` coefficients).
 pub const LARX_MAX_LAG: usize = 100;
 
-/// ARX at lag `r` (module docs): `y_k` from `y_{k−ir}` (i = 1..n) and the input's means over
-/// the `m` blocks of `r` samples before, with an intercept, by least squares.
-///
-/// | name | default | meaning | valid range |
-/// |------|---------|---------|-------------|
-/// | `n` | 2 | lagged outputs `y_{k−r} … y_{k−nr}` | 1 ..= 50 |
-/// | `m` | 2 | input blocks of `r` samples | 1 ..= 50 |
-/// | `delay` | 0 | dead time `t_d` in samples | 0 ..= 10000 |
-/// | `lag` | 1 | `r`, samples per lag (1: ARX) | 1 ..= 100 |
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(try_from = "LarxParams", into = "LarxParams")]
-pub struct Larx {
-    n: usize,
-    m: usize,
-    delay: usize,
-    lag: usize,
-}
-
-/// Unchecked parameters of [`Larx`]; [`LarxParams::check`] builds the identifier.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct LarxParams {
-    /// Number of lagged outputs.
-    pub n: usize,
-    /// Number of input blocks.
-    pub m: usize,
-    /// Dead time in samples.
-    pub delay: usize,
-    /// Samples per lag.
-    pub lag: usize,
-}
-
-impl Default for LarxParams {
-    fn default() -> Self {
-        LarxParams {
-            n: 2,
-            m: 2,
-            delay: 0,
-            lag: 1,
-        }
+crate::declare::identifier_params! {
+    /// ARX at lag `r` (module docs): `y_k` from `y_{k−ir}` (i = 1..n) and the input's means over
+    /// the `m` blocks of `r` samples before, with an intercept, by least squares.
+    ///
+    /// | name | default | meaning | valid range |
+    /// |------|---------|---------|-------------|
+    /// | `n` | 2 | lagged outputs `y_{k−r} … y_{k−nr}` | 1 ..= 50 |
+    /// | `m` | 2 | input blocks of `r` samples | 1 ..= 50 |
+    /// | `delay` | 0 | dead time `t_d` in samples | 0 ..= 10000 |
+    /// | `lag` | 1 | `r`, samples per lag (1: ARX) | 1 ..= 100 |
+    #[derive(Eq)]
+    pub struct Larx;
+    /// Unchecked parameters of [`Larx`]; [`LarxParams::check`] builds the identifier.
+    #[derive(Eq)]
+    pub struct LarxParams {
+        /// Number of lagged outputs.
+        n: usize = 2,
+        /// Number of input blocks.
+        m: usize = 2,
+        /// Dead time in samples.
+        delay: usize = 0,
+        /// Samples per lag.
+        lag: usize = 1,
     }
-}
-
-impl LarxParams {
-    /// Set `n`.
-    pub fn n(mut self, n: usize) -> Self {
-        self.n = n;
-        self
-    }
-    /// Set `m`.
-    pub fn m(mut self, m: usize) -> Self {
-        self.m = m;
-        self
-    }
-    /// Set `delay`.
-    pub fn delay(mut self, delay: usize) -> Self {
-        self.delay = delay;
-        self
-    }
-    /// Set `lag`.
-    pub fn lag(mut self, lag: usize) -> Self {
-        self.lag = lag;
-        self
-    }
-    /// Validate and build.
-    pub fn check(self) -> Result<Larx, IdError> {
-        check_order("larx", "n", self.n, 1, MAX_ORDER)?;
-        check_order("larx", "m", self.m, 1, MAX_ORDER)?;
-        check_order("larx", "delay", self.delay, 0, MAX_DELAY)?;
-        check_order("larx", "lag", self.lag, 1, LARX_MAX_LAG)?;
-        Ok(Larx {
-            n: self.n,
-            m: self.m,
-            delay: self.delay,
-            lag: self.lag,
-        })
-    }
-}
-
-impl From<Larx> for LarxParams {
-    fn from(l: Larx) -> Self {
-        LarxParams {
-            n: l.n,
-            m: l.m,
-            delay: l.delay,
-            lag: l.lag,
-        }
+    check |p| {
+        check_order("larx", "n", p.n, 1, MAX_ORDER)?;
+        check_order("larx", "m", p.m, 1, MAX_ORDER)?;
+        check_order("larx", "delay", p.delay, 0, MAX_DELAY)?;
+        check_order("larx", "lag", p.lag, 1, LARX_MAX_LAG)?;
     }
 }
 
@@ -227,22 +167,7 @@ crate::linear_identifier! {
             // strictly more equations than the n + m + 1 unknowns (with the intercept)
             self.n0() + self.n + self.m + 2
         }
-        fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-            let mut fit = self.fit_bare(u, y)?;
-            fit.refresh_info(u, y)?;
-            Ok(fit)
-        }
-        /// As the default, but the fit's diagnostics come from the prediction's identification
-        /// window instead of a second prediction of it (what the grid search calls per node).
-        fn identify_predict_many(
-            &self,
-            inputs: &[(usize, &[f64])],
-            y: &[f64],
-            split: usize,
-            outs: &mut [Vec<f64>],
-        ) -> Vec<Result<crate::Identified, IdError>> {
-            crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.fit_bare(u, y))
-        }
+        crate::declare::identify_from_bare!(fit_bare);
     }
 }
 

@@ -162,7 +162,9 @@ pub use fit::{
     e_g, fit_mv, fit_percent_unsquared, fit_pv, frequency_grid, polynomial_frequency_response,
     E_G_GRID_POINTS,
 };
-pub use harmonic::{dominant_frequency, Harx, HarxParams, HARX_MAX_OMEGA, HARX_MIN_OMEGA};
+pub use harmonic::{
+    dominant_frequency, fft, Harx, HarxParams, Twiddles, HARX_MAX_OMEGA, HARX_MIN_OMEGA,
+};
 pub use lagged::{Larx, LarxParams, LARX_MAX_LAG};
 pub use model::{BiasTracking, FitInfo, LinearFit, Structure, STABILITY_MARGIN};
 pub use order::{OrderKind, OrderParseError, OrderValue};
@@ -247,9 +249,9 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
             .collect()
     }
 
-    /// This identifier as an [`Arx`], if it is one (grid searches then identify from sums,
-    /// [`Arx::output_sums`]). `None` by default.
-    fn as_arx(&self) -> Option<&Arx> {
+    /// The identifier's optional fast paths ([`FastPaths`]), if it has any (`None` by
+    /// default: every fit is a regression of its own).
+    fn fast_paths(&self) -> Option<&dyn FastPaths> {
         None
     }
 
@@ -275,6 +277,15 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
 
     /// A boxed copy.
     fn box_clone(&self) -> Box<dyn LinearIdentifier>;
+}
+
+/// Optional fast paths of a [`LinearIdentifier`], reached through
+/// [`LinearIdentifier::fast_paths`]; the fits are those of the plain methods.
+pub trait FastPaths {
+    /// The output's sums from which the fit on any window of an input comes without a
+    /// regression ([`ArxOutputSums::identify_window`]; grid searches then fit node by node from
+    /// them), or `None` when these orders and options or `y` do not allow it.
+    fn output_sums(&self, y: &[f64]) -> Option<ArxOutputSums>;
 }
 
 /// One input's result from [`LinearIdentifier::identify_predict_many`]: the fit, and whether

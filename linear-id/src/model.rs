@@ -41,6 +41,21 @@ pub struct FitInfo {
     pub singular_values: Vec<f64>,
 }
 
+impl FitInfo {
+    /// The diagnostics before they are computed: no samples, NaN indices and poles.
+    pub(crate) fn unset() -> Self {
+        FitInfo {
+            n_samples: 0,
+            first_sample: 0,
+            residual_variance: f64::NAN,
+            fit_pv: f64::NAN,
+            process_max_pole: f64::NAN,
+            predictor_max_pole: f64::NAN,
+            singular_values: Vec::new(),
+        }
+    }
+}
+
 /// A fitted linear model: what [`crate::LinearIdentifier::identify`] returns.
 ///
 /// All models work on data centered with the identification-window means (`u_mean`,
@@ -98,15 +113,7 @@ impl LinearFit {
             bias,
             disturbance: None,
             harmonic: None,
-            info: FitInfo {
-                n_samples: 0,
-                first_sample: 0,
-                residual_variance: f64::NAN,
-                fit_pv: f64::NAN,
-                process_max_pole: f64::NAN,
-                predictor_max_pole: f64::NAN,
-                singular_values: Vec::new(),
-            },
+            info: FitInfo::unset(),
         }
     }
 

@@ -74,41 +74,15 @@ impl Default for ParsimKParams {
 }
 
 impl ParsimKParams {
-    /// Set the order `n` (0 = threshold rule).
-    pub fn n(mut self, n: usize) -> Self {
-        self.n = n;
-        self
-    }
-    /// Set the future horizon.
-    pub fn f(mut self, f: usize) -> Self {
-        self.f = f;
-        self
-    }
-    /// Set the past horizon.
-    pub fn p(mut self, p: usize) -> Self {
-        self.p = p;
-        self
-    }
-    /// Set the singular-value threshold.
-    pub fn threshold(mut self, threshold: f64) -> Self {
-        self.threshold = threshold;
-        self
-    }
-    /// Set the cap of the threshold rule.
-    pub fn max_order(mut self, max_order: usize) -> Self {
-        self.max_order = max_order;
-        self
-    }
-    /// Estimate a feedthrough D.
-    pub fn d_required(mut self, d_required: bool) -> Self {
-        self.d_required = d_required;
-        self
-    }
-    /// Subtract the means first (default true).
-    pub fn center(mut self, center: bool) -> Self {
-        self.center = center;
-        self
-    }
+    crate::declare::setters!(
+        n: usize,
+        f: usize,
+        p: usize,
+        threshold: f64,
+        max_order: usize,
+        d_required: bool,
+        center: bool,
+    );
     /// Validate and build.
     pub fn check(self) -> Result<ParsimK, IdError> {
         check_order("ss", "f", self.f, 2, 200)?;

@@ -287,15 +287,7 @@ impl Recursive {
             bias,
             disturbance: self.bias.then_some(run.betas),
             harmonic: None,
-            info: crate::FitInfo {
-                n_samples: 0,
-                first_sample: 0,
-                residual_variance: f64::NAN,
-                fit_pv: f64::NAN,
-                process_max_pole: f64::NAN,
-                predictor_max_pole: f64::NAN,
-                singular_values: Vec::new(),
-            },
+            info: crate::FitInfo::unset(),
         }
     }
 }
@@ -352,31 +344,7 @@ macro_rules! recursive_identifier {
         }
 
         impl $params {
-            /// Set `n`.
-            pub fn n(mut self, n: usize) -> Self {
-                self.n = n;
-                self
-            }
-            /// Set `m`.
-            pub fn m(mut self, m: usize) -> Self {
-                self.m = m;
-                self
-            }
-            /// Set `delay`.
-            pub fn delay(mut self, delay: usize) -> Self {
-                self.delay = delay;
-                self
-            }
-            /// Set `p` (order of C(q); must stay 0 for earx).
-            pub fn p(mut self, p: usize) -> Self {
-                self.p = p;
-                self
-            }
-            /// Set the estimator tuning.
-            pub fn tuning(mut self, tuning: RecursiveOptions) -> Self {
-                self.tuning = tuning;
-                self
-            }
+            crate::declare::setters!(n: usize, m: usize, delay: usize, p: usize, tuning: RecursiveOptions);
             /// Set the bias forgetting factor λ_β (ignored by armax).
             pub fn lambda_beta(mut self, lambda_beta: f64) -> Self {
                 self.tuning.lambda_beta = lambda_beta;

@@ -2,8 +2,8 @@
 #![allow(clippy::unwrap_used)]
 mod common;
 
-use common::max_abs_diff;
-use linear_id::{Arx, Centering, LinearIdentifier, ParsimK, Structure};
+use common::{max_abs_diff, parsim_sippy};
+use linear_id::{Arx, Centering, LinearIdentifier, Structure};
 use serde_json::Value;
 
 fn load(name: &str) -> Value {
@@ -58,14 +58,7 @@ fn parsim_k_matches_sippy_markov_parameters_and_frequency_response() {
         let f = case["f"].as_u64().unwrap() as usize;
         let p = case["p"].as_u64().unwrap() as usize;
         let (u, y) = (vec(&case["u"]), vec(&case["y"]));
-        let id = ParsimK::params()
-            .n(2)
-            .f(f)
-            .p(p)
-            .center(false)
-            .check()
-            .unwrap();
-        let fit = id.identify(&u, &y).unwrap();
+        let fit = parsim_sippy(f, p, &u, &y);
         let markov = vec(&case["markov"]);
         let h = fit.structure().impulse_response(markov.len());
         let scale = markov.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -22,14 +22,7 @@ fn eig_sorted(fit: &linear_id::LinearFit) -> Vec<f64> {
 fn p1_noise_free_eigenvalues_and_markov_parameters_for_several_horizons() {
     let (u, y) = sippy_ss_data(500, 0.0, 7);
     for (f, p) in [(20, 20), (10, 10), (5, 5), (10, 20), (20, 10), (5, 30)] {
-        let id = ParsimK::params()
-            .n(2)
-            .f(f)
-            .p(p)
-            .center(false)
-            .check()
-            .unwrap();
-        let fit = id.identify(&u, &y).unwrap();
+        let fit = parsim_sippy(f, p, &u, &y);
         let eig = eig_sorted(&fit);
         assert!(
             (eig[0] - 0.89).abs() < 1e-4 && (eig[1] - 0.45).abs() < 1e-4,

@@ -6,7 +6,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use datasets::simulate::{Scenario, SimulatedLoop};
+use datasets::simulate::Scenario;
 use run::Combination;
 
 /// The twin population: two plants, a range of tunings and valves, several seeds.
@@ -51,16 +51,6 @@ fn twin_of(sc: &Scenario) -> Scenario {
     t
 }
 
-fn error_std(sim: &SimulatedLoop, from: usize) -> f64 {
-    let e: Vec<f64> = sim.sp[from..]
-        .iter()
-        .zip(&sim.pv[from..])
-        .map(|(a, b)| a - b)
-        .collect();
-    let m = e.iter().sum::<f64>() / e.len() as f64;
-    (e.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (e.len() - 1) as f64).sqrt()
-}
-
 /// (predicted, true) reduction of one loop, or the reason there is no prediction.
 fn predicted_and_true(sc: &Scenario) -> Result<(f64, f64), String> {
     let sim = sc.simulate().map_err(|e| e.to_string())?;
@@ -73,7 +63,7 @@ fn predicted_and_true(sc: &Scenario) -> Result<(f64, f64), String> {
         .map_err(|e| e.to_string())?;
     let r = fitted.repair(&d, false).map_err(|e| e.to_string())?;
     let from = d.len() - r.samples;
-    let truth = (1.0 - error_std(&twin, from) / error_std(&sim, from)).clamp(0.0, 1.0);
+    let truth = (1.0 - twin.error_std(from) / sim.error_std(from)).clamp(0.0, 1.0);
     Ok((r.reduction, truth))
 }
 
@@ -179,7 +169,7 @@ fn an_integrating_loop_is_replayed_on_its_increments() {
         match fitted.repair(&d, true) {
             Ok(r) => {
                 let from = d.len() - r.samples;
-                let truth = (1.0 - error_std(&twin, from) / error_std(&sim, from)).clamp(0.0, 1.0);
+                let truth = (1.0 - twin.error_std(from) / sim.error_std(from)).clamp(0.0, 1.0);
                 let ok = (r.reduction - truth).abs() <= 0.10;
                 within += usize::from(ok);
                 lines.push(format!(

@@ -49,3 +49,15 @@ def cli_json():
 def stiction_bin():
     """The path of the `stiction` binary the tests run."""
     return binary()
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A local Dask cluster of two one-thread worker processes (skips without distributed)."""
+    distributed = pytest.importorskip("distributed")
+    c = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                 dashboard_address=None)
+    client = distributed.Client(c)
+    yield client
+    client.close()
+    c.close()

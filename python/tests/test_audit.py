@@ -59,37 +59,28 @@ def test_load_reads_every_row_in_order(audited):
     assert audited.read_bytes() == before  # read-only
 
 
+def execute(db, statement):
+    """Run one SQL statement on the SQLite file `db` and commit it."""
+    con = sqlite3.connect(db)
+    con.execute(statement)
+    con.commit()
+    con.close()
+
+
 def test_load_refuses_what_is_not_an_audit_database(audited, loops, tmp_path):
     with pytest.raises(ValueError, match="not a stiction audit database"):
         audit.load(loops / "FIC000_20240101-0800.csv")
     other = tmp_path / "other.sqlite"
-    con = sqlite3.connect(other)
-    con.execute("CREATE TABLE results (x INTEGER)")
-    con.commit()
-    con.close()
+    execute(other, "CREATE TABLE results (x INTEGER)")
     with pytest.raises(ValueError, match="not a stiction audit database"):
         audit.load(other)
     newer = tmp_path / "newer.sqlite"
     newer.write_bytes(audited.read_bytes())
-    con = sqlite3.connect(newer)
-    con.execute("PRAGMA user_version = 2")
-    con.commit()
-    con.close()
+    execute(newer, "PRAGMA user_version = 2")
     with pytest.raises(ValueError, match="schema version 2 is newer"):
         audit.load(newer)
     with pytest.raises(FileNotFoundError):
         audit.load(tmp_path / "missing.sqlite")
-
-
-@pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("distributed")
-    c = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                 dashboard_address=None)
-    client = distributed.Client(c)
-    yield client
-    client.close()
-    c.close()
 
 
 def test_fleet_appends_the_rows_the_cli_audits(loops, audited, cluster, tmp_path):

@@ -8,7 +8,7 @@ import pytest
 import stiction
 from stiction import fleet
 
-distributed = pytest.importorskip("distributed")
+pytest.importorskip("distributed")  # the whole module needs a Dask cluster
 
 VOLATILE = {"elapsed_ms", "path"}
 
@@ -34,16 +34,6 @@ def loops(tmp_path_factory):
         df[["t", "SP", "PV", "OP"]].to_csv(d / f"FIC{i:03d}_20240101-{i:02d}00.csv", index=False)
     (d / "broken_20240101-0000.csv").write_text("t,SP,PV,OP\n0,1,2,x\n")
     return d
-
-
-@pytest.fixture(scope="module")
-def cluster():
-    c = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                 dashboard_address=None)
-    client = distributed.Client(c)
-    yield client
-    client.close()
-    c.close()
 
 
 def test_fleet_rows_equal_the_batch_rows(loops, cluster, cli, tmp_path):

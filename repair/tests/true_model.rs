@@ -47,16 +47,6 @@ fn signals(sim: &SimulatedLoop) -> Signals<'_> {
     }
 }
 
-fn error_std(sim: &SimulatedLoop, from: usize) -> f64 {
-    let e: Vec<f64> = sim.sp[from..]
-        .iter()
-        .zip(&sim.pv[from..])
-        .map(|(a, b)| a - b)
-        .collect();
-    let m = e.iter().sum::<f64>() / e.len() as f64;
-    (e.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (e.len() - 1) as f64).sqrt()
-}
-
 #[test]
 fn the_controller_is_the_simulators_pi() {
     let sim = scenario(r#"{"kind": "kano", "S": 4, "J": 1}"#, 3, "paper")
@@ -102,7 +92,7 @@ fn now_run_reproduces_the_record_and_repaired_matches_the_healthy_twin() {
         let r = assess(&signals(&sticky), &fitted).unwrap();
         approx::assert_relative_eq!(r.error_std_now, r.error_std_measured, max_relative = 0.05);
         let from = sticky.pv.len() - r.samples;
-        let truth = 1.0 - error_std(&twin, from) / error_std(&sticky, from);
+        let truth = 1.0 - twin.error_std(from) / sticky.error_std(from);
         assert!(
             (r.reduction - truth).abs() < 0.02,
             "seed {seed} {plant} S {s}: predicted {:.4}, twin {:.4}",

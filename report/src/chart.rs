@@ -182,6 +182,13 @@ pub struct Panel {
     pub x_dates: bool,
 }
 
+impl Panel {
+    /// Add the line of `y` over `x` ([`Series::from_xy`]).
+    pub fn push_xy(&mut self, name: impl Into<String>, x: &[f64], y: &[f64], color: RGBColor) {
+        self.series.push(Series::from_xy(name, x, y, color));
+    }
+}
+
 /// A figure of one or more panels.
 #[derive(Debug, Clone)]
 pub struct LineChart {
@@ -346,28 +353,23 @@ enum Glyph {
 fn ranges(panel: &Panel) -> ((f64, f64), (f64, f64)) {
     let all = || panel.series.iter().flat_map(|s| s.points.iter());
     let bars = || panel.series.iter().flat_map(|s| s.bars.iter());
-    let x_range = panel
-        .x_range
-        .or_else(|| {
-            padded(
-                all()
-                    .map(|p| p.0)
-                    .chain(bars().map(|b| b.0))
-                    .chain(panel.rules.iter().filter(|r| r.vertical).map(|r| r.at)),
-            )
-        })
-        .unwrap_or((0.0, 1.0));
-    let y_range = panel
-        .y_range
-        .or_else(|| {
-            padded(
-                all()
-                    .map(|p| p.1)
-                    .chain(bars().flat_map(|b| [b.1, b.2]))
-                    .chain(panel.rules.iter().filter(|r| !r.vertical).map(|r| r.at)),
-            )
-        })
-        .unwrap_or((0.0, 1.0));
+    let range = |own: Option<(f64, f64)>, values: &mut dyn Iterator<Item = f64>| {
+        own.or_else(|| padded(values)).unwrap_or((0.0, 1.0))
+    };
+    let x_range = range(
+        panel.x_range,
+        &mut all()
+            .map(|p| p.0)
+            .chain(bars().map(|b| b.0))
+            .chain(panel.rules.iter().filter(|r| r.vertical).map(|r| r.at)),
+    );
+    let y_range = range(
+        panel.y_range,
+        &mut all()
+            .map(|p| p.1)
+            .chain(bars().flat_map(|b| [b.1, b.2]))
+            .chain(panel.rules.iter().filter(|r| !r.vertical).map(|r| r.at)),
+    );
     (x_range, y_range)
 }
 
@@ -402,14 +404,21 @@ fn draw_legend(
                     + PathElement::new(path, style(c, w))
             });
     }
-    lc.configure_series_labels()
+    draw_series_labels(&mut lc)
+}
+
+/// The chart's series labels in a box at its upper left.
+fn draw_series_labels<'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, CT>,
+) -> Result<(), ReportError> {
+    chart
+        .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
         .background_style(WHITE.mix(0.85))
         .border_style(RGBColor(160, 160, 160))
         .label_font((FONT, LABEL_PX))
         .draw()
-        .map_err(|e| err("legend", e))?;
-    Ok(())
+        .map_err(|e| err("legend", e))
 }
 
 fn draw_panel(
@@ -555,14 +564,7 @@ fn draw_panel(
 
 /// Render a line chart to an SVG document.
 pub fn render_lines(chart: &LineChart) -> Result<String, ReportError> {
-    ensure_font();
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, chart.size).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err("background", e))?;
-        let body = root
-            .titled(&chart.title, (FONT, TITLE_PX))
-            .map_err(|e| err("title", e))?;
+    render_svg(chart.size, &chart.title, |body| {
         let n = chart.panels.len().max(1);
         let areas = if chart.side_by_side {
             body.split_evenly((1, n))
@@ -572,6 +574,25 @@ pub fn render_lines(chart: &LineChart) -> Result<String, ReportError> {
         for (panel, area) in chart.panels.iter().zip(&areas) {
             draw_panel(area, panel, &chart.x_label)?;
         }
+        Ok(())
+    })
+}
+
+/// An SVG document of `size` on white with `title` above the area that `draw` fills.
+fn render_svg(
+    size: (u32, u32),
+    title: &str,
+    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), ReportError>,
+) -> Result<String, ReportError> {
+    ensure_font();
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err("background", e))?;
+        let body = root
+            .titled(title, (FONT, TITLE_PX))
+            .map_err(|e| err("title", e))?;
+        draw(&body)?;
         root.present().map_err(|e| err("svg", e))?;
     }
     Ok(svg)
@@ -590,14 +611,7 @@ pub fn heat_color(v: f64, range: (f64, f64)) -> RGBColor {
 
 /// Render a heat map with its colour bar to an SVG document.
 pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
-    ensure_font();
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, map.size).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err("background", e))?;
-        let body = root
-            .titled(&map.title, (FONT, TITLE_PX))
-            .map_err(|e| err("title", e))?;
+    render_svg(map.size, &map.title, |body| {
         let w = body.dim_in_pixel().0;
         let (main, bar) = body.split_horizontally(w.saturating_sub(110));
         let mut chart = ChartBuilder::on(&main)
@@ -679,14 +693,7 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
                     )
             });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(160, 160, 160))
-            .label_font((FONT, LABEL_PX))
-            .draw()
-            .map_err(|e| err("legend", e))?;
+        draw_series_labels(&mut chart)?;
         // The colour bar.
         let (lo, hi) = if map.range.1 > map.range.0 {
             map.range
@@ -721,9 +728,8 @@ pub fn render_heatmap(map: &HeatMap) -> Result<String, ReportError> {
             )
         }))
         .map_err(|e| err("colour bar", e))?;
-        root.present().map_err(|e| err("svg", e))?;
-    }
-    Ok(svg)
+        Ok(())
+    })
 }
 
 /// Rasterise an SVG document (as written by this module) to PNG bytes: not in this build (the

@@ -137,25 +137,20 @@ pub fn time_trends(
             ..Series::from_xy("SP", &axis.x, sp, palette::GREY)
         });
     }
-    pv_panel.series.push(Series::from_xy(
-        "PV measured",
-        &axis.x,
-        sig.pv,
-        palette::BLACK,
-    ));
-    pv_panel.series.push(Series::from_xy(
+    pv_panel.push_xy("PV measured", &axis.x, sig.pv, palette::BLACK);
+    pv_panel.push_xy(
         "PV model, free-run simulation",
         &axis.x,
         &q.pv_sim,
         palette::BLUE,
-    ));
+    );
     if q.criterion == Criterion::Prediction {
-        pv_panel.series.push(Series::from_xy(
+        pv_panel.push_xy(
             "PV model, one-step prediction",
             &axis.x,
             &q.pv_pred,
             palette::ORANGE,
-        ));
+        );
     }
     pv_panel.rules.push(split_rule(&axis, q.split_index));
     let mut op_panel = Panel {
@@ -163,20 +158,11 @@ pub fn time_trends(
         caption: "controller output and valve position".into(),
         ..Panel::default()
     };
-    op_panel
-        .series
-        .push(Series::from_xy("OP", &axis.x, sig.op, palette::BLACK));
+    op_panel.push_xy("OP", &axis.x, sig.op, palette::BLACK);
     if let Some(mv) = sig.mv {
-        op_panel
-            .series
-            .push(Series::from_xy("MV measured", &axis.x, mv, palette::GREEN));
+        op_panel.push_xy("MV measured", &axis.x, mv, palette::GREEN);
     }
-    op_panel.series.push(Series::from_xy(
-        "MV estimated",
-        &axis.x,
-        &q.mv_est,
-        palette::BLUE,
-    ));
+    op_panel.push_xy("MV estimated", &axis.x, &q.mv_est, palette::BLUE);
     op_panel.rules.push(split_rule(&axis, q.split_index));
     let svg = render_lines(&LineChart {
         title: title("Time trends", sig, model),
@@ -466,6 +452,28 @@ fn pair_label(base: &str, extended: Option<&str>) -> String {
     }
 }
 
+/// The baseline's line of `line(fit)` in black and, when there is one, the extended model's
+/// in blue.
+fn base_and_extended(
+    panel: &mut Panel,
+    base: (&Quantification, &str),
+    extended: Option<(&Quantification, &str)>,
+    line: impl Fn(&Quantification) -> Vec<(f64, f64)>,
+) {
+    panel.series.push(Series::line(
+        format!("baseline {}", base.1),
+        line(base.0),
+        palette::BLACK,
+    ));
+    if let Some((q, label)) = extended {
+        panel.series.push(Series::line(
+            format!("extended {label}"),
+            line(q),
+            palette::BLUE,
+        ));
+    }
+}
+
 /// One-step residuals `pv - pv_pred` (NaN where there is no prediction).
 pub fn residuals(pv: &[f64], q: &Quantification) -> Vec<f64> {
     pv.iter()
@@ -487,20 +495,9 @@ pub fn residual_trends(
         caption: "one-step prediction residual, PV measured - PV predicted".into(),
         ..Panel::default()
     };
-    panel.series.push(Series::from_xy(
-        format!("baseline {}", base.1),
-        &axis.x,
-        &residuals(sig.pv, base.0),
-        palette::BLACK,
-    ));
-    if let Some((q, label)) = extended {
-        panel.series.push(Series::from_xy(
-            format!("extended {label}"),
-            &axis.x,
-            &residuals(sig.pv, q),
-            palette::BLUE,
-        ));
-    }
+    base_and_extended(&mut panel, base, extended, |q| {
+        axis.x.iter().copied().zip(residuals(sig.pv, q)).collect()
+    });
     panel.rules.push(split_rule(&axis, base.0.split_index));
     let model = pair_label(base.1, extended.map(|e| e.1));
     let svg = render_lines(&LineChart {
@@ -590,18 +587,7 @@ pub fn residual_spectrum(
         caption: "residual spectrum, validation data".into(),
         ..Panel::default()
     };
-    panel.series.push(Series::line(
-        format!("baseline {}", base.1),
-        val(base.0),
-        palette::BLACK,
-    ));
-    if let Some((q, label)) = extended {
-        panel.series.push(Series::line(
-            format!("extended {label}"),
-            val(q),
-            palette::BLUE,
-        ));
-    }
+    base_and_extended(&mut panel, base, extended, val);
     let model = pair_label(base.1, extended.map(|e| e.1));
     let svg = render_lines(&LineChart {
         title: title("Residual spectrum", sig, &model),

@@ -3,28 +3,16 @@
 //! record the detector could not take.
 #![allow(clippy::unwrap_used)]
 
-use datasets::simulate::{Controller, PlantPreset, PlantSpec, Scenario, Setpoint};
+mod common;
+
 use datasets::LoopData;
 use report::inspect;
 use report::pages::{detect_page, detection_section};
 use report::{Block, Report};
-use stiction_models::Kano;
 
 /// The sticky limit cycle of the snapshot tests as the reader would give it (file `sticky.csv`).
 fn sticky() -> LoopData {
-    let sim = Scenario {
-        plant: PlantSpec::Preset(PlantPreset::Slow),
-        controller: Controller { kc: 0.3, ki: 0.1 },
-        setpoint: Setpoint::constant(),
-        valve: Box::new(Kano::params().s(4.0).j(1.0).check().unwrap()),
-        noise_sigma: 0.02,
-        samples: 1000,
-        warmup: 500,
-        seed: 1,
-        ..Scenario::default()
-    }
-    .simulate()
-    .unwrap();
+    let sim = common::sticky_simulation();
     LoopData {
         source: "plant/sticky.csv".into(),
         start: None,

@@ -10,7 +10,9 @@
 
 use std::sync::OnceLock;
 
-use datasets::simulate::{Controller, PlantPreset, PlantSpec, Scenario, Setpoint};
+mod common;
+
+use datasets::simulate::Scenario;
 use detection::Registration;
 use grid_search::{quantify, GridPlan, Problem, Quantification, SearchOptions};
 use report::figures::{self, TrendLine};
@@ -260,19 +262,7 @@ struct Sticky {
 fn sticky() -> &'static Sticky {
     static STICKY: OnceLock<Sticky> = OnceLock::new();
     STICKY.get_or_init(|| {
-        let sim = Scenario {
-            plant: PlantSpec::Preset(PlantPreset::Slow),
-            controller: Controller { kc: 0.3, ki: 0.1 },
-            setpoint: Setpoint::constant(),
-            valve: Box::new(Kano::params().s(4.0).j(1.0).check().unwrap()),
-            noise_sigma: 0.02,
-            samples: 1000,
-            warmup: 500,
-            seed: 1,
-            ..Scenario::default()
-        }
-        .simulate()
-        .unwrap();
+        let sim = common::sticky_simulation();
         Sticky {
             t: sim.t,
             sp: sim.sp,

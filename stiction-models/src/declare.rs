@@ -137,7 +137,11 @@ pub fn check_params(
 ///
 /// Attributes before a parameter (its doc, `#[serde(default)]`) go to the builder's field.
 /// The `impl` block holds the [`StictionModel`](crate::StictionModel) methods other than
-/// `name`, `param_values` and `box_clone`, which are generated. The model struct is `Copy`
+/// `name`, `param_values` and `box_clone`, which are generated. With `state start_state;`
+/// (before `impl`) the model's method `start_state(&self, op0, &InitialState) ->
+/// Result<S, StictionError>` of a concrete [`ValveState`](crate::ValveState) `S` gives
+/// `start` (the state boxed) and `simulate_into` (the state stepped without a box,
+/// [`simulate_states`](crate::simulate_states)), which the `impl` block then leaves out. The model struct is `Copy`
 /// with one private `f64` field per parameter and a getter of the field's name; the builder
 /// (`params` type) has public fields and setters, and `check()` builds the model.
 #[macro_export]
@@ -154,6 +158,7 @@ macro_rules! stiction_model {
         params $params:ident;
         description $description:expr;
         constraints [$($constraint:expr),* $(,)?];
+        $(state $start:ident;)?
         impl { $($body:tt)* }
     ) => {
         $(#[$meta])*
@@ -260,6 +265,23 @@ macro_rules! stiction_model {
                 fn box_clone(&self) -> Box<dyn $crate::StictionModel> {
                     Box::new(*self)
                 }
+                $(
+                    fn start(
+                        &self,
+                        op0: f64,
+                        init: &$crate::InitialState,
+                    ) -> Result<Box<dyn $crate::ValveState>, $crate::StictionError> {
+                        Ok(Box::new(self.$start(op0, init)?))
+                    }
+                    fn simulate_into(
+                        &self,
+                        op: &[f64],
+                        init: &$crate::InitialState,
+                        mv: &mut [f64],
+                    ) -> Result<(), $crate::StictionError> {
+                        $crate::simulate_states(op, mv, |op0| self.$start(op0, init))
+                    }
+                )?
                 $($body)*
             }
 

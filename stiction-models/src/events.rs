@@ -382,40 +382,19 @@ pub fn run_valve_indexed(
                 fill(&rule, op, &segs, runner.mv0, &mut scratch.mv, n);
             }
             scratch.segs[0] = segs;
-            Ok(RunInfo {
-                valid_from: 0,
-                fell_back: false,
-            })
+            Ok(RunInfo::without_fallback(0))
         }
         Initialization::In2 {
             stationary_fraction,
         } => {
-            if !(0.0..1.0).contains(stationary_fraction) {
-                return Err(StictionError::InvalidInit(format!(
-                    "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
-                )));
-            }
+            let info =
+                RunInfo::without_fallback(crate::init::in2_valid_from(*stationary_fraction, n)?);
             four_starts(rule, index, scratch);
-            Ok(RunInfo {
-                valid_from: (stationary_fraction * n as f64).ceil() as usize,
-                fell_back: false,
-            })
+            Ok(info)
         }
-        Initialization::In3 => {
-            // the sample after the last one where the four runs differ by more than the
-            // tolerance (`in3_valid_from`), and the In.2 fallback when they never coincide
-            let valid_from = four_starts(rule, index, scratch);
-            let fell_back = n > 0 && valid_from == n;
-            let valid_from = if fell_back {
-                (Initialization::IN2_DEFAULT_FRACTION * n as f64).ceil() as usize
-            } else {
-                valid_from
-            };
-            Ok(RunInfo {
-                valid_from,
-                fell_back,
-            })
-        }
+        // the sample after the last one where the four runs differ by more than the tolerance
+        // (`in3_valid_from`), and the In.2 fallback when they never coincide
+        Initialization::In3 => Ok(RunInfo::in3(four_starts(rule, index, scratch), n)),
     }
 }
 

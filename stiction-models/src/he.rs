@@ -1,6 +1,6 @@
 //! He et al. (2007): static friction band `fs` and kinetic friction `fd`.
 
-use crate::{check_io, Constraint, Equivalent, FastPaths, InitialState, StictionError, ValveState};
+use crate::{Constraint, Equivalent, FastPaths, InitialState, StictionError, ValveState};
 
 crate::stiction_model! {
     /// He et al. (2007): the valve slips when the accumulated force `u_r + Δu` exceeds `fs`, and
@@ -26,32 +26,13 @@ crate::stiction_model! {
     params HeParams;
     description "He et al. (2007): static friction fs and kinetic friction fd; S = fs+fd, J = fs-fd";
     constraints [Constraint::AtMost { param: "fd", bound: "fs" }];
+    state start_state;
     impl {
         fn equivalent(&self) -> Equivalent {
             Equivalent {
                 s: self.fs + self.fd,
                 j: self.fs - self.fd,
             }
-        }
-        fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
-            Ok(Box::new(self.start_state(op0, init)?))
-        }
-        fn simulate_into(
-            &self,
-            op: &[f64],
-            init: &InitialState,
-            mv: &mut [f64],
-        ) -> Result<(), StictionError> {
-            check_io(op, mv)?;
-            let Some(&op0) = op.first() else {
-                return Ok(());
-            };
-            let mut state = self.start_state(op0, init)?;
-            mv[0] = state.mv_prev;
-            for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
-                *m = state.advance(u);
-            }
-            Ok(())
         }
         fn fast_paths(&self) -> Option<&dyn FastPaths> {
             Some(self)

@@ -242,44 +242,66 @@ pub fn run_valve_with(
     match init {
         Initialization::In1(state) => {
             model.simulate_into(op, state, &mut scratch.mv)?;
-            Ok(RunInfo {
-                valid_from: 0,
-                fell_back: false,
-            })
+            Ok(RunInfo::without_fallback(0))
         }
         Initialization::In2 {
             stationary_fraction,
         } => {
-            if !(0.0..1.0).contains(stationary_fraction) {
-                return Err(StictionError::InvalidInit(format!(
-                    "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
-                )));
-            }
+            let info = RunInfo::without_fallback(in2_valid_from(*stationary_fraction, n)?);
             let merge =
                 model.simulate_starts(op, &InitialState::four_variants(), &mut scratch.runs)?;
             average_into(&scratch.runs, merge, &mut scratch.mv);
-            Ok(RunInfo {
-                valid_from: (stationary_fraction * n as f64).ceil() as usize,
-                fell_back: false,
-            })
+            Ok(info)
         }
         Initialization::In3 => {
             let merge =
                 model.simulate_starts(op, &InitialState::four_variants(), &mut scratch.runs)?;
-            let (valid_from, fell_back) = in3_valid_from(&scratch.runs, merge, n);
+            let info = RunInfo::in3(in3_valid_from(&scratch.runs, merge, n), n);
             average_into(&scratch.runs, merge, &mut scratch.mv);
-            Ok(RunInfo {
-                valid_from,
-                fell_back,
-            })
+            Ok(info)
         }
     }
 }
 
-/// In.3's stationary time: the sample after the last one (before `merge`) where the four runs
-/// differ by more than `1e-12 · max(1, |MV|)`, and whether it fell back to In.2 (never
-/// coincide).
-pub(crate) fn in3_valid_from(runs: &[Vec<f64>; 4], merge: usize, n: usize) -> (usize, bool) {
+/// In.2's stationary time on `n` samples: the first sample past the fraction, or the error of
+/// a fraction outside [0, 1).
+pub(crate) fn in2_valid_from(stationary_fraction: f64, n: usize) -> Result<usize, StictionError> {
+    if !(0.0..1.0).contains(&stationary_fraction) {
+        return Err(StictionError::InvalidInit(format!(
+            "In.2 stationary fraction {stationary_fraction} must be in [0, 1)"
+        )));
+    }
+    Ok((stationary_fraction * n as f64).ceil() as usize)
+}
+
+impl RunInfo {
+    /// A run valid from `valid_from` on, without fallback (In.1: 0; In.2).
+    pub(crate) fn without_fallback(valid_from: usize) -> Self {
+        RunInfo {
+            valid_from,
+            fell_back: false,
+        }
+    }
+
+    /// In.3's answer from the sample after the last one where the four runs differ (`n`:
+    /// they never coincide, and it falls back to In.2's default fraction).
+    pub(crate) fn in3(valid_from: usize, n: usize) -> Self {
+        let fell_back = n > 0 && valid_from == n;
+        let valid_from = if fell_back {
+            (Initialization::IN2_DEFAULT_FRACTION * n as f64).ceil() as usize
+        } else {
+            valid_from
+        };
+        RunInfo {
+            valid_from,
+            fell_back,
+        }
+    }
+}
+
+/// In.3's stationary time before the fallback ([`RunInfo::in3`]): the sample after the last
+/// one (before `merge`) where the four runs differ by more than `1e-12 · max(1, |MV|)`.
+pub(crate) fn in3_valid_from(runs: &[Vec<f64>; 4], merge: usize, n: usize) -> usize {
     let mut valid_from = 0;
     for k in (0..merge.min(n)).rev() {
         let first = runs[0][k];
@@ -289,13 +311,7 @@ pub(crate) fn in3_valid_from(runs: &[Vec<f64>; 4], merge: usize, n: usize) -> (u
             break;
         }
     }
-    let fell_back = n > 0 && valid_from == n;
-    let valid_from = if fell_back {
-        (Initialization::IN2_DEFAULT_FRACTION * n as f64).ceil() as usize
-    } else {
-        valid_from
-    };
-    (valid_from, fell_back)
+    valid_from
 }
 
 /// The average of the four runs where they differ (before `merge`), the common value elsewhere.

@@ -2,7 +2,7 @@
 //! asymmetric variant reuses.
 
 use crate::{
-    check_io, Constraint, Direction, Equivalent, FastPaths, InitialState, StictionError, ValveState,
+    Constraint, Direction, Equivalent, FastPaths, InitialState, StictionError, ValveState,
 };
 
 crate::stiction_model! {
@@ -25,6 +25,7 @@ crate::stiction_model! {
     params KanoParams;
     description "Kano et al. (2004): deadband+stickband S and slip jump J; the paper's default";
     constraints [Constraint::AtMost { param: "J", bound: "S" }];
+    state start_state;
     impl {
         fn equivalent(&self) -> Equivalent {
             Equivalent {
@@ -32,44 +33,48 @@ crate::stiction_model! {
                 j: self.j,
             }
         }
-        fn start(
-            &self,
-            op0: f64,
-            init: &InitialState,
-        ) -> Result<Box<dyn ValveState>, StictionError> {
-            Ok(Box::new(self.core().start(op0, init)?))
-        }
-        fn simulate_into(
-            &self,
-            op: &[f64],
-            init: &InitialState,
-            mv: &mut [f64],
-        ) -> Result<(), StictionError> {
-            self.core().simulate_into(op, init, mv)
-        }
         fn fast_paths(&self) -> Option<&dyn FastPaths> {
             Some(self)
         }
     }
 }
 
+/// The start state and the [`FastPaths`] of a model whose valve is the [`KanoCore`] of its
+/// method `core()`.
+macro_rules! kano_type_paths {
+    ($model:ident) => {
+        impl $model {
+            fn start_state(
+                &self,
+                op0: f64,
+                init: &InitialState,
+            ) -> Result<$crate::kano::KanoState, StictionError> {
+                self.core().start(op0, init)
+            }
+        }
+
+        impl FastPaths for $model {
+            fn simulate_starts(
+                &self,
+                op: &[f64],
+                starts: &[InitialState],
+                out: &mut [Vec<f64>],
+            ) -> Result<usize, StictionError> {
+                self.core().simulate_starts(op, starts, out)
+            }
+            fn event_rule(&self) -> Option<crate::EventRule> {
+                Some(self.core().into())
+            }
+        }
+    };
+}
+pub(crate) use kano_type_paths;
+
+kano_type_paths!(Kano);
+
 impl Kano {
     fn core(&self) -> KanoCore {
         KanoCore::symmetric(self.s, self.j)
-    }
-}
-
-impl FastPaths for Kano {
-    fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError> {
-        self.core().simulate_starts(op, starts, out)
-    }
-    fn event_rule(&self) -> Option<crate::EventRule> {
-        Some(self.core().into())
     }
 }
 
@@ -141,24 +146,6 @@ impl KanoCore {
             d,
             mv_prev: mv0,
         })
-    }
-
-    pub(crate) fn simulate_into(
-        &self,
-        op: &[f64],
-        init: &InitialState,
-        mv: &mut [f64],
-    ) -> Result<(), StictionError> {
-        check_io(op, mv)?;
-        let Some(&op0) = op.first() else {
-            return Ok(());
-        };
-        let mut state = self.start(op0, init)?;
-        mv[0] = state.mv_prev;
-        for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
-            *m = state.advance(u);
-        }
-        Ok(())
     }
 }
 

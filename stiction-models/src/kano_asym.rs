@@ -1,7 +1,7 @@
 //! Kano's model with direction-dependent slip jump (specification §3.2).
 
 use crate::kano::KanoCore;
-use crate::{Constraint, Equivalent, FastPaths, InitialState, StictionError, ValveState};
+use crate::{Constraint, Equivalent, FastPaths, InitialState, StictionError};
 
 crate::stiction_model! {
     /// A valve whose friction differs by direction: common deadband `D`, slip jumps `J_up`
@@ -34,6 +34,7 @@ crate::stiction_model! {
         Constraint::SumAtMostSpan { params: &["D", "J_up"] },
         Constraint::SumAtMostSpan { params: &["D", "J_dn"] },
     ];
+    state start_state;
     impl {
         fn derived_values(&self) -> Vec<(&'static str, f64)> {
             vec![("S_up", self.s_up()), ("S_dn", self.s_dn())]
@@ -41,21 +42,6 @@ crate::stiction_model! {
         fn equivalent(&self) -> Equivalent {
             let j = (self.j_up + self.j_dn) / 2.0;
             Equivalent { s: self.d + j, j }
-        }
-        fn start(
-            &self,
-            op0: f64,
-            init: &InitialState,
-        ) -> Result<Box<dyn ValveState>, StictionError> {
-            Ok(Box::new(self.core().start(op0, init)?))
-        }
-        fn simulate_into(
-            &self,
-            op: &[f64],
-            init: &InitialState,
-            mv: &mut [f64],
-        ) -> Result<(), StictionError> {
-            self.core().simulate_into(op, init, mv)
         }
         fn fast_paths(&self) -> Option<&dyn FastPaths> {
             Some(self)
@@ -83,16 +69,4 @@ impl KanoAsym {
     }
 }
 
-impl FastPaths for KanoAsym {
-    fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError> {
-        self.core().simulate_starts(op, starts, out)
-    }
-    fn event_rule(&self) -> Option<crate::EventRule> {
-        Some(self.core().into())
-    }
-}
+crate::kano::kano_type_paths!(KanoAsym);

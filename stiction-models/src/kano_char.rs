@@ -73,7 +73,7 @@ crate::stiction_model! {
             init: &InitialState,
             mv: &mut [f64],
         ) -> Result<(), StictionError> {
-            self.core().simulate_into(op, init, mv)?;
+            crate::simulate_states(op, mv, |op0| self.core().start(op0, init))?;
             self.map(mv);
             Ok(())
         }

@@ -134,6 +134,38 @@ pub trait ValveState: Send {
     fn is_stuck(&self) -> bool;
 }
 
+impl<S: ValveState + ?Sized> ValveState for Box<S> {
+    fn step(&mut self, op: f64) -> f64 {
+        (**self).step(op)
+    }
+    fn position(&self) -> f64 {
+        (**self).position()
+    }
+    fn is_stuck(&self) -> bool {
+        (**self).is_stuck()
+    }
+}
+
+/// MV for the whole OP record into `mv` (same length as `op`): the state `start` gives for
+/// `OP(0)` (its position is `MV(0)`), then a [`ValveState::step`] per sample. The loop of
+/// [`StictionModel::simulate_into`], monomorphic for a concrete state.
+pub fn simulate_states<S: ValveState>(
+    op: &[f64],
+    mv: &mut [f64],
+    start: impl FnOnce(f64) -> Result<S, StictionError>,
+) -> Result<(), StictionError> {
+    check_io(op, mv)?;
+    let Some(&op0) = op.first() else {
+        return Ok(());
+    };
+    let mut state = start(op0)?;
+    mv[0] = state.position();
+    for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
+        *m = state.step(u);
+    }
+    Ok(())
+}
+
 /// Stiction parameters in the common (S, J) language of the paper, in OP units.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Equivalent {
@@ -181,16 +213,7 @@ pub trait StictionModel: Send + Sync + fmt::Debug {
         init: &InitialState,
         mv: &mut [f64],
     ) -> Result<(), StictionError> {
-        check_io(op, mv)?;
-        let Some(&op0) = op.first() else {
-            return Ok(());
-        };
-        let mut state = self.start(op0, init)?;
-        mv[0] = state.position();
-        for (m, &u) in mv[1..].iter_mut().zip(&op[1..]) {
-            *m = state.step(u);
-        }
-        Ok(())
+        simulate_states(op, mv, |op0| self.start(op0, init))
     }
 
     /// Simulate MV for the whole OP record.

@@ -601,23 +601,27 @@ fn stepped(model: &dyn StictionModel, op: &[f64], init: &InitialState) -> Vec<f6
 
 const CASES: u64 = 3000;
 
-#[test]
-fn kano_equals_the_literal_spec_pseudo_code_on_generated_inputs() -> Result<(), StictionError> {
-    let mut rng = Rng(0x5EED_CA40);
+/// The spec's MV for an OP record and a start.
+type Spec = Box<dyn Fn(&[f64], &InitialState) -> Vec<f64>>;
+
+/// Every generated case (`CASES` OPs from `seed`, each from every start): `draw` gives the
+/// parameters (as text), the model and the spec's rule; the model's whole-record and stepped
+/// runs must equal the spec.
+fn equals_the_spec_on_generated_inputs(
+    seed: u64,
+    mut draw: impl FnMut(&mut Rng) -> (String, Box<dyn StictionModel>, Spec),
+) -> Result<(), StictionError> {
+    let mut rng = Rng(seed);
     for case in 0..CASES {
         let (kind, op) = generate_op(&mut rng);
-        let (s, j) = generate_sj(&mut rng);
-        let model = kano(s, j);
+        let (params, model, spec) = draw(&mut rng);
         for init in all_inits(&mut rng, op[0]) {
-            let what = format!(
-                "case {case} ({kind}, N = {}), S = {s}, J = {j}, {init:?}",
-                op.len()
-            );
-            let want = spec_kano(s, j, &op, &init);
+            let what = format!("case {case} ({kind}, N = {}), {params}, {init:?}", op.len());
+            let want = spec(&op, &init);
             assert_close(&what, &model.simulate(&op, &init)?, &want);
             assert_close(
                 &format!("{what}, stepped"),
-                &stepped(&model, &op, &init),
+                &stepped(model.as_ref(), &op, &init),
                 &want,
             );
         }
@@ -626,10 +630,17 @@ fn kano_equals_the_literal_spec_pseudo_code_on_generated_inputs() -> Result<(), 
 }
 
 #[test]
+fn kano_equals_the_literal_spec_pseudo_code_on_generated_inputs() -> Result<(), StictionError> {
+    equals_the_spec_on_generated_inputs(0x5EED_CA40, |rng| {
+        let (s, j) = generate_sj(rng);
+        let spec: Spec = Box::new(move |op, init| spec_kano(s, j, op, init));
+        (format!("S = {s}, J = {j}"), Box::new(kano(s, j)), spec)
+    })
+}
+
+#[test]
 fn kano_asym_equals_the_spec_rule_on_generated_inputs() -> Result<(), StictionError> {
-    let mut rng = Rng(0xA5_7A5);
-    for case in 0..CASES {
-        let (kind, op) = generate_op(&mut rng);
+    equals_the_spec_on_generated_inputs(0xA5_7A5, |rng| {
         let dd = if rng.chance(0.2) {
             0.0
         } else {
@@ -645,47 +656,20 @@ fn kano_asym_equals_the_spec_rule_on_generated_inputs() -> Result<(), StictionEr
             1 => j_up,
             _ => rng.range(0.0, 5.0),
         };
-        let model = kano_asym(dd, j_up, j_dn);
-        for init in all_inits(&mut rng, op[0]) {
-            let what = format!(
-                "case {case} ({kind}, N = {}), D = {dd}, J_up = {j_up}, J_dn = {j_dn}, {init:?}",
-                op.len()
-            );
-            let want = spec_kano_asym(dd, j_up, j_dn, &op, &init);
-            assert_close(&what, &model.simulate(&op, &init)?, &want);
-            assert_close(
-                &format!("{what}, stepped"),
-                &stepped(&model, &op, &init),
-                &want,
-            );
-        }
-    }
-    Ok(())
+        let spec: Spec = Box::new(move |op, init| spec_kano_asym(dd, j_up, j_dn, op, init));
+        let params = format!("D = {dd}, J_up = {j_up}, J_dn = {j_dn}");
+        (params, Box::new(kano_asym(dd, j_up, j_dn)), spec)
+    })
 }
 
 #[test]
 fn he_equals_the_literal_spec_pseudo_code_on_generated_inputs() -> Result<(), StictionError> {
-    let mut rng = Rng(0x4E_57E9);
-    for case in 0..CASES {
-        let (kind, op) = generate_op(&mut rng);
-        let (s, j) = generate_sj(&mut rng);
+    equals_the_spec_on_generated_inputs(0x4E_57E9, |rng| {
+        let (s, j) = generate_sj(rng);
         let (fs, fd) = ((s + j) / 2.0, (s - j) / 2.0);
-        let model = he(fs, fd);
-        for init in all_inits(&mut rng, op[0]) {
-            let what = format!(
-                "case {case} ({kind}, N = {}), fs = {fs}, fd = {fd}, {init:?}",
-                op.len()
-            );
-            let want = spec_he(fs, fd, &op, &init);
-            assert_close(&what, &model.simulate(&op, &init)?, &want);
-            assert_close(
-                &format!("{what}, stepped"),
-                &stepped(&model, &op, &init),
-                &want,
-            );
-        }
-    }
-    Ok(())
+        let spec: Spec = Box::new(move |op, init| spec_he(fs, fd, op, init));
+        (format!("fs = {fs}, fd = {fd}"), Box::new(he(fs, fd)), spec)
+    })
 }
 
 #[test]

@@ -24,6 +24,28 @@ fn sim(model: &dyn StictionModel, op: &[f64], init: &InitialState) -> Vec<f64> {
     model.simulate(op, init).expect("finite OP and init")
 }
 
+/// `-v` for each value.
+fn negated(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|x| -x).collect()
+}
+
+/// The start of the mirrored run (-OP): the other direction, every level negated.
+fn mirrored(init: &InitialState) -> InitialState {
+    InitialState {
+        direction: flip(init.direction),
+        stuck_at: init.stuck_at.map(|v| -v),
+        position: init.position.map(|v| -v),
+        ..*init
+    }
+}
+
+/// `op[..=k0]`, then `op[k0]` held for `tail` more samples.
+fn held_from(op: &[f64], k0: usize, tail: usize) -> Vec<f64> {
+    let mut held = op[..=k0].to_vec();
+    held.extend(std::iter::repeat_n(op[k0], tail));
+    held
+}
+
 /// MV and the stuck flag after every sample, through the `ValveState` interface.
 fn stepped(model: &dyn StictionModel, op: &[f64], init: &InitialState) -> (Vec<f64>, Vec<bool>) {
     let mut state = model.start(op[0], init).expect("finite start");
@@ -387,8 +409,7 @@ proptest! {
         for k in 1..op.len() {
             prop_assert!(mv[k] >= mv[k - 1], "rising: k = {}: {} < {}", k, mv[k], mv[k - 1]);
         }
-        let down: Vec<f64> = op.iter().map(|v| -v).collect();
-        let mv = sim(&model, &down, &init);
+        let mv = sim(&model, &negated(&op), &init);
         for k in 1..op.len() {
             prop_assert!(mv[k] <= mv[k - 1], "falling: k = {}: {} > {}", k, mv[k], mv[k - 1]);
         }
@@ -423,15 +444,8 @@ proptest! {
     fn k7_sign_symmetry(op in op_float(), (s, j) in sj(), init in any_init()) {
         let model = kano(s, j);
         let init = make_init(op[0], init);
-        let mirrored_init = InitialState {
-            direction: flip(init.direction),
-            stuck_at: init.stuck_at.map(|v| -v),
-            position: init.position.map(|v| -v),
-            ..init
-        };
-        let neg: Vec<f64> = op.iter().map(|v| -v).collect();
-        let want: Vec<f64> = sim(&model, &op, &init).iter().map(|v| -v).collect();
-        prop_assert_eq!(sim(&model, &neg, &mirrored_init), want);
+        let want = negated(&sim(&model, &op, &init));
+        prop_assert_eq!(sim(&model, &negated(&op), &mirrored(&init)), want);
     }
 
     /// K8: OP constant from k0 >= 1 on ⇒ MV constant from k0 on (any start); from k0 = 0
@@ -450,10 +464,8 @@ proptest! {
         if k0 == 0 {
             init.stuck_at = None;
         }
-        let mut op = op[..=k0].to_vec();
-        op.extend(std::iter::repeat_n(op[k0], tail));
-        let mv = sim(&model, &op, &init);
-        for k in k0..op.len() {
+        let mv = sim(&model, &held_from(&op, k0, tail), &init);
+        for k in k0..mv.len() {
             prop_assert_eq!(mv[k], mv[k0], "k = {}", k);
         }
     }
@@ -602,10 +614,8 @@ proptest! {
         let want: Vec<f64> = mv.iter().map(|v| v + c).collect();
         prop_assert_eq!(sim(&model, &shifted, &shifted_init), want);
 
-        let neg: Vec<f64> = op.iter().map(|v| -v).collect();
         let neg_init = InitialState { direction: flip(dir), position: Some(-mv0), ..init };
-        let want: Vec<f64> = mv.iter().map(|v| -v).collect();
-        prop_assert_eq!(sim(&model, &neg, &neg_init), want);
+        prop_assert_eq!(sim(&model, &negated(&op), &neg_init), negated(&mv));
     }
 
     /// H6 sign symmetry on arbitrary floats (negation is exact, so the mirror is too).
@@ -613,10 +623,9 @@ proptest! {
     fn h6_float_inputs(op in op_float(), fs in 0.0..10.0f64, frac in 0.0..=1.0f64, dir in direction()) {
         let model = he(fs, fs * frac);
         let init = InitialState { direction: dir, ..InitialState::default() };
-        let neg: Vec<f64> = op.iter().map(|v| -v).collect();
         let neg_init = InitialState { direction: flip(dir), ..init };
-        let want: Vec<f64> = sim(&model, &op, &init).iter().map(|v| -v).collect();
-        prop_assert_eq!(sim(&model, &neg, &neg_init), want);
+        let want = negated(&sim(&model, &op, &init));
+        prop_assert_eq!(sim(&model, &negated(&op), &neg_init), want);
     }
 
     /// He's K8 analogue: constant OP from k0 on ⇒ constant MV from k0 on (any start).
@@ -631,10 +640,8 @@ proptest! {
         let model = He::from_sj(s, j).expect("valid");
         let init = make_init(op[0], init);
         let k0 = k0 % op.len();
-        let mut op = op[..=k0].to_vec();
-        op.extend(std::iter::repeat_n(op[k0], tail));
-        let mv = sim(&model, &op, &init);
-        for k in k0..op.len() {
+        let mv = sim(&model, &held_from(&op, k0, tail), &init);
+        for k in k0..mv.len() {
             prop_assert_eq!(mv[k], mv[k0], "k = {}", k);
         }
     }
@@ -704,15 +711,8 @@ proptest! {
         init in any_init(),
     ) {
         let init = make_init(op[0], init);
-        let mirrored_init = InitialState {
-            direction: flip(init.direction),
-            stuck_at: init.stuck_at.map(|v| -v),
-            position: init.position.map(|v| -v),
-            ..init
-        };
-        let neg: Vec<f64> = op.iter().map(|v| -v).collect();
-        let want: Vec<f64> = sim(&kano_asym(d, j_up, j_dn), &op, &init).iter().map(|v| -v).collect();
-        prop_assert_eq!(sim(&kano_asym(d, j_dn, j_up), &neg, &mirrored_init), want);
+        let want = negated(&sim(&kano_asym(d, j_up, j_dn), &op, &init));
+        prop_assert_eq!(sim(&kano_asym(d, j_dn, j_up), &negated(&op), &mirrored(&init)), want);
     }
 
     /// Asym monotonicity: monotone OP with a consistent start ⇒ monotone MV.

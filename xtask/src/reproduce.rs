@@ -387,6 +387,26 @@ struct Summary {
     err_j: f64,
 }
 
+impl Summary {
+    /// The recovery table's cells `loops | S hit | J hit | mean abs err S | mean abs err J |
+    /// failed`, the hit shares with `pct` decimals and the errors with `err`.
+    fn recovery_cells(&self, pct: usize, err: usize) -> String {
+        let share = |hits: usize| {
+            let p = 100.0 * hits as f64 / self.n.max(1) as f64;
+            format!("{hits}/{} ({p:.pct$} %)", self.n)
+        };
+        format!(
+            "{} | {} | {} | {:.err$} | {:.err$} | {}",
+            self.n + self.failed,
+            share(self.hit_s),
+            share(self.hit_j),
+            self.err_s,
+            self.err_j,
+            self.failed
+        )
+    }
+}
+
 fn summarise(jobs: &[&Job], res: &[&Result<Outcome, String>]) -> Summary {
     let ok: Vec<(&Job, &Outcome)> = jobs
         .iter()
@@ -690,20 +710,11 @@ fn criterion(args: &Args) -> Result<String> {
     }) {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {}/{} ({:.0} %) | {}/{} ({:.0} %) | {:.2} | {:.2} | {} |",
+            "| {} | {} | {} | {} |",
             if slow { "slow" } else { "paper" },
             -noise as f64 / 1000.0,
             if c { "simulation" } else { "prediction" },
-            su.n + su.failed,
-            su.hit_s,
-            su.n,
-            100.0 * su.hit_s as f64 / su.n.max(1) as f64,
-            su.hit_j,
-            su.n,
-            100.0 * su.hit_j as f64 / su.n.max(1) as f64,
-            su.err_s,
-            su.err_j,
-            su.failed
+            su.recovery_cells(0, 2)
         );
     }
     Ok(md)
@@ -779,20 +790,11 @@ fn recovery(args: &Args) -> Result<String> {
     }) {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {:.3} | {:.3} | {} |",
+            "| {} | {} | {} | {} |",
             p.to_lowercase(),
             m,
             n as f64 / 1000.0,
-            su.n + su.failed,
-            su.hit_s,
-            su.n,
-            100.0 * su.hit_s as f64 / su.n.max(1) as f64,
-            su.hit_j,
-            su.n,
-            100.0 * su.hit_j as f64 / su.n.max(1) as f64,
-            su.err_s,
-            su.err_j,
-            su.failed
+            su.recovery_cells(1, 3)
         );
     }
     // The misses, for the record.

@@ -10,7 +10,9 @@
 //!   of its own) names in `[dependencies]` (target-specific ones too; not dev-dependencies)
 //!   only crates of a lower layer of ARCHITECTURE.md's `layers` block, and every crate is in
 //!   that block;
-//! * ARCHITECTURE.md stays a map: at most [`ARCHITECTURE_MAX_BYTES`] bytes.
+//! * ARCHITECTURE.md stays a map: at most [`ARCHITECTURE_MAX_BYTES`] bytes;
+//! * no source file of a crate's `src/` over [`MAX_FILE_LINES`] lines, no function over
+//!   [`MAX_FN_LINES`].
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -123,10 +125,11 @@ pub fn check_text(file: &Path, text: &str) -> Vec<Violation> {
 }
 
 /// Every rule on the workspace under `root`: the sources' rules, the layer order of the
-/// manifests and the size of ARCHITECTURE.md, sorted by file and line.
+/// manifests, the size of ARCHITECTURE.md and the lengths, sorted by file and line.
 pub fn check_workspace(root: &Path) -> std::io::Result<Vec<Violation>> {
     let mut out = check_sources(root)?;
     out.extend(check_architecture(root)?.violations);
+    out.extend(check_length_sources(root)?);
     out.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
     Ok(out)
 }
@@ -135,21 +138,166 @@ pub fn check_workspace(root: &Path) -> std::io::Result<Vec<Violation>> {
 pub fn check_sources(root: &Path) -> std::io::Result<Vec<Violation>> {
     let mut out = Vec::new();
     for krate in LIBRARIES {
-        let mut stack = vec![root.join(krate).join("src")];
-        while let Some(dir) = stack.pop() {
-            for entry in std::fs::read_dir(&dir)? {
-                let p = entry?.path();
-                if p.is_dir() {
-                    stack.push(p);
-                } else if p.extension().is_some_and(|e| e == "rs") {
-                    let text = std::fs::read_to_string(&p)?;
-                    out.extend(check_text(&p, &text));
-                }
-            }
+        for p in rust_files(&root.join(krate).join("src"))? {
+            let text = std::fs::read_to_string(&p)?;
+            out.extend(check_text(&p, &text));
         }
     }
     out.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
     Ok(out)
+}
+
+/// Every `*.rs` file under `dir`.
+fn rust_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let (mut files, mut stack) = (Vec::new(), vec![dir.to_path_buf()]);
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir)? {
+            let p = entry?.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|e| e == "rs") {
+                files.push(p);
+            }
+        }
+    }
+    Ok(files)
+}
+
+/// The longest function allowed, in lines (from the line of `fn` to its closing brace).
+pub const MAX_FN_LINES: usize = 150;
+
+/// The longest source file allowed under a crate's `src/`, in lines.
+pub const MAX_FILE_LINES: usize = 1000;
+
+/// The crates whose `src/` the length rules read, besides [`LIBRARIES`].
+const LENGTH_CRATES: [&str; 4] = ["cli", "xtask", "python", "examples/custom-model"];
+
+/// The length rules on every `src/**/*.rs` of the workspace under `root`.
+pub fn check_length_sources(root: &Path) -> std::io::Result<Vec<Violation>> {
+    let mut out = Vec::new();
+    for krate in LIBRARIES.iter().chain(&LENGTH_CRATES) {
+        for p in rust_files(&root.join(krate).join("src"))? {
+            out.extend(check_lengths(&p, &std::fs::read_to_string(&p)?));
+        }
+    }
+    out.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
+    Ok(out)
+}
+
+/// The length rules on one source file's text: at most [`MAX_FILE_LINES`] lines, and no
+/// function (its `fn` line to its closing brace) over [`MAX_FN_LINES`].
+pub fn check_lengths(file: &Path, text: &str) -> Vec<Violation> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = Vec::new();
+    if lines.len() > MAX_FILE_LINES {
+        out.push(Violation {
+            file: file.to_path_buf(),
+            line: 1,
+            what: format!(
+                "{} lines, over {MAX_FILE_LINES}: split the file by what it does",
+                lines.len()
+            ),
+        });
+    }
+    let mut i = 0;
+    while i < lines.len() {
+        let Some(name) = fn_name(lines[i]) else {
+            i += 1;
+            continue;
+        };
+        match body_end(&lines, i) {
+            Some(end) => {
+                let n = end - i + 1;
+                if n > MAX_FN_LINES {
+                    out.push(Violation {
+                        file: file.to_path_buf(),
+                        line: i + 1,
+                        what: format!("function `{name}` of {n} lines, over {MAX_FN_LINES}"),
+                    });
+                }
+                i = end + 1;
+            }
+            None => i += 1,
+        }
+    }
+    out
+}
+
+/// The name of the function a line declares (`pub(crate) const unsafe fn name...`), if it
+/// does.
+fn fn_name(line: &str) -> Option<&str> {
+    let mut rest = line.trim_start();
+    if rest.starts_with("pub(") {
+        rest = rest[rest.find(')')? + 1..].trim_start();
+    }
+    for word in ["pub ", "const ", "async ", "unsafe ", "extern \"C\" "] {
+        if let Some(r) = rest.strip_prefix(word) {
+            rest = r.trim_start();
+        }
+    }
+    let rest = rest.strip_prefix("fn ")?;
+    let name = rest
+        .split(|c: char| !c.is_alphanumeric() && c != '_')
+        .next()
+        .filter(|n| !n.is_empty())?;
+    Some(name)
+}
+
+/// The line of the brace that closes the body of the function declared at `start`, or `None`
+/// for a declaration without a body (`fn f();`). Braces inside strings, character literals
+/// and comments do not count.
+fn body_end(lines: &[&str], start: usize) -> Option<usize> {
+    let mut depth = 0usize;
+    let mut opened = false;
+    let mut in_block_comment = false;
+    for (k, line) in lines.iter().enumerate().skip(start) {
+        let b = line.as_bytes();
+        let mut j = 0;
+        let mut in_string = false;
+        while j < b.len() {
+            let c = b[j];
+            if in_block_comment {
+                if c == b'*' && b.get(j + 1) == Some(&b'/') {
+                    in_block_comment = false;
+                    j += 1;
+                }
+            } else if in_string {
+                if c == b'\\' {
+                    j += 1;
+                } else if c == b'"' {
+                    in_string = false;
+                }
+            } else {
+                match c {
+                    b'/' if b.get(j + 1) == Some(&b'/') => break,
+                    b'/' if b.get(j + 1) == Some(&b'*') => in_block_comment = true,
+                    b'"' => in_string = true,
+                    // a character literal ('{', '\'', '\\'), not a lifetime ('a)
+                    b'\'' if b.get(j + 2) == Some(&b'\'') => j += 2,
+                    b'\'' if b.get(j + 1) == Some(&b'\\') => {
+                        j += 2;
+                        while j < b.len() && b[j] != b'\'' {
+                            j += 1;
+                        }
+                    }
+                    b'{' => {
+                        depth += 1;
+                        opened = true;
+                    }
+                    b'}' => {
+                        depth = depth.saturating_sub(1);
+                        if opened && depth == 0 {
+                            return Some(k);
+                        }
+                    }
+                    b';' if !opened && depth == 0 => return None,
+                    _ => {}
+                }
+            }
+            j += 1;
+        }
+    }
+    None
 }
 
 /// ARCHITECTURE.md's size limit: a map, not a logbook (15 KiB).
@@ -407,6 +555,33 @@ mod tests {
             "ARCHITECTURE.md's rules broken:\n{}",
             list.join("\n")
         );
+    }
+
+    #[test]
+    fn the_length_rules_count_functions_and_files() {
+        let f = Path::new("x.rs");
+        let body = |n: usize| "    let x = 1;\n".repeat(n);
+        // 150 lines in all (the `fn` line, 148 of body, the closing brace): allowed
+        let at_limit = format!("pub(crate) fn f() {{\n{}}}\n", body(148));
+        assert!(check_lengths(f, &at_limit).is_empty());
+        let over = format!("fn long() {{\n{}}}\nfn short() {{}}\n", body(149));
+        let v = check_lengths(f, &over);
+        assert_eq!(v.len(), 1, "{v:?}");
+        assert_eq!(
+            (v[0].line, v[0].what.contains("`long` of 151 lines")),
+            (1, true)
+        );
+        // braces in strings, characters and comments do not close the body early
+        let tricky = format!(
+            "fn g() {{\n    let s = \"}}\";\n    let c = '}}';\n    // }}\n{}}}\n",
+            body(148)
+        );
+        assert_eq!(check_lengths(f, &tricky).len(), 1);
+        let declaration = "trait T {\n    fn f(&self);\n}\n";
+        assert!(check_lengths(f, declaration).is_empty());
+        let long_file = "// x\n".repeat(MAX_FILE_LINES + 1);
+        assert_eq!(check_lengths(f, &long_file).len(), 1);
+        assert!(check_lengths(f, &"// x\n".repeat(MAX_FILE_LINES)).is_empty());
     }
 
     #[test]

@@ -31,6 +31,59 @@ pub fn run(args: &[&str], stdin: &[u8]) -> Out {
     }
 }
 
+/// Run `stiction ARGS` with `stdin`, checked to exit 0 (its stderr the failure's message).
+pub fn run_ok(args: &[&str], stdin: &[u8]) -> Out {
+    let o = run(args, stdin);
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    o
+}
+
+/// A fresh temporary directory `stiction-NAME-PID`.
+pub fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("stiction-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// The rows of a JSONL file.
+pub fn jsonl(path: &std::path::Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .expect("JSONL file")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON row"))
+        .collect()
+}
+
+/// The CSV of `stiction simulate` with a Kano valve S = 4, J = 1 (seed, samples), checked to
+/// succeed.
+pub fn simulate_kano_4_1(seed: &str, samples: &str) -> String {
+    let args = [
+        "simulate",
+        "--valve",
+        "kano",
+        "--param",
+        "S=4",
+        "--param",
+        "J=1",
+        "--seed",
+        seed,
+        "--samples",
+        samples,
+    ];
+    run_ok(&args, b"").stdout
+}
+
+/// The CSV of `stiction simulate` with a Kano valve S = 5, J = 2 behind a dead time of
+/// `delay` samples, PI 0.3/0.2 (seed), checked to succeed.
+pub fn simulate_dead_time(delay: &str, seed: &str) -> String {
+    let args = [
+        "simulate", "--param", "S=5", "--param", "J=2", "--delay", delay, "--kc", "0.3", "--ki",
+        "0.2", "--seed", seed,
+    ];
+    run_ok(&args, b"").stdout
+}
+
 /// The column `name` of a CSV text, as numbers.
 pub fn column(csv: &str, name: &str) -> Vec<f64> {
     let mut lines = csv.lines();

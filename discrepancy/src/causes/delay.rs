@@ -48,7 +48,7 @@ impl Cause for TimeDelay {
         if spec.stiction.params.len() > 2 {
             return local_delay(ctx);
         }
-        if ctx.baseline.identifier.as_arx().is_none() {
+        if ctx.baseline.identifier.fast_paths().is_none() {
             return warm_delay(ctx);
         }
         let build = |d: usize| -> Result<Box<dyn LinearIdentifier>, IdError> { spec.identifier(d) };

@@ -160,6 +160,37 @@ pub(crate) fn matvec(a: &[Vec<f64>], x: &[f64]) -> Vec<f64> {
     a.iter().map(|row| dot(row, x)).collect()
 }
 
+/// The first `out.len()` samples of a polynomial model's free run (centered): the given
+/// `y_init` (less its mean `ym`) while it lasts, then `A(q) ŷ = B(q) (u - um)` with the lags
+/// before sample 0 at zero.
+fn free_run_head(
+    a: &[f64],
+    b: &[f64],
+    delay: usize,
+    (u, um): (&[f64], f64),
+    (y_init, ym): (&[f64], f64),
+    out: &mut [f64],
+) {
+    let na = a.len() - 1;
+    for k in 0..out.len() {
+        if k < y_init.len() {
+            out[k] = y_init[k] - ym;
+            continue;
+        }
+        let mut v = 0.0;
+        for i in 1..=na.min(k) {
+            v -= a[i] * out[k - i];
+        }
+        for (j, &bj) in b.iter().enumerate() {
+            let lag = delay + j + 1;
+            if k >= lag {
+                v += bj * (u[k - lag] - um);
+            }
+        }
+        out[k] = v;
+    }
+}
+
 impl LinearFit {
     /// [`LinearFit::simulate`] into `out` (length of `u`), computed in independent blocks:
     /// the tail of a polynomial model's free run (an all-pole recursion on
@@ -193,23 +224,7 @@ impl LinearFit {
         check_finite("y", y_init)?;
         let (um, ym) = (self.u_mean, self.y_mean);
         // head: as `simulate`
-        for k in 0..head_end {
-            if k < y_init.len() {
-                out[k] = y_init[k] - ym;
-                continue;
-            }
-            let mut v = 0.0;
-            for i in 1..=na.min(k) {
-                v -= a[i] * out[k - i];
-            }
-            for (j, &bj) in b.iter().enumerate() {
-                let lag = delay + j + 1;
-                if k >= lag {
-                    v += bj * (u[k - lag] - um);
-                }
-            }
-            out[k] = v;
-        }
+        free_run_head(a, b, *delay, (u, um), (y_init, ym), &mut out[..head_end]);
         // tail input w_k, into `out` (vectorisable: no recursion)
         let tail = n_data - head_end;
         {
@@ -354,23 +369,7 @@ impl LinearFit {
                 // from `full` on every lag exists: the branch-free tail (same sums, same order)
                 let full = na.max(delay + nb);
                 let head_end = full.max(y_init.len()).min(n_data);
-                for k in 0..head_end {
-                    if k < y_init.len() {
-                        out[k] = y_init[k] - ym;
-                        continue;
-                    }
-                    let mut v = 0.0;
-                    for i in 1..=na.min(k) {
-                        v -= a[i] * out[k - i];
-                    }
-                    for (j, &bj) in b.iter().enumerate() {
-                        let lag = delay + j + 1;
-                        if k >= lag {
-                            v += bj * (u[k - lag] - um);
-                        }
-                    }
-                    out[k] = v;
-                }
+                free_run_head(a, b, *delay, (u, um), (y_init, ym), &mut out[..head_end]);
                 let tail = PolyTail {
                     a: &a[1..],
                     b,

@@ -248,3 +248,17 @@ pub fn sippy_ss_data(len: usize, sigma: f64, seed: u64) -> (Vec<f64>, Vec<f64>) 
 
 /// Markov parameters C A^i B of the SIPPY example, i = 0..5.
 pub const SIPPY_MARKOV: [f64; 5] = [2.71, 1.3119, 0.6726, 0.3759, 0.2343];
+
+/// PARSIM-K of order 2 with horizons `(f, p)` and no centering (SIPPY's default), fitted to
+/// `(u, y)`.
+pub fn parsim_sippy(f: usize, p: usize, u: &[f64], y: &[f64]) -> linear_id::LinearFit {
+    use linear_id::LinearIdentifier;
+    let id = linear_id::ParsimK::params()
+        .n(2)
+        .f(f)
+        .p(p)
+        .center(false)
+        .check()
+        .expect("valid orders");
+    id.identify(u, y).expect("identified")
+}

@@ -42,14 +42,7 @@ pub(crate) fn generate(args: &Args, failures: &mut Vec<(String, String)>) -> Res
             }
         } else {
             eprintln!("report-check: FAILED {} ({})", run.command, run.status);
-            failures.push((
-                run.command.clone(),
-                format!(
-                    "failed ({}); its stderr:\n{}",
-                    run.status,
-                    tail(&run.stderr, 30)
-                ),
-            ));
+            failures.push(run.failure());
             if has_index {
                 pages.push(index);
             }
@@ -110,14 +103,7 @@ pub(crate) fn generate_audit(
     );
     let index = out.join("index.html");
     if !(run.success && index.is_file()) {
-        failures.push((
-            run.command.clone(),
-            format!(
-                "failed ({}); its stderr:\n{}",
-                run.status,
-                tail(&run.stderr, 30)
-            ),
-        ));
+        failures.push(run.failure());
         return Ok(Vec::new());
     }
     let mut pages = vec![index];
@@ -263,6 +249,20 @@ pub(crate) struct ReportRun {
     /// Exit status, for messages.
     pub(crate) status: String,
     pub(crate) stderr: String,
+}
+
+impl ReportRun {
+    /// The failure's entry: the command, and its status with the tail of its stderr.
+    pub(crate) fn failure(&self) -> (String, String) {
+        (
+            self.command.clone(),
+            format!(
+                "failed ({}); its stderr:\n{}",
+                self.status,
+                tail(&self.stderr, 30)
+            ),
+        )
+    }
 }
 
 /// Runs `stiction ARGS --report DIR` into a fresh `DIR` (an old `DIR` is removed first, so a
