@@ -284,6 +284,17 @@ impl Answer {
     }
 }
 
+/// The S reported for a registration whose combination fitted `one_step` and whose record the
+/// detector answered `det` (`None`: it did not run): [`RULE`]'s choice, as [`Answer::new`]
+/// makes it. `trend` follows this S.
+pub fn reported_s(one_step: Estimate, det: Option<&crate::Detected>) -> (Estimate, SFrom) {
+    let verdict = det.map_or(Verdict::Inconclusive, crate::Detected::verdict);
+    let output_error = det
+        .and_then(crate::Detected::detection)
+        .and_then(Estimate::output_error);
+    choose(verdict, Some(one_step), output_error, RULE).unwrap_or((one_step, SFrom::OneStep))
+}
+
 /// The S reported under `rule`, and which fit it comes from.
 fn choose(
     verdict: Verdict,

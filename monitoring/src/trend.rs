@@ -412,7 +412,16 @@ pub fn follow(
                 .iter()
                 .map(|r| Point {
                     start: r.start,
-                    fit: r.fit(c).map(|f| (f.s, f.fit_val)),
+                    // the registration's one answer: the S that explains the detector's
+                    // verdict (`answer::reported_s`), not the one-step S alone
+                    fit: r.fit(c).map(|f| {
+                        let one_step = crate::answer::Estimate {
+                            s: f.s,
+                            range: f.s_range,
+                        };
+                        let (s, _) = crate::answer::reported_s(one_step, r.detection.as_ref());
+                        (s.s, f.fit_val)
+                    }),
                 })
                 .collect();
             CombinationTrend {
