@@ -49,7 +49,7 @@ fn a_clear_sticky_loop_gets_a_plain_verdict() {
     let o = run(&["quantify", "-"], simulated("4", "1", "2").as_bytes());
     assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(
-        o.stdout.contains("  verdict: the valve sticks"),
+        o.stdout.contains("  verdict: stiction: S = 4.00 %"),
         "{}",
         o.stdout
     );
@@ -76,11 +76,6 @@ fn weak_evidence_is_said_on_plant_data() {
     let p = p.to_str().expect("utf-8");
     let o = run(&["quantify", p], b"");
     assert_eq!(o.code, 0, "{}", o.stderr);
-    assert!(
-        o.stdout.contains("is not to be trusted alone"),
-        "{}",
-        o.stdout
-    );
     for w in [
         "identification and validation fits disagree",
         "grid nodes were skipped",
