@@ -40,7 +40,7 @@ fn simulated(s: &str, j: &str, seed: &str) -> String {
 fn a_clear_sticky_loop_gets_a_plain_verdict() {
     let o = run_ok(&["quantify", "-"], simulated("4", "1", "2").as_bytes());
     assert!(
-        o.stdout.contains("  verdict: the valve sticks"),
+        o.stdout.contains("  verdict: stiction: S = 4.00 %"),
         "{}",
         o.stdout
     );
@@ -65,11 +65,6 @@ fn weak_evidence_is_said_on_plant_data() {
     };
     let p = p.to_str().expect("utf-8");
     let o = run_ok(&["quantify", p], b"");
-    assert!(
-        o.stdout.contains("is not to be trusted alone"),
-        "{}",
-        o.stdout
-    );
     for w in [
         "identification and validation fits disagree",
         "grid nodes were skipped",

@@ -124,9 +124,11 @@ fn compare_prints_one_row_per_combination() {
         ],
         b"",
     );
+    // the table's rows, then the loop kind's line
     let rows: Vec<&str> = o.stdout.lines().skip(2).collect();
-    assert_eq!(rows.len(), 4, "{}", o.stdout);
+    assert_eq!(rows.len(), 5, "{}", o.stdout);
     assert!(rows[0].starts_with("kano") && rows[0].contains("arx"));
+    assert!(rows[4].starts_with("loop: self-regulating"), "{}", o.stdout);
     assert!(o.stdout.lines().nth(1).unwrap().contains("F_PV val"));
     let j = run(
         &[

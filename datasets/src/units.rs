@@ -30,6 +30,18 @@
 /// signed and unsigned 16 bit).
 pub const FULL_SCALES: [f64; 7] = [255.0, 1023.0, 4095.0, 16383.0, 27648.0, 32767.0, 65535.0];
 
+/// The words of the units note when OP's valve span is unknown (the range seen stands for
+/// it): [`span_unknown`] finds them.
+pub const SPAN_UNKNOWN: &str = "the valve span is unknown";
+
+/// Whether the reader's `notes` say OP's valve span is unknown: S and J are then in % of the
+/// OP range seen, not of the valve's span, and no threshold in % of span applies to them.
+pub fn span_unknown(notes: &[crate::Note]) -> bool {
+    notes
+        .iter()
+        .any(|n| n.kind == crate::NoteKind::Units && n.text.contains(SPAN_UNKNOWN))
+}
+
 /// How the reader finds OP's valve span.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -231,7 +243,7 @@ pub(crate) fn op_units(op: &[f64], range: OpRange) -> Result<OpUnits, String> {
             Ok(OpUnits {
                 span: Some((lo, hi)),
                 note: Some(format!(
-                    "OP ranges {}-{}, neither 0-1, 0-100 nor integer counts: the valve span is unknown, so S and J are in % of the OP range seen ({}-{}); give --op-range LO,HI to state the valve span",
+                    "OP ranges {}-{}, neither 0-1, 0-100 nor integer counts: {SPAN_UNKNOWN}, so S and J are in % of the OP range seen ({}-{}); give --op-range LO,HI to state the valve span",
                     sig(lo),
                     sig(hi),
                     sig(lo),

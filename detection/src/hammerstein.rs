@@ -519,6 +519,12 @@ pub struct Comparison {
     /// Below 1 (% of span, the size that already hurts) the data exclude a harmful stiction
     /// band; at or above it they do not, whatever the likelihood ratio says.
     pub s_upper: f64,
+    /// Below the same region: 0 when the free valve is in it, else the grid's node just
+    /// below the smallest S in it (the profile is known only at the nodes).
+    pub s_lower: f64,
+    /// Above the region: the grid's node just above [`Comparison::s_upper`] (itself at the
+    /// grid's top).
+    pub s_above: f64,
 }
 
 /// Likelihood-ratio margin of the S region: χ²₁ at 95 %.
@@ -603,8 +609,25 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
         .filter(|&&(_, r)| rows as f64 * (r / floor).ln() <= REGION_LR)
         .map(|&(s, _)| s)
         .fold(0.0, f64::max);
+    // The region's ends on the grid, widened to the neighbouring nodes: the profile is known
+    // only at the nodes, so an S between the last node in the region and the next one out
+    // may be in it (the truth of a simulated valve is never exactly a node).
+    let in_region = |r: f64| rows as f64 * (r / floor).ln() <= REGION_LR;
+    let first = profile.iter().position(|&(_, r)| in_region(r));
+    let last = profile.iter().rposition(|&(_, r)| in_region(r));
+    let s_lower = match first {
+        _ if in_region(oe0) => 0.0,
+        Some(k) if k > 0 => profile[k - 1].0,
+        _ => 0.0,
+    };
+    let s_above = match last {
+        Some(k) => profile.get(k + 1).map_or(profile[k].0, |p| p.0),
+        None => best.1,
+    };
     Some(Comparison {
         s_upper,
+        s_lower,
+        s_above,
         lr: rows as f64 * ratio.ln(),
         s: best.1,
         j: best.2,
@@ -713,7 +736,13 @@ impl DetectionTest for Hammerstein {
                     c.s, c.j, c.lr, c.rows
                 ),
             );
-            out.values = vec![("S", c.s), ("J", c.j), ("S_upper", c.s_upper)];
+            out.values = vec![
+                ("S", c.s),
+                ("J", c.j),
+                ("S_upper", c.s_upper),
+                ("S_lower", c.s_lower),
+                ("S_above", c.s_above),
+            ];
             return Ok(out);
         }
         let verdict = if c.lr >= STICTION_LR && c.lr_arx >= STICTION_LR_ARX && c.s >= 0.5 {
@@ -746,6 +775,8 @@ impl DetectionTest for Hammerstein {
             ("lr_arx", c.lr_arx),
             ("S_arx", c.s_arx),
             ("S_upper", c.s_upper),
+            ("S_lower", c.s_lower),
+            ("S_above", c.s_above),
             ("rows", c.rows as f64),
         ];
         Ok(out)

@@ -3,12 +3,14 @@
 //! ([`registration`]); the batch over many loops, its
 //! rows and labels ([`batch`]); the trend of a valve over repeated registrations with its
 //! maintenance verdict ([`trend`](mod@trend)); which loops are integrating ([`kind`]); the detection crate's verdict on each record read
-//! ([`detect`]); the commands' JSON documents ([`document`]); ROC and robust statistics ([`stats`]).
+//! ([`detect`]); one verdict and the S that explains it, the loop kind decided once ([`answer`]);
+//! the commands' JSON documents ([`document`]); ROC and robust statistics ([`stats`]).
 //!
 //! The trend diagnoses its registrations with `discrepancy` on the data it has read. The CLI
 //! parses arguments, calls this crate and prints. This crate never prints; its only IO is
 //! reading registrations and labels and writing a batch's rows.
 
+pub mod answer;
 pub mod batch;
 pub mod detect;
 pub mod document;
@@ -19,6 +21,7 @@ pub mod trend;
 
 use std::path::PathBuf;
 
+pub use answer::{analyse, Analysis, Answer, SFrom};
 pub use detect::{
     detect_decided, detect_file, detect_loop, detect_view, DetectError, Detected, DetectionFigures,
     DetectionRecord, DetectionView,

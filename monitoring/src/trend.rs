@@ -412,7 +412,16 @@ pub fn follow(
                 .iter()
                 .map(|r| Point {
                     start: r.start,
-                    fit: r.fit(c).map(|f| (f.s, f.fit_val)),
+                    // the registration's one answer: the S that explains the detector's
+                    // verdict (`answer::reported_s`), not the one-step S alone
+                    fit: r.fit(c).map(|f| {
+                        let one_step = crate::answer::Estimate {
+                            s: f.s,
+                            range: f.s_range,
+                        };
+                        let (s, _) = crate::answer::reported_s(one_step, r.detection.as_ref());
+                        (s.s, f.fit_val)
+                    }),
                 })
                 .collect();
             CombinationTrend {
@@ -422,70 +431,11 @@ pub fn follow(
             }
         })
         .collect();
-    let mut causes = None;
-    if diagnose {
-        // Every registration with a fit of the first combination is diagnosed once: its
-        // sentence serves that combination's doubtful registrations, and the diagnoses give
-        // the causes the valve's registrations agree on.
-        let fitted: Vec<usize> = (0..regs.len())
-            .filter(|&k| {
-                !combinations.is_empty() && regs[k].fit(0).is_some() && regs[k].data.is_some()
-            })
-            .collect();
-        let mut first: Vec<Option<String>> = vec![None; regs.len()];
-        if !fitted.is_empty() {
-            let refs: Vec<&Registration> = fitted.iter().map(|&k| &regs[k]).collect();
-            let labels: Vec<String> = refs
-                .iter()
-                .map(|r| r.start.map(format_epoch).unwrap_or_else(|| r.file.clone()))
-                .collect();
-            let records: Vec<&LoopData> = refs.iter().filter_map(|r| r.data.as_ref()).collect();
-            let (sentences, consensus) = diagnose_all(&records, &labels, &combinations[0]);
-            for (&k, sentence) in fitted.iter().zip(sentences) {
-                first[k] = Some(sentence.unwrap_or_else(|e| format!("diagnosis failed: {e}")));
-            }
-            causes = Some(consensus);
-        }
-        let jobs: Vec<(usize, usize)> = trends
-            .iter()
-            .enumerate()
-            .flat_map(|(c, t)| {
-                t.trend
-                    .flags
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, f)| **f != Flag::Used)
-                    .map(move |(k, _)| (k, c))
-            })
-            .filter(|&(k, c)| regs[k].fit(c).is_some())
-            .collect();
-        let found: Vec<((usize, usize), String)> = jobs
-            .par_iter()
-            .map(|&(k, c)| {
-                let why = match (c, &first[k]) {
-                    (0, Some(sentence)) => sentence.clone(),
-                    _ => regs[k]
-                        .data
-                        .as_ref()
-                        .map_or(Err("the record was not kept".to_string()), |d| {
-                            diagnose_one(d, &combinations[c])
-                        })
-                        .unwrap_or_else(|e| format!("diagnosis failed: {e}")),
-                };
-                ((k, c), why)
-            })
-            .collect();
-        for ((k, c), why) in found {
-            if let Ok(combos) = &mut regs[k].outcome {
-                if let Some(Ok(f)) = combos.get_mut(c).map(|o| &mut o.result) {
-                    f.evidence.insert(0, Evidence::Diagnosis(why));
-                }
-            }
-        }
-        for r in &mut regs {
-            r.data = None;
-        }
-    }
+    let causes = if diagnose {
+        diagnose_registrations(&mut regs, &trends, &combinations)
+    } else {
+        None
+    };
     let mean_of = |f: &dyn Fn(&Trend) -> Option<f64>| {
         let v: Vec<f64> = trends.iter().filter_map(|t| f(&t.trend)).collect();
         (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
@@ -508,6 +458,75 @@ pub fn follow(
         reason,
         causes,
     })
+}
+
+/// Every registration with a fit of the first combination diagnosed once: its sentence serves
+/// that combination's doubtful registrations, and the diagnoses give the causes the valve's
+/// registrations agree on (returned). The other combinations' doubtful registrations are
+/// diagnosed with their own combination. The records kept for this are dropped.
+fn diagnose_registrations(
+    regs: &mut [Registration],
+    trends: &[CombinationTrend],
+    combinations: &[run::Combination],
+) -> Option<run::Consensus> {
+    let mut causes = None;
+    let fitted: Vec<usize> = (0..regs.len())
+        .filter(|&k| !combinations.is_empty() && regs[k].fit(0).is_some() && regs[k].data.is_some())
+        .collect();
+    let mut first: Vec<Option<String>> = vec![None; regs.len()];
+    if !fitted.is_empty() {
+        let refs: Vec<&Registration> = fitted.iter().map(|&k| &regs[k]).collect();
+        let labels: Vec<String> = refs
+            .iter()
+            .map(|r| r.start.map(format_epoch).unwrap_or_else(|| r.file.clone()))
+            .collect();
+        let records: Vec<&LoopData> = refs.iter().filter_map(|r| r.data.as_ref()).collect();
+        let (sentences, consensus) = diagnose_all(&records, &labels, &combinations[0]);
+        for (&k, sentence) in fitted.iter().zip(sentences) {
+            first[k] = Some(sentence.unwrap_or_else(|e| format!("diagnosis failed: {e}")));
+        }
+        causes = Some(consensus);
+    }
+    let jobs: Vec<(usize, usize)> = trends
+        .iter()
+        .enumerate()
+        .flat_map(|(c, t)| {
+            t.trend
+                .flags
+                .iter()
+                .enumerate()
+                .filter(|(_, f)| **f != Flag::Used)
+                .map(move |(k, _)| (k, c))
+        })
+        .filter(|&(k, c)| regs[k].fit(c).is_some())
+        .collect();
+    let found: Vec<((usize, usize), String)> = jobs
+        .par_iter()
+        .map(|&(k, c)| {
+            let why = match (c, &first[k]) {
+                (0, Some(sentence)) => sentence.clone(),
+                _ => regs[k]
+                    .data
+                    .as_ref()
+                    .map_or(Err("the record was not kept".to_string()), |d| {
+                        diagnose_one(d, &combinations[c])
+                    })
+                    .unwrap_or_else(|e| format!("diagnosis failed: {e}")),
+            };
+            ((k, c), why)
+        })
+        .collect();
+    for ((k, c), why) in found {
+        if let Ok(combos) = &mut regs[k].outcome {
+            if let Some(Ok(f)) = combos.get_mut(c).map(|o| &mut o.result) {
+                f.evidence.insert(0, Evidence::Diagnosis(why));
+            }
+        }
+    }
+    for r in regs.iter_mut() {
+        r.data = None;
+    }
+    causes
 }
 
 /// `(file, detector verdict)` of the latest [`DETECT_WINDOW`] usable registrations (used in

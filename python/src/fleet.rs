@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 
 use monitoring::MonitoringError;
 
-use super::{data_err, interruptible, names, read_args, search_settings, usage_err};
+use super::{data_err, integrating, interruptible, names, read_args, search_settings, usage_err};
 
 /// The batch options of a settings JSON (`stiction`, `linear`, `integrating`, `min_fit` and
 /// the [`run::SearchArgs`]) and the reader's options, as the JSON a worker gets
@@ -24,14 +24,7 @@ pub(crate) fn batch_options(
         serde_json::from_str(settings_json).map_err(usage_err)?;
     let stiction = names(v.remove("stiction"), "stiction", "kano")?;
     let linear = names(v.remove("linear"), "linear", "arx")?;
-    let integrating = match v.remove("integrating") {
-        None => monitoring::Integrating::Auto,
-        Some(x) => serde_json::from_value(x).map_err(|e| {
-            usage_err(format!(
-                "integrating: {e} (expected \"auto\", \"yes\" or \"no\")"
-            ))
-        })?,
-    };
+    let integrating = integrating(v.remove("integrating"))?;
     let min_fit = match v.remove("min_fit") {
         None => DEFAULT_MIN_FIT,
         Some(x) => x

@@ -252,6 +252,20 @@ struct Request {
     settings: Settings,
     /// diagnose: causes left out (`--without`).
     without: Vec<String>,
+    /// Whether the loop is integrating (`--integrating`).
+    integrating: monitoring::Integrating,
+}
+
+/// `integrating` of a settings JSON: `auto` (the default), `yes` or `no`.
+fn integrating(v: Option<serde_json::Value>) -> PyResult<monitoring::Integrating> {
+    match v {
+        None => Ok(monitoring::Integrating::Auto),
+        Some(x) => serde_json::from_value(x).map_err(|e| {
+            usage_err(format!(
+                "integrating: {e} (expected \"auto\", \"yes\" or \"no\")"
+            ))
+        }),
+    }
 }
 
 fn names(v: Option<serde_json::Value>, key: &str, default: &str) -> PyResult<Vec<String>> {
@@ -282,6 +296,7 @@ fn request(settings_json: &str) -> PyResult<Request> {
         None => Vec::new(),
         x => names(x, "without", "")?,
     };
+    let integrating = integrating(v.remove("integrating"))?;
     let (args, settings) = search_settings(v, &stiction, &linear)?;
     Ok(Request {
         stiction,
@@ -289,6 +304,7 @@ fn request(settings_json: &str) -> PyResult<Request> {
         args,
         settings,
         without,
+        integrating,
     })
 }
 
@@ -318,35 +334,31 @@ fn search_err(source: &str, e: RunError) -> PyErr {
     }
 }
 
-/// One combination on a record: its quantify object, or the error.
+/// One combination on a record analysed as `a` (searched as `a.searched`): its fit and quantify
+/// object, or the error.
 fn quantify_record(
     d: &LoopData,
-    stiction: &str,
-    linear: &str,
+    a: &monitoring::Analysis,
+    (stiction, linear): (&str, &str),
     req: &Request,
-) -> Result<run::QuantifyRecord, PyErr> {
+) -> Result<(run::Fitted, run::QuantifyRecord), PyErr> {
     let combination = req
         .settings
         .combination(stiction, linear)
         .map_err(|e| search_err(&d.source, e))?;
-    let problem = run::problem(d).map_err(data_err)?;
+    let problem = run::problem(&a.searched).map_err(data_err)?;
     let fitted = combination
         .run(problem, None)
         .map_err(|e| search_err(&d.source, e))?;
     let mut record = fitted.record(&req.settings.search.init);
-    record.set_repair(fitted.repair(d, false));
-    Ok(record)
+    record.set_repair(fitted.repair(d, a.kind.integrating));
+    Ok((fitted, record))
 }
 
-/// The detector on a record, integrating decided as the CLI decides it from the file's valve tag
-/// (the record's source names the file).
-fn detected(d: &LoopData) -> monitoring::Detected {
-    monitoring::detect_file(
-        d,
-        Some(std::path::Path::new(&d.source)),
-        monitoring::Integrating::Auto,
-    )
-    .detected
+/// The record analysed as the CLI analyses it: the loop kind decided by `integrating` from the
+/// record and the file's valve tag (the record's source names the file).
+fn analysed(d: &LoopData, req: &Request) -> monitoring::Analysis {
+    monitoring::analyse(d, Some(std::path::Path::new(&d.source)), req.integrating)
 }
 
 /// The `diagnose --json` document (`discrepancy::baseline`, `options_for`, `diagnose`).
@@ -355,22 +367,28 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
     let usage_of = |e: DiagnoseError| usage_err(e.to_string());
     let baseline =
         discrepancy::baseline(&req.args, &req.stiction[0], &req.linear[0]).map_err(usage_of)?;
-    let problem = run::problem(d).map_err(data_err)?;
-    let span = run::span_of(&d.op);
+    let a = analysed(d, req);
+    let problem = run::problem(&a.searched).map_err(data_err)?;
+    let span = run::span_of(&a.searched.op);
     let options = discrepancy::options_for(&req.args, span, &req.without).map_err(usage_of)?;
     let dg = discrepancy::diagnose(problem, &baseline, &options).map_err(|e| match e {
         e @ DiagnoseError::UnknownCause { .. } => usage_err(e.to_string()),
         DiagnoseError::Search(e) if e.is_usage() => usage_err(format!("{}: {e}", d.source)),
         other => data_err(format!("{}: {other}", d.source)),
     })?;
-    // what a repair would buy, in the final model (as `stiction diagnose --json`)
-    let repair = dg.final_fit().unwrap_or(&dg.baseline_fit).repair(d, false);
+    // what a repair would buy, and the answer, in the final model (as `stiction diagnose
+    // --json`)
+    let fit = dg.final_fit().unwrap_or(&dg.baseline_fit);
+    let repair = fit.repair(d, a.kind.integrating);
+    let det = a.detect(d).detected;
+    let answer = monitoring::Answer::new(&a, &det, Some(&fit.result));
     Ok(monitoring::document::diagnose(
         &d.source,
         &dg,
         &req.settings.search.init,
-        &detected(d),
+        &det,
         &repair,
+        &answer,
     ))
 }
 
@@ -402,28 +420,36 @@ fn identify_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
 fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
     let doc = match command {
         "quantify" => {
-            let r = quantify_record(d, &req.stiction[0], &req.linear[0], req)?;
-            monitoring::document::quantify(&d.source, &r, &detected(d)).map_err(data_err)?
+            let a = analysed(d, req);
+            let (fitted, r) = quantify_record(d, &a, (&req.stiction[0], &req.linear[0]), req)?;
+            let det = a.detect(d).detected;
+            let answer = monitoring::Answer::new(&a, &det, Some(&fitted.result));
+            monitoring::document::quantify(&d.source, &r, &det, &answer).map_err(data_err)?
         }
         "detect" => {
             d.require_pv().map_err(data_err)?;
-            match detected(d) {
-                monitoring::Detected::Ran(det) => monitoring::document::detect(d, &det),
+            let a = analysed(d, req);
+            let detected = a.detect(d).detected;
+            let answer = monitoring::Answer::new(&a, &detected, None);
+            match detected {
+                monitoring::Detected::Ran(det) => monitoring::document::detect(d, &det, &answer),
                 monitoring::Detected::Failed(e) => {
                     return Err(data_err(format!("{}: {e}", d.source)))
                 }
             }
         }
         "compare" => {
+            let a = analysed(d, req);
             let mut doc = run::CompareRecord::new(&d.source);
             for st in &req.stiction {
                 for li in &req.linear {
-                    let r = quantify_record(d, st, li, req)
+                    let r = quantify_record(d, &a, (st, li), req)
+                        .map(|(_, r)| r)
                         .map_err(|e| Python::attach(|py| e.value(py).to_string()));
                     doc.push(st, li, r);
                 }
             }
-            serde_json::to_value(doc).map_err(data_err)?
+            monitoring::document::compare(&doc, &a.kind).map_err(data_err)?
         }
         "diagnose" => diagnose_doc(d, req)?,
         "identify" => identify_doc(d, req)?,

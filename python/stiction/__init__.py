@@ -173,17 +173,18 @@ def quantify(
     options, as the CLI's flags: `orders` ("2,2" or "n=2,m=2"), `delay` (samples or
     "auto"), `step` (grid step, % of span), `init` ("In.1", "In.2", "In.3"), `criterion`
     ("prediction", "simulation"), `split` (identification fraction), `max_nodes`, `max_work`
-    (work budget per grid stage); and the
-    reader's options.
+    (work budget per grid stage); `integrating` ("auto", "yes", "no": whether the loop is
+    identified from MV to ΔPV, decided as every command decides it); and the reader's options.
 
     Returns the quantify document: `S`, `J` (% of valve span), `interval`, `fit_pv_val`,
-    `warnings`, ... (docs/CLI.md lists every key).
+    `warnings`, `answer` (the record's one verdict and the S that explains it), ...
+    (docs/CLI.md lists every key).
 
     >>> r = stiction.quantify(pd.read_csv("loop.csv"))                   # doctest: +SKIP
     >>> r["S"], r["J"], r["interval"]["S"]                               # doctest: +SKIP
     """
     options.update(stiction=stiction, linear=linear)
-    return _run("quantify", data, source, ("stiction", "linear") + SEARCH_OPTIONS, options)
+    return _run("quantify", data, source, ("stiction", "linear", "integrating") + SEARCH_OPTIONS, options)
 
 
 def quantify_file(path: Any, **options: Any) -> Dict[str, Any]:
@@ -204,19 +205,21 @@ def compare(
     """Every stiction x linear combination on one registration (`stiction compare --json`):
     `results` (quantify documents) and `errors`. Same options as `quantify`."""
     options.update(stiction=_names(stiction), linear=_names(linear))
-    return _run("compare", data, source, ("stiction", "linear") + SEARCH_OPTIONS, options)
+    return _run("compare", data, source, ("stiction", "linear", "integrating") + SEARCH_OPTIONS, options)
 
 
-def detect(data: Any, *, source: Optional[str] = None, **reader: Any) -> Dict[str, Any]:
+def detect(data: Any, *, source: Optional[str] = None, **options: Any) -> Dict[str, Any]:
     """Is it the valve? The published detection tests and one verdict (`stiction detect
     --json`): `score` (0-1), `verdict` (stiction / no-stiction / inconclusive), `reason`,
-    `oscillating`, `period_s`, `integrating`, `tests` ({name, statistic, verdict, evidence}).
-    A level loop (valve tag with letter L, from `source` or the file name) is treated as
-    integrating.
+    `oscillating`, `period_s`, `integrating`, `integrating_by`, `tests` ({name, statistic,
+    verdict, evidence}), `answer` (the verdict and the S that explains it). `integrating`
+    ("auto", "yes", "no") as for every command: "auto" decides from the record (whether PV's
+    rate or level follows OP), the valve tag's letter L (from `source` or the file name)
+    breaking a tie. Other options are the reader's.
 
     >>> stiction.detect(pd.read_csv("loop.csv"))["verdict"]               # doctest: +SKIP
     """
-    return _run("detect", data, source, (), reader)
+    return _run("detect", data, source, ("integrating",), options)
 
 
 def diagnose(
@@ -240,7 +243,9 @@ def diagnose(
     options.update(stiction=stiction, linear=linear)
     if without is not None:
         options["without"] = _names(without)
-    return _run("diagnose", data, source, ("stiction", "linear", "without") + SEARCH_OPTIONS, options)
+    return _run(
+        "diagnose", data, source, ("stiction", "linear", "without", "integrating") + SEARCH_OPTIONS, options
+    )
 
 
 def identify(

@@ -11,15 +11,21 @@ use grid_search::Criterion;
 use linear_id::Structure;
 use monitoring::batch::{self, BatchRun, OkRow, Row};
 use monitoring::trend::ValveTrend;
-use monitoring::{Detected, Evidence, Flag, Roc, Trend};
+use monitoring::{Answer, Detected, Evidence, Flag, Roc, Trend};
 use run::identify::Identification;
 use run::Fitted;
 
-use crate::verdict::{opt2, own_params, verdict_line};
+use crate::verdict::{opt2, own_params};
 
 /// The text of `quantify`: the combination, S and J with their ranges, the fits, the grid, the
-/// verdict and the warnings. `init` is the initialization's label.
-pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Error> {
+/// verdict (the record's one answer, [`monitoring::Answer`]) and the warnings. `init` is the
+/// initialization's label.
+pub fn quantify(
+    source: &str,
+    r: &Fitted,
+    init: &str,
+    answer: &Answer,
+) -> Result<String, fmt::Error> {
     let q = &r.result;
     let mut text = String::new();
     let out = &mut text;
@@ -47,11 +53,11 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
     let own = own_params(r.stiction, q);
     writeln!(
         out,
-        "  S = {:.2} %  [{:.2}, {:.2}]    J = {:.2} %  [{:.2}, {:.2}]    ({})",
-        q.s,
+        "  S = {}  [{:.2}, {:.2}]    J = {}  [{:.2}, {:.2}]    ({})",
+        answer.s_text(q.s),
         q.interval.s[0],
         q.interval.s[1],
-        q.j,
+        answer.s_text(q.j),
         q.interval.j[0],
         q.interval.j[1],
         own.join(", ")
@@ -85,7 +91,8 @@ pub fn quantify(source: &str, r: &Fitted, init: &str) -> Result<String, fmt::Err
         r.elapsed_ms
     )
     ?;
-    writeln!(out, "  verdict: {}", verdict_line(q))?;
+    writeln!(out, "  loop: {}", answer.integrating_by)?;
+    writeln!(out, "  verdict: {}", answer.line())?;
     for (i, w) in q.warnings.iter().enumerate() {
         let kind = if i < q.doubts.len() {
             "warning"
@@ -475,6 +482,12 @@ pub fn causes_lines(c: &run::Consensus, baseline: &str) -> Vec<String> {
     lines
 }
 
+/// The `answer:` line of `diagnose` (and `detect`): the record's one verdict and the S that
+/// explains it.
+pub fn answer_line(answer: &Answer) -> String {
+    format!("answer: {}", answer.line())
+}
+
 /// The detector's line under `quantify` and `diagnose`:
 /// `detection: <verdict> (score 0.xx): <reason>` (`no score` when it could not run).
 pub fn detection_line(d: &Detected) -> String {
@@ -505,7 +518,7 @@ pub fn score_and_tests(det: &Detection) -> String {
 /// The text of `stiction detect`: the verdict with its score and reason, the loop (oscillation,
 /// integrating or not, samples and sampling time), then one line per test with its statistic,
 /// verdict and evidence.
-pub fn detect(d: &LoopData, det: &Detection) -> Result<String, fmt::Error> {
+pub fn detect(d: &LoopData, det: &Detection, answer: &Answer) -> Result<String, fmt::Error> {
     let mut text = String::new();
     let out = &mut text;
     let (source, ts) = (&d.source, run::sample_time(d));
@@ -530,6 +543,7 @@ pub fn detect(d: &LoopData, det: &Detection) -> Result<String, fmt::Error> {
         "  {oscillation}; {kind}; {} samples every {ts} s",
         d.op.len()
     )?;
+    writeln!(out, "  {}", answer_line(answer))?;
     writeln!(
         out,
         "  {:18} {:>9}  {:12}  evidence",

@@ -4,12 +4,12 @@
 use std::path::PathBuf;
 
 use monitoring::batch::{self, BatchOptions, Labels, DEFAULT_MIN_FIT};
-use monitoring::kind::{file_name, Integrating};
+use monitoring::kind::file_name;
 use monitoring::registration::expand;
 use stiction_models::find_model;
 
 use super::load::DataFlags;
-use super::search_flags::SearchFlags;
+use super::search_flags::{KindFlags, SearchFlags};
 use crate::{usage, CmdResult, Failure, Streams};
 
 /// Arguments of `stiction batch`.
@@ -56,9 +56,8 @@ pub(crate) struct Combos {
 /// How every registration of a `batch` or `trend` run is read and searched.
 #[derive(Debug, clap::Args)]
 pub(crate) struct RunFlags {
-    /// Integrating loops are identified from MV to ΔPV; `auto` = level loops (tag letter L).
-    #[arg(long, value_enum, default_value = "auto")]
-    integrating: IntegratingFlag,
+    #[command(flatten)]
+    kind: KindFlags,
     #[command(flatten)]
     search: SearchFlags,
     #[command(flatten)]
@@ -81,7 +80,7 @@ impl RunFlags {
             linear: c.linear.clone(),
             settings: self.search.settings(&c.linear)?,
             read: self.data.read_options(true, batch::MIN_ROWS),
-            integrating: self.integrating.into(),
+            integrating: self.kind.integrating(),
             min_fit,
         })
     }
@@ -98,28 +97,6 @@ impl RunFlags {
             let _ = writeln!(s.stderr, "note: skipped {}: {n}", n.path.display());
         }
         Ok(files)
-    }
-}
-
-/// `--integrating`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum IntegratingFlag {
-    /// Decided from each record (whether PV's rate or level follows OP); a level tag (letter
-    /// `L`) breaks a tie.
-    Auto,
-    /// Every loop is integrating: identify MV → ΔPV.
-    Yes,
-    /// No loop is integrating: identify MV → PV.
-    No,
-}
-
-impl From<IntegratingFlag> for Integrating {
-    fn from(f: IntegratingFlag) -> Integrating {
-        match f {
-            IntegratingFlag::Auto => Integrating::Auto,
-            IntegratingFlag::Yes => Integrating::Yes,
-            IntegratingFlag::No => Integrating::No,
-        }
     }
 }
 

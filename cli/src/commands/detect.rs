@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::anyhow;
 
-use super::batch::IntegratingFlag;
+use super::search_flags::KindFlags;
 use datasets::ReadOptions;
 
 use super::load::{load_with, DataFlags};
@@ -16,11 +16,8 @@ use crate::{CmdResult, Failure, Streams};
 pub struct Args {
     /// CSV or MAT file with PV and OP columns (optional SP, time); `-` for standard input.
     file: PathBuf,
-    /// Whether the loop is integrating (a level): `auto` decides from the record (whether PV's
-    /// rate or PV's level follows OP); the tag's first letter `L` (ISA-5.1) in the file name
-    /// only breaks a tie. The output says which decided.
-    #[arg(long, value_enum, default_value = "auto")]
-    integrating: IntegratingFlag,
+    #[command(flatten)]
+    kind: KindFlags,
     #[command(flatten)]
     data: DataFlags,
     #[command(flatten)]
@@ -43,7 +40,9 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     };
     let d = load_with(&args.file, &opts, s).map_err(|f| refused(f, s))?;
     d.require_pv().map_err(|e| refused(e.into(), s))?;
-    let view = monitoring::detect_file(&d, Some(&args.file), args.integrating.into());
+    let a = monitoring::analyse(&d, Some(&args.file), args.kind.integrating());
+    let view = a.detect(&d);
+    let answer = monitoring::Answer::new(&a, &view.detected, None);
     let det = match view.detected {
         monitoring::Detected::Ran(det) => det,
         monitoring::Detected::Failed(e) => {
@@ -55,7 +54,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         report::pages::detect_page(&d, &det, figures)
     })?;
     if args.json {
-        return s.json(&monitoring::document::detect(&d, &det));
+        return s.json(&monitoring::document::detect(&d, &det, &answer));
     }
-    s.text(report::text::detect(&d, &det)?)
+    s.text(report::text::detect(&d, &det, &answer)?)
 }

@@ -6,7 +6,7 @@ use discrepancy::{diagnose_with_progress, DiagnoseError};
 
 use super::load::DataFlags;
 use super::quantify::LoopFlags;
-use super::search_flags::SearchFlags;
+use super::search_flags::{KindFlags, SearchFlags};
 use crate::reporting::{self, ReportFlags};
 use crate::{usage, CmdResult, Streams};
 
@@ -23,6 +23,8 @@ pub struct Args {
     linear: String,
     #[command(flatten)]
     search: SearchFlags,
+    #[command(flatten)]
+    kind: KindFlags,
     #[command(flatten)]
     data: DataFlags,
     /// Skip a cause (repeatable; for comparisons).
@@ -41,9 +43,11 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let file = args.source.file.as_deref();
     let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "diagnose", s);
     let d = args.source.load(&args.data, s).map_err(|f| refused(f, s))?;
-    let problem = run::problem(&d)?;
-    let options =
-        discrepancy::options_for(&search, run::span_of(&d.op), &args.without).map_err(usage)?;
+    // an integrating loop is diagnosed on MV → ΔPV, as quantify, batch and trend fit it
+    let a = monitoring::analyse(&d, file, args.kind.integrating());
+    let problem = run::problem(&a.searched)?;
+    let options = discrepancy::options_for(&search, run::span_of(&a.searched.op), &args.without)
+        .map_err(usage)?;
     let started = std::time::Instant::now();
     let bar = crate::progress::Progress::since(s.progress, "diagnose", "steps", started);
     let tick = |done: usize, total: usize, _what: &str| bar.update(done, total);
@@ -57,9 +61,12 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         }
         Err(other) => return Err(refused(anyhow!("{}: {other}", d.source).into(), s)),
     };
-    let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
-    // what a repair would buy, in the final model (the baseline when no cause was found)
-    let repair = dg.final_fit().unwrap_or(&dg.baseline_fit).repair(&d, false);
+    let det = a.detect(&d);
+    // the final model (the baseline when no cause was found): what a repair would buy, and
+    // the one-step fit of the answer
+    let fit = dg.final_fit().unwrap_or(&dg.baseline_fit);
+    let answer = monitoring::Answer::new(&a, &det.detected, Some(&fit.result));
+    let repair = fit.repair(&d, a.kind.integrating);
     reporting::write(&args.report, s, || {
         report::pages::diagnose_page(&d, &dg, &det, &repair)
     })?;
@@ -70,12 +77,14 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
             &args.search.init,
             &det.detected,
             &repair,
+            &answer,
         ));
     }
     let text = report::text::diagnose(&d, &dg)?;
     s.text(format!(
-        "{text}{}\n{}\n",
+        "{text}{}\n{}\n{}\n",
         report::text::repair_line(&repair),
+        report::text::answer_line(&answer),
         report::text::detection_line(&det.detected)
     ))
 }

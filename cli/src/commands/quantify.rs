@@ -9,7 +9,7 @@ use run::Fitted;
 use stiction_models::find_model;
 
 use super::load::{load, DataFlags};
-use super::search_flags::SearchFlags;
+use super::search_flags::{KindFlags, SearchFlags};
 use crate::progress::Progress;
 use crate::reporting::{self, ReportFlags};
 use crate::{usage, CmdResult, Failure, Streams};
@@ -58,6 +58,8 @@ pub struct QuantifyArgs {
     #[command(flatten)]
     search: SearchFlags,
     #[command(flatten)]
+    kind: KindFlags,
+    #[command(flatten)]
     data: DataFlags,
     /// Write the fit over the whole grid as CSV (for plotting).
     #[arg(long, value_name = "FILE")]
@@ -92,6 +94,8 @@ pub struct CompareArgs {
     linear: Vec<String>,
     #[command(flatten)]
     search: SearchFlags,
+    #[command(flatten)]
+    kind: KindFlags,
     #[command(flatten)]
     data: DataFlags,
     #[command(flatten)]
@@ -141,6 +145,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     let file = args.source.file.as_deref();
     let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "quantify", s);
     let d = args.source.load(&args.data, s).map_err(|f| refused(f, s))?;
+    let a = monitoring::analyse(&d, file, args.kind.integrating());
     let combination = (args.stiction.as_str(), args.linear.as_str());
     // a surface written out carries both criteria's fits at every node
     let node_fits = if args.surface.is_some() {
@@ -151,7 +156,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     let r = run_one(
         combination,
         &args.search,
-        &d,
+        &a.searched,
         s,
         (Instant::now(), ""),
         node_fits,
@@ -160,8 +165,9 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     if let Some(path) = &args.surface {
         r.write_surface(path)?;
     }
-    let det = monitoring::detect_file(&d, file, monitoring::Integrating::Auto);
-    let repair = r.repair(&d, false);
+    let det = a.detect(&d);
+    let answer = monitoring::Answer::new(&a, &det.detected, Some(&r.result));
+    let repair = r.repair(&d, a.kind.integrating);
     reporting::write(&args.report, s, || {
         report::pages::quantify_page(&d, &r, &det, &repair)
     })?;
@@ -172,9 +178,10 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
             &d.source,
             &record,
             &det.detected,
+            &answer,
         )?);
     }
-    let text = report::text::quantify(&d.source, &r, args.search.init.label())?;
+    let text = report::text::quantify(&d.source, &r, args.search.init.label(), &answer)?;
     s.text(format!(
         "{text}{}\n{}\n",
         report::text::repair_line(&repair),
@@ -219,6 +226,7 @@ pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResu
     let file = args.source.file.as_deref();
     let d = (args.source.load(&args.data, s))
         .map_err(|f| reporting::refused(file, f, &args.report, "compare", s))?;
+    let a = monitoring::analyse(&d, file, args.kind.integrating());
     let (started, total) = (Instant::now(), args.stiction.len() * args.linear.len());
     let mut rows = Vec::new();
     for st in &args.stiction {
@@ -227,7 +235,7 @@ pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResu
             let r = run_one(
                 (st, li),
                 &args.search,
-                &d,
+                &a.searched,
                 s,
                 (started, &step),
                 grid_search::NodeFits::Criterion,
@@ -251,14 +259,14 @@ pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResu
                 li,
                 r.clone().map(|r| {
                     let mut record = r.record(&args.search.init);
-                    record.set_repair(r.repair(&d, false));
+                    record.set_repair(r.repair(&d, a.kind.integrating));
                     record
                 }),
             );
         }
-        return s.json(&doc);
+        return s.json(&monitoring::document::compare(&doc, &a.kind)?);
     }
     let o = args.search.settings(&[])?.options(1.0);
     let text = report::text::compare(&d, o.split, o.init.label(), o.criterion, &view)?;
-    s.text(text)
+    s.text(format!("{text}loop: {}\n", a.kind.note()))
 }

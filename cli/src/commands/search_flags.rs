@@ -1,5 +1,6 @@
 //! Flags shared by `quantify`, `compare`, `diagnose`, `trend` and `batch`: the linear model's
-//! orders, the dead time, the grid and the search.
+//! orders, the dead time, the grid and the search; the loop's kind (`--integrating`, also
+//! `detect` and `audit`).
 
 use grid_search::Criterion;
 use run::{Combination, DelayArg, SearchArgs, Settings};
@@ -19,6 +20,40 @@ pub(crate) fn parse_split(s: &str) -> Result<f64, String> {
         v if v.is_finite() && v > 0.0 && v < 1.0 => Ok(v),
         _ => Err(format!("{s}: expected a fraction strictly between 0 and 1")),
     }
+}
+
+/// `--integrating`: how every command that analyses a loop decides its kind (one rule,
+/// `monitoring::Integrating::decide`).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub(crate) struct KindFlags {
+    /// Whether the loop is integrating (a level; identified from MV to ΔPV): `auto` decides
+    /// from the record (whether PV's rate or PV's level follows OP); the tag's first letter `L`
+    /// (ISA-5.1) in the file name only breaks a tie. The output says which decided.
+    #[arg(long, value_enum, default_value = "auto")]
+    integrating: IntegratingFlag,
+}
+
+impl KindFlags {
+    /// The library's value.
+    pub(crate) fn integrating(&self) -> monitoring::Integrating {
+        match self.integrating {
+            IntegratingFlag::Auto => monitoring::Integrating::Auto,
+            IntegratingFlag::Yes => monitoring::Integrating::Yes,
+            IntegratingFlag::No => monitoring::Integrating::No,
+        }
+    }
+}
+
+/// `--integrating`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum IntegratingFlag {
+    /// Decided from each record (whether PV's rate or level follows OP); a level tag (letter
+    /// `L`) breaks a tie.
+    Auto,
+    /// The loop is integrating: identify MV → ΔPV.
+    Yes,
+    /// The loop is not integrating: identify MV → PV.
+    No,
 }
 
 /// Grid and identification options.

@@ -1,0 +1,353 @@
+//! One answer per record: the loop kind decided once ([`analyse`]), then one verdict — the
+//! detector's — and the S that explains it ([`Answer`]), shown alike by `quantify`, `diagnose`,
+//! `detect` and each registration of `trend`.
+//!
+//! A record is fitted by two model structures: the paper's Hammerstein identification ranked by
+//! one-step prediction (`quantify`'s grid, [`SFrom::OneStep`]) and the detector's output-error
+//! fit of a Kano valve through a first-order lag ([`detection::hammerstein`],
+//! [`SFrom::OutputError`]). Neither is known to be the right structure for a given plant, so
+//! the range of S is the hull of both structures' 95 % likelihood regions: the S values that
+//! either structure leaves as likely as its best. The S reported is chosen by [`RULE`], set by
+//! measurement on simulated populations (`cargo run -p monitoring --example s_evidence`;
+//! docs/DETECTION.md, "One answer per record"), never by plant data; the output says which
+//! evidence it rests on.
+
+use std::path::Path;
+
+use datasets::LoopData;
+use detection::{Detection, Verdict};
+use grid_search::{Quantification, MAINTENANCE_S, NEGLIGIBLE_S};
+use serde::Serialize;
+
+use crate::detect::{detect_view, DetectionView};
+use crate::kind::{file_name, Integrating, KindDecision};
+use crate::registration::increments;
+
+/// A record as every command analyses it: the loop kind decided once, the record as searched
+/// (the increments ΔPV of an integrating loop, else the record itself) and whether OP's valve
+/// span is known.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// Integrating or not, and what decided it.
+    pub kind: KindDecision,
+    /// The record as the fits search it: MV → ΔPV for an integrating loop.
+    pub searched: LoopData,
+    /// OP's valve span is unknown: S is in % of the OP range seen.
+    pub span_unknown: bool,
+}
+
+/// The [`Analysis`] of the record `d` read from `file` (`None` for a made-up record): the
+/// loop kind as [`Integrating::decide`] decides it from the record and the file's valve tag
+/// (the file name up to the first `_`).
+pub fn analyse(d: &LoopData, file: Option<&Path>, integrating: Integrating) -> Analysis {
+    let valve = file
+        .map(|f| datasets::parse_registration_name(&file_name(f)).valve)
+        .unwrap_or_default();
+    let kind = integrating.decide(&valve, Some(d));
+    Analysis {
+        searched: if kind.integrating {
+            increments(d)
+        } else {
+            d.clone()
+        },
+        span_unknown: datasets::units::span_unknown(&d.notes),
+        kind,
+    }
+}
+
+impl Analysis {
+    /// The detector on the record as read (`d`, the same record [`analyse`] took), with the
+    /// decided kind.
+    pub fn detect(&self, d: &LoopData) -> DetectionView {
+        detect_view(d, self.kind)
+    }
+}
+
+/// Which fit an S comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SFrom {
+    /// The paper's Hammerstein identification, ranked by one-step prediction (`quantify`).
+    OneStep,
+    /// The detector's Hammerstein test: a Kano valve through a first-order lag, output error.
+    OutputError,
+}
+
+impl SFrom {
+    /// In words, for the text output.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SFrom::OneStep => "the one-step-prediction fit",
+            SFrom::OutputError => "the detector's output-error fit",
+        }
+    }
+}
+
+/// One structure's S with its 95 % likelihood region.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Estimate {
+    /// The best S.
+    #[serde(rename = "S")]
+    pub s: f64,
+    /// Its region `[lo, hi]`.
+    pub range: [f64; 2],
+}
+
+impl Estimate {
+    /// Rounded to four decimals (finer than any grid step), as the JSON shows it.
+    fn rounded(self) -> Estimate {
+        let r = |x: f64| (x * 1e4).round() / 1e4;
+        Estimate {
+            s: r(self.s),
+            range: [r(self.range[0]), r(self.range[1])],
+        }
+    }
+
+    /// The one-step-prediction fit's S.
+    pub fn one_step(q: &Quantification) -> Estimate {
+        Estimate {
+            s: q.s,
+            range: q.interval.s,
+        }
+    }
+
+    /// The detector's output-error S (its Hammerstein test), when the test fitted one; its
+    /// region runs between the grid's nodes around the nodes in it (`S_lower`, `S_above`).
+    pub fn output_error(det: &Detection) -> Option<Estimate> {
+        let t = det.tests.iter().find(|t| t.name == "hammerstein")?;
+        let s = t.value("S").filter(|s| s.is_finite())?;
+        let lo = t.value("S_lower").unwrap_or(s).min(s);
+        let hi = t.value("S_above").unwrap_or(s).max(s);
+        Some(Estimate { s, range: [lo, hi] })
+    }
+}
+
+/// How the S reported is chosen between the two fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rule {
+    /// Always the one-step fit's S (the paper's).
+    OneStep,
+    /// Always the output-error fit's S (the detector's), the one-step S when there is none.
+    OutputError,
+    /// The one-step S when it agrees with the verdict, else the output-error S when that
+    /// does.
+    Agreeing,
+}
+
+/// The rule every command uses, chosen by measurement on simulated populations
+/// (`examples/s_evidence.rs`; docs/DETECTION.md, "One answer per record").
+pub const RULE: Rule = Rule::Agreeing;
+
+/// Whether `s` agrees with `verdict`: a sticky valve has more than a negligible band, a free
+/// one less than the maintenance threshold. An inconclusive verdict agrees with any S.
+pub fn agrees(verdict: Verdict, s: f64) -> bool {
+    match verdict {
+        Verdict::Stiction => s > NEGLIGIBLE_S,
+        Verdict::NoStiction => s < MAINTENANCE_S,
+        Verdict::Inconclusive => true,
+    }
+}
+
+/// One verdict on a record and the S that explains it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Answer {
+    /// The detector's verdict, computed once.
+    #[serde(serialize_with = "verdict_str")]
+    pub verdict: Verdict,
+    /// The detector's score (`None` when it could not run).
+    pub score: Option<f64>,
+    /// The S reported (`None` when no fit gave one).
+    #[serde(rename = "S")]
+    pub s: Option<f64>,
+    /// The hull of both fits' regions (and the S reported).
+    #[serde(rename = "S_range")]
+    pub s_range: Option<[f64; 2]>,
+    /// Which fit the S comes from.
+    #[serde(rename = "S_from")]
+    pub s_from: Option<SFrom>,
+    /// The unit of S: `% of valve span`, or `% of the OP range seen` when the span is unknown.
+    #[serde(rename = "S_unit")]
+    pub s_unit: &'static str,
+    /// The one-step-prediction fit's S and region (absent for `detect`, which does not run it).
+    pub one_step: Option<Estimate>,
+    /// The output-error fit's S and region.
+    pub output_error: Option<Estimate>,
+    /// Whether the loop was treated as integrating.
+    pub integrating: bool,
+    /// What decided it.
+    pub integrating_by: String,
+    /// What limits the statement: no fit agrees with the verdict; `None` otherwise.
+    pub caution: Option<String>,
+}
+
+fn verdict_str<S: serde::Serializer>(v: &Verdict, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(v.as_str())
+}
+
+/// The unit of S when OP's span is known.
+pub const SPAN_UNIT: &str = "% of valve span";
+/// The unit of S when it is not.
+pub const RANGE_UNIT: &str = "% of the OP range seen";
+
+impl Answer {
+    /// The answer on a record analysed as `a`, from the detector's `det` and the one-step
+    /// fit `q` (when the command ran it), with [`RULE`].
+    pub fn new(a: &Analysis, det: &crate::Detected, q: Option<&Quantification>) -> Answer {
+        Answer::with_rule(a, det, q, RULE)
+    }
+
+    /// [`Answer::new`] with another `rule` (for the measurement that chose [`RULE`]).
+    pub fn with_rule(
+        a: &Analysis,
+        det: &crate::Detected,
+        q: Option<&Quantification>,
+        rule: Rule,
+    ) -> Answer {
+        let verdict = det.verdict();
+        let one_step = q.map(|q| Estimate::one_step(q).rounded());
+        let output_error = det
+            .detection()
+            .and_then(Estimate::output_error)
+            .map(Estimate::rounded);
+        let chosen = choose(verdict, one_step, output_error, rule).map(|(e, f)| (e.rounded(), f));
+        let s = chosen.map(|(e, _)| e.s);
+        let s_range = chosen.map(|(e, _)| {
+            [one_step, output_error]
+                .into_iter()
+                .flatten()
+                .map(Estimate::rounded)
+                .fold(e.range, |r, x| [r[0].min(x.range[0]), r[1].max(x.range[1])])
+        });
+        let caution = match s {
+            Some(s) if !agrees(verdict, s) => Some(format!(
+                "no fit gives an S that agrees with the verdict {verdict} (S {s:.2}): the S is not evidence for it; look at the figures, or repeat the registration"
+            )),
+            None if verdict != Verdict::Inconclusive => {
+                Some("no fit gave an S: the verdict rests on the detector's tests alone".into())
+            }
+            _ => None,
+        };
+        Answer {
+            verdict,
+            score: det.score(),
+            s,
+            s_range,
+            s_from: chosen.map(|(_, f)| f),
+            s_unit: if a.span_unknown {
+                RANGE_UNIT
+            } else {
+                SPAN_UNIT
+            },
+            one_step,
+            output_error,
+            integrating: a.kind.integrating,
+            integrating_by: a.kind.note(),
+            caution,
+        }
+    }
+
+    /// S with its unit: `2.00 %`, or `2.00 (% of the OP range seen)` when OP's span is
+    /// unknown (no threshold in % of span applies to it then).
+    pub fn s_text(&self, s: f64) -> String {
+        if self.s_unit == SPAN_UNIT {
+            format!("{s:.2} %")
+        } else {
+            format!("{s:.2} ({})", self.s_unit)
+        }
+    }
+
+    /// The answer in one line: `stiction: S = 2.00 % [0.50, 3.00] (the detector's output-error
+    /// fit; the one-step-prediction fit says 0.04 %)`, and the caution when there is one.
+    pub fn line(&self) -> String {
+        let mut out = format!("{}", self.verdict);
+        if let (Some(s), Some(r), Some(from)) = (self.s, self.s_range, self.s_from) {
+            out.push_str(&format!(
+                ": S = {} [{:.2}, {:.2}] ({}",
+                self.s_text(s),
+                r[0],
+                r[1],
+                from.describe()
+            ));
+            let other = match from {
+                SFrom::OneStep => self.output_error.map(|e| (SFrom::OutputError, e)),
+                SFrom::OutputError => self.one_step.map(|e| (SFrom::OneStep, e)),
+            };
+            if let Some((f, e)) = other {
+                out.push_str(&format!("; {} says {:.2}", f.describe(), e.s));
+            }
+            out.push_str("; range: both fits' 95 % regions)");
+        }
+        if let Some(c) = &self.caution {
+            out.push_str(&format!("; caution: {c}"));
+        }
+        out
+    }
+}
+
+/// The S reported for a registration whose combination fitted `one_step` and whose record the
+/// detector answered `det` (`None`: it did not run): [`RULE`]'s choice, as [`Answer::new`]
+/// makes it. `trend` follows this S.
+pub fn reported_s(one_step: Estimate, det: Option<&crate::Detected>) -> (Estimate, SFrom) {
+    let verdict = det.map_or(Verdict::Inconclusive, crate::Detected::verdict);
+    let output_error = det
+        .and_then(crate::Detected::detection)
+        .and_then(Estimate::output_error);
+    choose(verdict, Some(one_step), output_error, RULE).unwrap_or((one_step, SFrom::OneStep))
+}
+
+/// The S reported under `rule`, and which fit it comes from.
+fn choose(
+    verdict: Verdict,
+    one_step: Option<Estimate>,
+    output_error: Option<Estimate>,
+    rule: Rule,
+) -> Option<(Estimate, SFrom)> {
+    let os = one_step.map(|e| (e, SFrom::OneStep));
+    let oe = output_error.map(|e| (e, SFrom::OutputError));
+    match rule {
+        Rule::OneStep => os.or(oe),
+        Rule::OutputError => oe.or(os),
+        Rule::Agreeing => {
+            let agreeing = |x: &Option<(Estimate, SFrom)>| x.filter(|(e, _)| agrees(verdict, e.s));
+            agreeing(&os).or(agreeing(&oe)).or(os).or(oe)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn est(s: f64) -> Option<Estimate> {
+        Some(Estimate { s, range: [s, s] })
+    }
+
+    #[test]
+    fn the_agreeing_rule_reports_the_fit_that_agrees_with_the_verdict() {
+        let pick = |v, a, b| choose(v, est(a), est(b), Rule::Agreeing).map(|(e, f)| (e.s, f));
+        assert_eq!(
+            pick(Verdict::Stiction, 0.04, 2.0),
+            Some((2.0, SFrom::OutputError))
+        );
+        assert_eq!(
+            pick(Verdict::Stiction, 1.0, 2.0),
+            Some((1.0, SFrom::OneStep))
+        );
+        assert_eq!(
+            pick(Verdict::NoStiction, 2.6, 0.25),
+            Some((0.25, SFrom::OutputError))
+        );
+        assert_eq!(
+            pick(Verdict::NoStiction, 2.6, 3.0),
+            Some((2.6, SFrom::OneStep))
+        );
+        assert_eq!(
+            pick(Verdict::Inconclusive, 2.6, 0.25),
+            Some((2.6, SFrom::OneStep))
+        );
+        assert_eq!(
+            choose(Verdict::Stiction, None, est(2.0), Rule::OneStep).map(|(e, _)| e.s),
+            Some(2.0)
+        );
+    }
+}
