@@ -275,11 +275,12 @@ fn test_stretch(
     let base = match base {
         Ok(b) => b,
         Err(e) => {
-            // the stretch cannot be fitted: no cause holds on it
+            // the stretch cannot be fitted: no cause holds on it (a reframe, a property of the
+            // data rather than a model, is not a stretch's cause)
             let error = crate::DiagnoseError::from(e).to_string();
             return entries
                 .iter()
-                .filter(|e| e.name != "compression")
+                .filter(|e| e.role != Role::Reframe)
                 .map(|e| StretchTest {
                     cause: e.name,
                     from,
