@@ -206,12 +206,9 @@ macro_rules! identify_from_bare {
         }
         fn identify_predict_many(
             &self,
-            inputs: &[(usize, &[f64])],
-            y: &[f64],
-            split: usize,
-            outs: &mut [Vec<f64>],
+            batch: $crate::Batch<'_>,
         ) -> Vec<Result<$crate::Identified, $crate::IdError>> {
-            $crate::predict_many_from_bare(inputs, y, split, outs, |u, y| self.$fit_bare(u, y))
+            $crate::predict_many_from_bare(batch, |u, y| self.$fit_bare(u, y))
         }
     };
 }

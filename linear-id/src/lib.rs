@@ -225,7 +225,7 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
         self.identify(u, prepared.y())
     }
 
-    /// For each input `(start, u)` of `inputs` (`u` as long as `y`):
+    /// For each input `(start, u)` of the batch (`u` as long as `y`):
     /// [`LinearIdentifier::identify`] on `(u[start..split], y[start..split])`, then
     /// [`LinearFit::predict_one_step_into`] over `(u[start..], y[start..])` into the matching
     /// buffer of `outs` (resized to `y.len() - start`), whatever the fit's stability (`split`
@@ -235,13 +235,8 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
     /// work: the recursive identifiers run four inputs side by side in SIMD lanes, and they
     /// and PARSIM-K take the fit's diagnostics from the prediction's identification window
     /// instead of predicting that window twice.
-    fn identify_predict_many(
-        &self,
-        inputs: &[(usize, &[f64])],
-        y: &[f64],
-        split: usize,
-        outs: &mut [Vec<f64>],
-    ) -> Vec<Result<Identified, IdError>> {
+    fn identify_predict_many(&self, batch: Batch<'_>) -> Vec<Result<Identified, IdError>> {
+        let (inputs, y, split, outs) = (batch.inputs, batch.y, batch.split, batch.outs);
         inputs
             .iter()
             .zip(outs.iter_mut())
@@ -299,6 +294,20 @@ pub struct Identified {
     pub prediction: Result<(), IdError>,
 }
 
+/// The inputs of [`LinearIdentifier::identify_predict_many`]: the MV records `(start, u)` that
+/// share one output record `y`, and a prediction buffer for each.
+#[derive(Debug)]
+pub struct Batch<'a> {
+    /// The inputs `(start, u)`, each `u` as long as `y`, fit from sample `start`.
+    pub inputs: &'a [(usize, &'a [f64])],
+    /// The output record.
+    pub y: &'a [f64],
+    /// The end of the identification windows (clamped to `y.len()`).
+    pub split: usize,
+    /// One buffer per input, for its one-step prediction from its start.
+    pub outs: &'a mut [Vec<f64>],
+}
+
 /// One input of [`LinearIdentifier::identify_predict_many`]: its start clamped to `split`
 /// (itself at most `y.len()`), or the error of an input not as long as the output.
 pub(crate) fn input_start(
@@ -321,12 +330,10 @@ pub(crate) fn input_start(
 /// one-step prediction over the record, and the diagnostics from that prediction's
 /// identification window instead of a second prediction of it (HARX, LARX).
 pub(crate) fn predict_many_from_bare(
-    inputs: &[(usize, &[f64])],
-    y: &[f64],
-    split: usize,
-    outs: &mut [Vec<f64>],
+    batch: Batch<'_>,
     fit_bare: impl Fn(&[f64], &[f64]) -> Result<LinearFit, IdError>,
 ) -> Vec<Result<Identified, IdError>> {
+    let (inputs, y, split, outs) = (batch.inputs, batch.y, batch.split, batch.outs);
     inputs
         .iter()
         .zip(outs.iter_mut())

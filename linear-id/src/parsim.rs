@@ -822,12 +822,10 @@ crate::linear_identifier! {
         /// prediction over the identification window is shared with the fit's diagnostics.
         fn identify_predict_many(
             &self,
-            inputs: &[(usize, &[f64])],
-            y: &[f64],
-            split: usize,
-            outs: &mut [Vec<f64>],
+            batch: crate::Batch<'_>,
         ) -> Vec<Result<crate::Identified, IdError>> {
-            let split = split.min(y.len());
+            let (inputs, y, outs) = (batch.inputs, batch.y, batch.outs);
+            let split = batch.split.min(y.len());
             // the output's scaling and self-products, once per identification window
             let mut outputs: Vec<(usize, Output)> = Vec::new();
             let mut fits: Vec<Result<(LinearFit, usize), IdError>> = inputs

@@ -399,12 +399,9 @@ macro_rules! recursive_identifier {
                 }
                 fn identify_predict_many(
                     &self,
-                    inputs: &[(usize, &[f64])],
-                    y: &[f64],
-                    split: usize,
-                    outs: &mut [Vec<f64>],
+                    batch: crate::Batch<'_>,
                 ) -> Vec<Result<crate::Identified, IdError>> {
-                    self.inner.identify_predict_many(inputs, y, split, outs)
+                    self.inner.identify_predict_many(batch)
                 }
             }
         }

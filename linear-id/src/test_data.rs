@@ -52,7 +52,12 @@ pub(crate) fn identify_predict_many_matches(id: &dyn crate::LinearIdentifier, n:
     let refs: Vec<(usize, &[f64])> = inputs.iter().map(|(s, u)| (*s, u.as_slice())).collect();
     let split = 600;
     let mut outs = vec![Vec::new(); n];
-    let many = id.identify_predict_many(&refs, &y, split, &mut outs);
+    let many = id.identify_predict_many(crate::Batch {
+        inputs: &refs,
+        y: &y,
+        split,
+        outs: &mut outs,
+    });
     assert_eq!(many.len(), n);
     let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
     for (i, got) in many.into_iter().enumerate() {

@@ -238,7 +238,12 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             .collect();
         scratch.outs.resize_with(pending.len(), Vec::new);
         let outs = &mut scratch.outs[..pending.len()];
-        let identified = self.identifier.identify_predict_many(&inputs, pv, ni, outs);
+        let identified = self.identifier.identify_predict_many(linear_id::Batch {
+            inputs: &inputs,
+            y: pv,
+            split: ni,
+            outs,
+        });
         for ((&(i, run), id), out) in pending.iter().zip(identified).zip(outs.iter()) {
             let fits = id.map_err(Skip::from).and_then(|id| {
                 id.fit.check_stable(true)?;

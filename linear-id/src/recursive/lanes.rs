@@ -37,12 +37,10 @@ impl Recursive {
     /// padded with copies of its last input, whose results are dropped).
     pub(super) fn identify_predict_many(
         &self,
-        inputs: &[(usize, &[f64])],
-        y: &[f64],
-        split: usize,
-        outs: &mut [Vec<f64>],
+        batch: crate::Batch<'_>,
     ) -> Vec<Result<Identified, IdError>> {
-        let split = split.min(y.len());
+        let (inputs, y, outs) = (batch.inputs, batch.y, batch.outs);
+        let split = batch.split.min(y.len());
         let mut results: Vec<Option<Result<Identified, IdError>>> =
             (0..inputs.len()).map(|_| None).collect();
         let mut ready = Vec::with_capacity(inputs.len());
