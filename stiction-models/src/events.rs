@@ -208,13 +208,7 @@ struct Runner<'a> {
 impl<'a> Runner<'a> {
     fn new(rule: EventRule, index: &'a OpIndex, init: &InitialState) -> Option<Self> {
         let op0 = *index.op.first()?;
-        let d = init.direction.sign();
-        let u_s = init.stuck_at.unwrap_or(op0);
-        let mv0 = init.position.unwrap_or(if init.stuck {
-            u_s - d * rule.offset
-        } else {
-            op0 - d * rule.offset
-        });
+        let (d, u_s, mv0) = init.kano_start(op0, rule.offset);
         let state = if init.stuck {
             State::Stuck { d, u_s, mv: mv0 }
         } else {

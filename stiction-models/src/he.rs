@@ -1,6 +1,6 @@
 //! He et al. (2007): static friction band `fs` and kinetic friction `fd`.
 
-use crate::{Constraint, Equivalent, FastPaths, InitialState, StictionError, ValveState};
+use crate::{Constraint, Equivalent, FastPaths, InitialState, Runs, StictionError, ValveState};
 
 crate::stiction_model! {
     /// He et al. (2007): the valve slips when the accumulated force `u_r + Δu` exceeds `fs`, and
@@ -47,13 +47,7 @@ impl He {
         He::params().fs((s + j) / 2.0).fd((s - j) / 2.0).check()
     }
     fn start_state(&self, op0: f64, init: &InitialState) -> Result<HeState, StictionError> {
-        init.validate()?;
-        if !op0.is_finite() {
-            return Err(StictionError::NonFiniteInput {
-                index: 0,
-                value: op0,
-            });
-        }
+        init.validate_at(op0)?;
         let u_r = init.direction.sign() * self.fd;
         Ok(HeState {
             fs: self.fs,
@@ -171,34 +165,18 @@ impl HeState {
     }
 }
 
-impl ValveState for HeState {
-    fn step(&mut self, op: f64) -> f64 {
-        self.advance(op)
-    }
-    fn position(&self) -> f64 {
-        self.mv_prev
-    }
-    fn is_stuck(&self) -> bool {
-        self.stuck
-    }
-}
+crate::kano::advancing_state!(HeState);
 
 impl FastPaths for He {
     /// Four starts (In.2/In.3) run side by side, one per SIMD lane (`He::four_in_lanes`);
     /// other counts by `kano::lockstep`. The same MV and merge sample either way.
-    fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError> {
-        if let (Ok(four), true) = (<&[InitialState; 4]>::try_from(starts), out.len() >= 4) {
-            return self.four_in_lanes(op, four, out);
+    fn simulate_starts(&self, runs: &mut Runs<'_>) -> Result<usize, StictionError> {
+        let four = <&[InitialState; 4]>::try_from(runs.starts);
+        if let (Ok(four), true) = (four, runs.out.len() >= 4) {
+            return self.four_in_lanes(runs.op, four, runs.out);
         }
         crate::kano::lockstep(
-            op,
-            starts,
-            out,
+            runs,
             |op0, s| self.start_state(op0, s),
             HeState::advance,
             HeState::same,
@@ -249,10 +227,13 @@ mod tests {
                     let mut lanes = vec![Vec::new(); 4];
                     let mut generic = vec![Vec::new(); 4];
                     let m1 = he.four_in_lanes(&op, &starts, &mut lanes).unwrap();
+                    let mut runs = Runs {
+                        op: &op,
+                        starts: &starts,
+                        out: &mut generic,
+                    };
                     let m2 = crate::kano::lockstep(
-                        &op,
-                        &starts,
-                        &mut generic,
+                        &mut runs,
                         |op0, s| he.start_state(op0, s),
                         HeState::advance,
                         HeState::same,

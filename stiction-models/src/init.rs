@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{check_finite, StictionError, StictionModel};
+use crate::{check_finite, Runs, StictionError, StictionModel};
 
 /// Direction of the valve's most recent motion.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,6 +94,32 @@ impl InitialState {
             }
         }
         Ok(())
+    }
+
+    /// [`InitialState::validate`], then a finite `OP(0)`: the checks of a model's start.
+    pub(crate) fn validate_at(&self, op0: f64) -> Result<(), StictionError> {
+        self.validate()?;
+        if !op0.is_finite() {
+            return Err(StictionError::NonFiniteInput {
+                index: 0,
+                value: op0,
+            });
+        }
+        Ok(())
+    }
+
+    /// The start of a Kano-type valve whose moving position lags OP by `offset`: the sign `d`
+    /// of the last motion, the OP `u_s` where the valve stopped and `MV(0)` (the given
+    /// position, else `u_s - d offset` when stuck and `OP(0) - d offset` when moving).
+    pub(crate) fn kano_start(&self, op0: f64, offset: f64) -> (f64, f64, f64) {
+        let d = self.direction.sign();
+        let u_s = self.stuck_at.unwrap_or(op0);
+        let mv0 = self.position.unwrap_or(if self.stuck {
+            u_s - d * offset
+        } else {
+            op0 - d * offset
+        });
+        (d, u_s, mv0)
     }
 }
 
@@ -248,14 +274,12 @@ pub fn run_valve_with(
             stationary_fraction,
         } => {
             let info = RunInfo::without_fallback(in2_valid_from(*stationary_fraction, n)?);
-            let merge =
-                model.simulate_starts(op, &InitialState::four_variants(), &mut scratch.runs)?;
+            let merge = four_runs(model, op, &mut scratch.runs)?;
             average_into(&scratch.runs, merge, &mut scratch.mv);
             Ok(info)
         }
         Initialization::In3 => {
-            let merge =
-                model.simulate_starts(op, &InitialState::four_variants(), &mut scratch.runs)?;
+            let merge = four_runs(model, op, &mut scratch.runs)?;
             let info = RunInfo::in3(in3_valid_from(&scratch.runs, merge, n), n);
             average_into(&scratch.runs, merge, &mut scratch.mv);
             Ok(info)
@@ -312,6 +336,21 @@ pub(crate) fn in3_valid_from(runs: &[Vec<f64>; 4], merge: usize, n: usize) -> us
         }
     }
     valid_from
+}
+
+/// The runs from the four `(stp, d)` starts of In.2 and In.3 into `out`; the merge sample
+/// ([`crate::FastPaths::simulate_starts`]).
+fn four_runs(
+    model: &dyn StictionModel,
+    op: &[f64],
+    out: &mut [Vec<f64>],
+) -> Result<usize, StictionError> {
+    let starts = InitialState::four_variants();
+    model.simulate_starts(&mut Runs {
+        op,
+        starts: &starts,
+        out,
+    })
 }
 
 /// The average of the four runs where they differ (before `merge`), the common value elsewhere.

@@ -2,7 +2,7 @@
 //! asymmetric variant reuses.
 
 use crate::{
-    Constraint, Direction, Equivalent, FastPaths, InitialState, StictionError, ValveState,
+    Constraint, Direction, Equivalent, FastPaths, InitialState, Runs, StictionError, ValveState,
 };
 
 crate::stiction_model! {
@@ -54,13 +54,8 @@ macro_rules! kano_type_paths {
         }
 
         impl FastPaths for $model {
-            fn simulate_starts(
-                &self,
-                op: &[f64],
-                starts: &[InitialState],
-                out: &mut [Vec<f64>],
-            ) -> Result<usize, StictionError> {
-                self.core().simulate_starts(op, starts, out)
+            fn simulate_starts(&self, runs: &mut $crate::Runs<'_>) -> Result<usize, StictionError> {
+                self.core().simulate_starts(runs)
             }
             fn event_rule(&self) -> Option<crate::EventRule> {
                 Some(self.core().into())
@@ -73,7 +68,12 @@ pub(crate) use kano_type_paths;
 kano_type_paths!(Kano);
 
 impl Kano {
-    fn core(&self) -> KanoCore {
+    /// The model of an `(S, J)` already checked against Kano's bounds (by a model that holds
+    /// Kano's valve).
+    pub(crate) fn from_checked(s: f64, j: f64) -> Kano {
+        Kano { s, j }
+    }
+    pub(crate) fn core(&self) -> KanoCore {
         KanoCore::symmetric(self.s, self.j)
     }
 }
@@ -121,20 +121,8 @@ impl KanoCore {
     }
 
     pub(crate) fn start(&self, op0: f64, init: &InitialState) -> Result<KanoState, StictionError> {
-        init.validate()?;
-        if !op0.is_finite() {
-            return Err(StictionError::NonFiniteInput {
-                index: 0,
-                value: op0,
-            });
-        }
-        let d = init.direction.sign();
-        let u_s = init.stuck_at.unwrap_or(op0);
-        let mv0 = init.position.unwrap_or(if init.stuck {
-            u_s - d * self.offset
-        } else {
-            op0 - d * self.offset
-        });
+        init.validate_at(op0)?;
+        let (d, u_s, mv0) = init.kano_start(op0, self.offset);
         Ok(KanoState {
             core: *self,
             u_prev: op0,
@@ -151,16 +139,9 @@ impl KanoCore {
 
 impl KanoCore {
     /// Lockstep simulation from several starts (see [`FastPaths::simulate_starts`]).
-    pub(crate) fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError> {
+    pub(crate) fn simulate_starts(&self, runs: &mut Runs<'_>) -> Result<usize, StictionError> {
         lockstep(
-            op,
-            starts,
-            out,
+            runs,
             |op0, s| self.start(op0, s),
             KanoState::advance,
             KanoState::same,
@@ -172,13 +153,12 @@ impl KanoCore {
 /// (see [`FastPaths::simulate_starts`]). `same` must be true only for states that produce
 /// identical futures for any input.
 pub(crate) fn lockstep<S: ValveState>(
-    op: &[f64],
-    starts: &[InitialState],
-    out: &mut [Vec<f64>],
+    runs: &mut Runs<'_>,
     start: impl Fn(f64, &InitialState) -> Result<S, StictionError>,
     advance: impl Fn(&mut S, f64) -> f64,
     same: impl Fn(&S, &S) -> bool,
 ) -> Result<usize, StictionError> {
+    let (op, starts, out) = (runs.op, runs.starts, &mut *runs.out);
     crate::check_finite(op)?;
     let n = op.len();
     if out.len() < starts.len() || starts.is_empty() {
@@ -282,17 +262,26 @@ impl KanoState {
     }
 }
 
-impl ValveState for KanoState {
-    fn step(&mut self, op: f64) -> f64 {
-        self.advance(op)
-    }
-    fn position(&self) -> f64 {
-        self.mv_prev
-    }
-    fn is_stuck(&self) -> bool {
-        self.stuck
-    }
+/// The [`ValveState`] of a state with the method `advance(&mut self, op) -> MV` and the fields
+/// `mv_prev` (the position) and `stuck`.
+macro_rules! advancing_state {
+    ($state:ident) => {
+        impl ValveState for $state {
+            fn step(&mut self, op: f64) -> f64 {
+                self.advance(op)
+            }
+            fn position(&self) -> f64 {
+                self.mv_prev
+            }
+            fn is_stuck(&self) -> bool {
+                self.stuck
+            }
+        }
+    };
 }
+pub(crate) use advancing_state;
+
+advancing_state!(KanoState);
 
 impl Direction {
     /// `+1.0` for up, `-1.0` for down.

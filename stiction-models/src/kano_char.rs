@@ -1,8 +1,10 @@
 //! Kano's valve followed by an installed flow characteristic (a Hammerstein chain: stiction,
 //! characteristic, then the linear model).
 
-use crate::kano::KanoCore;
-use crate::{Bound, Constraint, Equivalent, FastPaths, InitialState, StictionError, ValveState};
+use crate::kano::{KanoCore, KanoState};
+use crate::{
+    Bound, Constraint, Equivalent, FastPaths, InitialState, Kano, Runs, StictionError, ValveState,
+};
 
 /// Largest |a| accepted: `e^20` is a gain ratio of 5·10⁸ over the span, far beyond any valve.
 pub const MAX_SHAPE: f64 = 20.0;
@@ -54,28 +56,10 @@ crate::stiction_model! {
     params KanoCharParams;
     description "Kano (S, J) then an installed flow characteristic of shape a (equal-percentage a > 0, quick-opening a < 0)";
     constraints [Constraint::AtMost { param: "J", bound: "S" }];
+    state start_state;
     impl {
         fn equivalent(&self) -> Equivalent {
-            Equivalent {
-                s: self.s,
-                j: self.j,
-            }
-        }
-        fn start(&self, op0: f64, init: &InitialState) -> Result<Box<dyn ValveState>, StictionError> {
-            Ok(Box::new(CharState {
-                inner: Box::new(self.core().start(op0, init)?),
-                a: self.a,
-            }))
-        }
-        fn simulate_into(
-            &self,
-            op: &[f64],
-            init: &InitialState,
-            mv: &mut [f64],
-        ) -> Result<(), StictionError> {
-            crate::simulate_states(op, mv, |op0| self.core().start(op0, init))?;
-            self.map(mv);
-            Ok(())
+            self.kano().equivalent()
         }
         fn fast_paths(&self) -> Option<&dyn FastPaths> {
             Some(self)
@@ -88,22 +72,52 @@ impl KanoChar {
     pub fn shape(&self) -> f64 {
         self.a
     }
+    /// Kano's valve of the same (S, J), before the characteristic.
+    fn kano(&self) -> Kano {
+        Kano::from_checked(self.s, self.j)
+    }
     fn core(&self) -> KanoCore {
-        KanoCore::symmetric(self.s, self.j)
+        self.kano().core()
+    }
+    fn start_state(&self, op0: f64, init: &InitialState) -> Result<CharState, StictionError> {
+        Ok(CharState {
+            inner: self.core().start(op0, init)?,
+            flow: Flow {
+                a: self.a,
+                last: None,
+            },
+        })
     }
     fn map(&self, mv: &mut [f64]) {
         if self.a != 0.0 {
-            // a sticky valve holds its position for many samples: the characteristic of a
-            // repeated position is the previous sample's (the same bits)
-            let mut last: Option<(f64, f64)> = None;
+            let mut flow = Flow {
+                a: self.a,
+                last: None,
+            };
             for m in mv {
-                let x = *m;
-                let y = match last {
-                    Some((px, py)) if px.to_bits() == x.to_bits() => py,
-                    _ => characteristic(self.a, x),
-                };
-                last = Some((x, y));
-                *m = y;
+                *m = flow.of(*m);
+            }
+        }
+    }
+}
+
+/// The characteristic of shape `a`, remembering the last position: a sticky valve holds its
+/// position for many samples, and the characteristic of a repeated position is the previous
+/// sample's (the same bits).
+struct Flow {
+    a: f64,
+    /// The last position and its characteristic.
+    last: Option<(f64, f64)>,
+}
+
+impl Flow {
+    fn of(&mut self, x: f64) -> f64 {
+        match self.last {
+            Some((px, py)) if px.to_bits() == x.to_bits() => py,
+            _ => {
+                let y = characteristic(self.a, x);
+                self.last = Some((x, y));
+                y
             }
         }
     }
@@ -111,16 +125,17 @@ impl KanoChar {
 
 /// Kano's state with the characteristic applied to its position.
 struct CharState {
-    inner: Box<dyn ValveState>,
-    a: f64,
+    inner: KanoState,
+    flow: Flow,
 }
 
 impl ValveState for CharState {
     fn step(&mut self, op: f64) -> f64 {
-        characteristic(self.a, self.inner.step(op))
+        let x = self.inner.step(op);
+        self.flow.of(x)
     }
     fn position(&self) -> f64 {
-        characteristic(self.a, self.inner.position())
+        characteristic(self.flow.a, self.inner.position())
     }
     fn is_stuck(&self) -> bool {
         self.inner.is_stuck()
@@ -128,15 +143,10 @@ impl ValveState for CharState {
 }
 
 impl FastPaths for KanoChar {
-    fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError> {
-        let merge = self.core().simulate_starts(op, starts, out)?;
+    fn simulate_starts(&self, runs: &mut Runs<'_>) -> Result<usize, StictionError> {
+        let merge = self.core().simulate_starts(runs)?;
         // Run 0 is complete; the others up to the merge (equal states map to equal outputs).
-        for (i, o) in out.iter_mut().enumerate().take(starts.len()) {
+        for (i, o) in runs.out.iter_mut().enumerate().take(runs.starts.len()) {
             let end = if i == 0 { o.len() } else { merge.min(o.len()) };
             self.map(&mut o[..end]);
         }
@@ -152,7 +162,7 @@ impl FastPaths for KanoChar {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Kano, StictionModel};
+    use crate::StictionModel;
 
     #[test]
     fn a_zero_is_kano_bit_for_bit() {

@@ -238,17 +238,12 @@ pub trait StictionModel: Send + Sync + fmt::Debug {
 pub trait FastPaths {
     /// Simulate from several starts at once (In.2/In.3 use the four `(stp, d)` starts).
     ///
-    /// Fills `out[i]` (each as long as `op`) with the run from `starts[i]` up to the returned
+    /// Fills `runs.out[i]` (each as long as `op`) with the run from `starts[i]` up to the returned
     /// sample `merge`, and `out[0]` completely: from `merge` on every run is guaranteed equal to
     /// `out[0]` (their whole valve states coincided, so they stay identical), and the other
     /// buffers are not written there. Built-in models step the starts in lockstep and stop the
     /// extra runs once their states coincide, which makes In.3 cost little more than one run.
-    fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError>;
+    fn simulate_starts(&self, runs: &mut Runs<'_>) -> Result<usize, StictionError>;
 
     /// The model as a Kano-type interval rule, if it is one: then [`run_valve_indexed`] runs
     /// it event by event (stuck and moving intervals found by range queries on OP) instead of
@@ -259,19 +254,26 @@ pub trait FastPaths {
     }
 }
 
+/// Runs of one OP record from several initial states ([`FastPaths::simulate_starts`]).
+#[derive(Debug)]
+pub struct Runs<'a> {
+    /// The OP record.
+    pub op: &'a [f64],
+    /// The initial states, one per run.
+    pub starts: &'a [InitialState],
+    /// The MV of each run, in the order of `starts` (at least as many buffers).
+    pub out: &'a mut [Vec<f64>],
+}
+
 impl dyn StictionModel + '_ {
     /// [`FastPaths::simulate_starts`] when the model has it; otherwise every start run to the
     /// end (the returned merge sample is then `op.len()`).
-    pub fn simulate_starts(
-        &self,
-        op: &[f64],
-        starts: &[InitialState],
-        out: &mut [Vec<f64>],
-    ) -> Result<usize, StictionError> {
+    pub fn simulate_starts(&self, runs: &mut Runs<'_>) -> Result<usize, StictionError> {
         if let Some(fast) = self.fast_paths() {
-            return fast.simulate_starts(op, starts, out);
+            return fast.simulate_starts(runs);
         }
-        for (s, o) in starts.iter().zip(out.iter_mut()) {
+        let op = runs.op;
+        for (s, o) in runs.starts.iter().zip(runs.out.iter_mut()) {
             o.resize(op.len(), 0.0);
             self.simulate_into(op, s, o)?;
         }
