@@ -297,13 +297,10 @@ fn rows_at<Q: Quad, const NY: usize, const NU: usize>(
 #[inline(always)]
 fn lag_products_fixed<Q: Quad, const NY: usize, const NU: usize>(
     q: Q,
-    yc: &[f64],
-    u: &[f64],
-    u_mean: f64,
-    delay: usize,
-    rows: (usize, usize),
+    pass: &LagPass<'_>,
 ) -> LagProducts {
-    let (ys, us) = lagged::<NY, NU>(yc, u, delay, rows);
+    let (ys, us) = pass.lagged::<NY, NU>();
+    let (u_mean, rows) = (pass.u_mean, pass.rows);
     let zero = q.splat(0.0);
     let (mut yu, mut y0u, mut uu, mut su) = ([zero; NY], [zero; NU], [zero; NU], zero);
     // the padding of the last block adds zeros
@@ -337,18 +334,14 @@ fn lag_products_fixed<Q: Quad, const NY: usize, const NU: usize>(
 /// [`ResidualProducts`] in one pass over the rows, for `n = NY - 1` and `m = NU` known at
 /// compile time; `x` holds `a_1..a_n, b_1..b_m`. Inlined into [`Dispatch`].
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn residual_products_fixed<Q: Quad, const NY: usize, const NU: usize>(
     q: Q,
-    yc: &[f64],
-    u: &[f64],
-    u_mean: f64,
-    delay: usize,
-    rows: (usize, usize),
+    lags: &LagPass<'_>,
     x: &[f64; MAX_COLS],
     c: f64,
 ) -> ResidualProducts {
-    let (ys, us) = lagged::<NY, NU>(yc, u, delay, rows);
+    let (ys, us) = lags.lagged::<NY, NU>();
+    let (u_mean, rows) = (lags.u_mean, lags.rows);
     let len = rows.1 - rows.0;
     let a: [Q::V; NY] = std::array::from_fn(|i| q.splat(if i == 0 { 1.0 } else { x[i - 1] }));
     let b: [Q::V; NU] = std::array::from_fn(|j| q.splat(x[NY - 1 + j]));
@@ -444,22 +437,26 @@ struct LagPass<'a> {
     rows: (usize, usize),
 }
 
+impl<'a> LagPass<'a> {
+    /// The rows' lagged columns ([`lagged`]).
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    fn lagged<const NY: usize, const NU: usize>(&self) -> ([&'a [f64]; NY], [&'a [f64]; NU]) {
+        let (_, _, delay) = self.sums.arx.orders_tuple();
+        lagged::<NY, NU>(&self.sums.yc, self.u, delay, self.rows)
+    }
+}
+
 impl RowsPass for LagPass<'_> {
     type Output = LagProducts;
     #[inline(always)]
     fn run<Q: Quad>(self, q: Q) -> LagProducts {
-        let LagPass {
-            sums,
-            u,
-            u_mean,
-            rows,
-        } = self;
-        let (n, m, delay) = sums.arx.orders_tuple();
+        let (n, m, _) = self.sums.arx.orders_tuple();
         by_orders!(
             n,
             m,
-            lag_products_fixed(q, &sums.yc, u, u_mean, delay, rows),
-            sums.lag_products(u, u_mean, rows)
+            lag_products_fixed(q, &self),
+            self.sums.lag_products(self.u, self.u_mean, self.rows)
         )
     }
 }
@@ -476,18 +473,13 @@ impl RowsPass for ResidualPass<'_> {
     #[inline(always)]
     fn run<Q: Quad>(self, q: Q) -> ResidualProducts {
         let ResidualPass { lags, x, c } = self;
-        let LagPass {
-            sums,
-            u,
-            u_mean,
-            rows,
-        } = lags;
-        let (n, m, delay) = sums.arx.orders_tuple();
+        let (n, m, _) = lags.sums.arx.orders_tuple();
         by_orders!(
             n,
             m,
-            residual_products_fixed(q, &sums.yc, u, u_mean, delay, rows, x, c),
-            sums.residual_products(u, u_mean, rows, x, c)
+            residual_products_fixed(q, &lags, x, c),
+            lags.sums
+                .residual_products(lags.u, lags.u_mean, lags.rows, x, c)
         )
     }
 }

@@ -571,28 +571,20 @@ pub(crate) fn eigenvalues_schur(rows: &[Vec<f64>]) -> Option<Vec<(f64, f64)>> {
 
 /// Roots of `p[0] z^k + p[1] z^(k-1) + … + p[k]` (p[0] != 0) via companion-matrix eigenvalues.
 pub(crate) fn poly_roots(p: &[f64]) -> Option<Vec<(f64, f64)>> {
-    let k = p.len().saturating_sub(1);
-    if k == 0 {
-        return Some(Vec::new());
-    }
-    let lead = p[0];
-    if lead == 0.0 || !lead.is_finite() {
+    if p.len() > 1 && p.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    if p.iter().any(|v| !v.is_finite()) {
-        return None;
-    }
-    match k {
-        1 => return Some(vec![(-p[1] / lead, 0.0)]),
-        2 => {
+    match *p {
+        [lead, p1] if lead != 0.0 => Some(vec![(-p1 / lead, 0.0)]),
+        [lead, p1, p2] if lead != 0.0 => {
             // z² + b z + c: roots h ± √(h² - c), h = -b/2 (the companion matrix's eigenvalues)
-            let (b, c) = (p[1] / lead, p[2] / lead);
+            let (b, c) = (p1 / lead, p2 / lead);
             let h = -0.5 * b;
-            return Some(quadratic_roots(h, c, h * h - c, true).to_vec());
+            Some(quadratic_roots(h, c, h * h - c, true).to_vec())
         }
-        _ => {}
+        // a constant, a zero leading coefficient or a higher degree
+        _ => poly_roots_companion(p),
     }
-    poly_roots_companion(p)
 }
 
 /// Roots through the companion matrix's eigenvalues (any degree; the reference for the closed

@@ -405,119 +405,111 @@ impl ShiftedProducts {
     }
 }
 
-/// Step-6 regressors in one pass over the data: the predictor output
-/// `ŷ = C x`, `x+ = A_K x + B_K u + K y` from `x0` is linear in `(B_K, K, x0)`, and its
-/// column for the unit vector `e_r` of each block is written to `ab` (column-major, `len`
-/// rows): `B_K = e_r` (columns `0..n`), then `u` itself if `d_required`, `K = e_r`, `x0 = e_r`.
-///
-/// The `n` columns of a block come from one row recursion instead of `n` state recursions
-/// (spec §4.4: "equivalently by filtering u and y through `(zI - A_K)⁻¹`"): with
-/// `h_k = C A_Kᵏ`, the `B_K = e_r` output is `z_t[r]`, `z_t = Σ_{k<t} u_k h_{t-1-k}`, so
-/// `z_{t+1} = z_t A_K + u_t C` (`z_0 = 0`); likewise `w_{t+1} = w_t A_K + y_t C` for `K`,
-/// and `v_t = C A_Kᵗ`, `v_{t+1} = v_t A_K` (`v_0 = C`) for `x0`: `3n²` multiply-adds per
-/// sample instead of `3n (n² + n)`. `ak` is `n × n` row-major.
-#[inline(always)]
-fn step6_columns(
-    n: usize,
-    ak: &[f64],
-    c: &[f64],
-    us: &[f64],
-    ys: &[f64],
+/// The inputs of step 6's regressors: the predictor matrix `ak` (`A_K`, `n × n` row-major),
+/// `c` (`C`), the scaled data `us`, `ys`, and whether `D` is estimated.
+struct Step6<'a> {
+    ak: &'a [f64],
+    c: &'a [f64],
+    us: &'a [f64],
+    ys: &'a [f64],
     d_required: bool,
-    ab: &mut [f64],
-) {
-    let len = us.len();
-    let (ak, c) = (&ak[..n * n], &c[..n]);
-    let d_off = usize::from(d_required);
-    let (col_z, col_w, col_v) = (0, n + d_off, 2 * n + d_off);
-    let (mut z, mut w, mut v) = (vec![0.0; n], vec![0.0; n], c.to_vec());
-    let (mut zn, mut wn, mut vn) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    for t in 0..len {
-        let (ut, yt) = (us[t], ys[t]);
-        for r in 0..n {
-            ab[(col_z + r) * len + t] = z[r];
-            ab[(col_w + r) * len + t] = w[r];
-            ab[(col_v + r) * len + t] = v[r];
-        }
-        for j in 0..n {
-            let (mut zj, mut wj, mut vj) = (ut * c[j], yt * c[j], 0.0);
-            for i in 0..n {
-                let aij = ak[i * n + j];
-                zj += z[i] * aij;
-                wj += w[i] * aij;
-                vj += v[i] * aij;
-            }
-            (zn[j], wn[j], vn[j]) = (zj, wj, vj);
-        }
-        std::mem::swap(&mut z, &mut zn);
-        std::mem::swap(&mut w, &mut wn);
-        std::mem::swap(&mut v, &mut vn);
-    }
-    if d_required {
-        ab[n * len..(n + 1) * len].copy_from_slice(us);
-    }
 }
 
-/// [`step6_columns`] for the compile-time state dimension `N`: the recursions' states in
-/// registers, the same operations in the same order (so the same bits).
-#[inline(always)]
-fn step6_columns_fixed<const N: usize>(
-    ak: &[f64],
-    c: &[f64],
-    us: &[f64],
-    ys: &[f64],
-    d_required: bool,
-    ab: &mut [f64],
-) {
-    let len = us.len().min(ys.len());
-    let a: [[f64; N]; N] = std::array::from_fn(|i| std::array::from_fn(|j| ak[i * N + j]));
-    let c: [f64; N] = std::array::from_fn(|j| c[j]);
-    let d_off = usize::from(d_required);
-    let (mut z, mut w, mut v) = ([0.0; N], [0.0; N], c);
-    // the columns B_K, D (when estimated), K, x0 (and whatever follows x0)
-    let (bk, rest) = ab.split_at_mut(N * len);
-    let (dcol, rest) = rest.split_at_mut(d_off * len);
-    let (kk, x0) = rest.split_at_mut(N * len);
-    for t in 0..len {
-        let (ut, yt) = (us[t], ys[t]);
-        for r in 0..N {
-            bk[r * len + t] = z[r];
-            kk[r * len + t] = w[r];
-            x0[r * len + t] = v[r];
-        }
-        let (mut zn, mut wn, mut vn) = ([0.0; N], [0.0; N], [0.0; N]);
-        for j in 0..N {
-            let (mut zj, mut wj, mut vj) = (ut * c[j], yt * c[j], 0.0);
-            for i in 0..N {
-                zj += z[i] * a[i][j];
-                wj += w[i] * a[i][j];
-                vj += v[i] * a[i][j];
+impl Step6<'_> {
+    /// Step-6 regressors in one pass over the data: the predictor output
+    /// `ŷ = C x`, `x+ = A_K x + B_K u + K y` from `x0` is linear in `(B_K, K, x0)`, and its
+    /// column for the unit vector `e_r` of each block is written to `ab` (column-major, `len`
+    /// rows): `B_K = e_r` (columns `0..n`), then `u` itself if `d_required`, `K = e_r`,
+    /// `x0 = e_r`.
+    ///
+    /// The `n` columns of a block come from one row recursion instead of `n` state recursions
+    /// (spec §4.4: "equivalently by filtering u and y through `(zI - A_K)⁻¹`"): with
+    /// `h_k = C A_Kᵏ`, the `B_K = e_r` output is `z_t[r]`, `z_t = Σ_{k<t} u_k h_{t-1-k}`, so
+    /// `z_{t+1} = z_t A_K + u_t C` (`z_0 = 0`); likewise `w_{t+1} = w_t A_K + y_t C` for `K`,
+    /// and `v_t = C A_Kᵗ`, `v_{t+1} = v_t A_K` (`v_0 = C`) for `x0`: `3n²` multiply-adds per
+    /// sample instead of `3n (n² + n)`.
+    #[inline(always)]
+    fn columns(&self, n: usize, ab: &mut [f64]) {
+        let (us, ys, d_required) = (self.us, self.ys, self.d_required);
+        let len = us.len();
+        let (ak, c) = (&self.ak[..n * n], &self.c[..n]);
+        let d_off = usize::from(d_required);
+        let (col_z, col_w, col_v) = (0, n + d_off, 2 * n + d_off);
+        let (mut z, mut w, mut v) = (vec![0.0; n], vec![0.0; n], c.to_vec());
+        let (mut zn, mut wn, mut vn) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for t in 0..len {
+            let (ut, yt) = (us[t], ys[t]);
+            for r in 0..n {
+                ab[(col_z + r) * len + t] = z[r];
+                ab[(col_w + r) * len + t] = w[r];
+                ab[(col_v + r) * len + t] = v[r];
             }
-            (zn[j], wn[j], vn[j]) = (zj, wj, vj);
+            for j in 0..n {
+                let (mut zj, mut wj, mut vj) = (ut * c[j], yt * c[j], 0.0);
+                for i in 0..n {
+                    let aij = ak[i * n + j];
+                    zj += z[i] * aij;
+                    wj += w[i] * aij;
+                    vj += v[i] * aij;
+                }
+                (zn[j], wn[j], vn[j]) = (zj, wj, vj);
+            }
+            std::mem::swap(&mut z, &mut zn);
+            std::mem::swap(&mut w, &mut wn);
+            std::mem::swap(&mut v, &mut vn);
         }
-        (z, w, v) = (zn, wn, vn);
+        if d_required {
+            ab[n * len..(n + 1) * len].copy_from_slice(us);
+        }
     }
-    if d_required {
-        dcol.copy_from_slice(&us[..len]);
-    }
-}
 
-/// [`step6_columns`] with the state dimension a compile-time constant for `n <= 4`.
-fn step6_columns_dispatch(
-    n: usize,
-    ak: &[f64],
-    c: &[f64],
-    us: &[f64],
-    ys: &[f64],
-    d_required: bool,
-    ab: &mut [f64],
-) {
-    match n {
-        1 => step6_columns_fixed::<1>(ak, c, us, ys, d_required, ab),
-        2 => step6_columns_fixed::<2>(ak, c, us, ys, d_required, ab),
-        3 => step6_columns_fixed::<3>(ak, c, us, ys, d_required, ab),
-        4 => step6_columns_fixed::<4>(ak, c, us, ys, d_required, ab),
-        _ => step6_columns(n, ak, c, us, ys, d_required, ab),
+    /// [`Step6::columns`] for the compile-time state dimension `N`: the recursions' states in
+    /// registers, the same operations in the same order (so the same bits).
+    #[inline(always)]
+    fn columns_fixed<const N: usize>(&self, ab: &mut [f64]) {
+        let (ak, us, ys) = (self.ak, self.us, self.ys);
+        let len = us.len().min(ys.len());
+        let a: [[f64; N]; N] = std::array::from_fn(|i| std::array::from_fn(|j| ak[i * N + j]));
+        let c: [f64; N] = std::array::from_fn(|j| self.c[j]);
+        let d_off = usize::from(self.d_required);
+        let (mut z, mut w, mut v) = ([0.0; N], [0.0; N], c);
+        // the columns B_K, D (when estimated), K, x0 (and whatever follows x0)
+        let (bk, rest) = ab.split_at_mut(N * len);
+        let (dcol, rest) = rest.split_at_mut(d_off * len);
+        let (kk, x0) = rest.split_at_mut(N * len);
+        for t in 0..len {
+            let (ut, yt) = (us[t], ys[t]);
+            for r in 0..N {
+                bk[r * len + t] = z[r];
+                kk[r * len + t] = w[r];
+                x0[r * len + t] = v[r];
+            }
+            let (mut zn, mut wn, mut vn) = ([0.0; N], [0.0; N], [0.0; N]);
+            for j in 0..N {
+                let (mut zj, mut wj, mut vj) = (ut * c[j], yt * c[j], 0.0);
+                for i in 0..N {
+                    zj += z[i] * a[i][j];
+                    wj += w[i] * a[i][j];
+                    vj += v[i] * a[i][j];
+                }
+                (zn[j], wn[j], vn[j]) = (zj, wj, vj);
+            }
+            (z, w, v) = (zn, wn, vn);
+        }
+        if self.d_required {
+            dcol.copy_from_slice(&us[..len]);
+        }
+    }
+
+    /// [`Step6::columns`] with the state dimension a compile-time constant for `n <= 4`.
+    fn write(&self, n: usize, ab: &mut [f64]) {
+        match n {
+            1 => self.columns_fixed::<1>(ab),
+            2 => self.columns_fixed::<2>(ab),
+            3 => self.columns_fixed::<3>(ab),
+            4 => self.columns_fixed::<4>(ab),
+            _ => self.columns(n, ab),
+        }
     }
 }
 
@@ -728,7 +720,14 @@ impl ParsimK {
         let npar = 3 * n + usize::from(prm.d_required);
         let ak_flat: Vec<f64> = ak.iter().flatten().copied().collect();
         let mut ab = vec![0.0; len * (npar + 1)];
-        step6_columns_dispatch(n, &ak_flat, &c_s, &us, ys, prm.d_required, &mut ab);
+        let step6 = Step6 {
+            ak: &ak_flat,
+            c: &c_s,
+            us: &us,
+            ys,
+            d_required: prm.d_required,
+        };
+        step6.write(n, &mut ab);
         ab[npar * len..].copy_from_slice(ys);
         let ls6 = pinv_ls(&mut ab, len, npar, &[npar])?;
         let theta = coef(

@@ -297,7 +297,8 @@ macro_rules! recursive_identifier {
         $ty:ident, $params:ident, $pstr:literal, $tag:literal, $bias:expr, $doc:literal,
         n = $n:expr, m = $m:expr, p = $p:expr, has_p = $has_p:tt,
         description $description:expr;
-        orders { $($orders:tt)* }
+        $(order p { $($c_order:tt)* })?
+        $(option { $($bias_option:tt)* })?
     ) => {
         #[doc = $doc]
         ///
@@ -389,7 +390,13 @@ macro_rules! recursive_identifier {
         crate::linear_identifier! {
             $ty($tag) from $params;
             description $description;
-            orders { $($orders)* }
+            orders {
+                n: Int($n), "order of A(q)", |q| q.n;
+                m: Int($m), "order of B(q) (b1 q^-1 .. bm q^-m)", |q| q.m;
+                $($($c_order)*)?
+                delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |q| q.delay;
+                $($($bias_option)*)?
+            }
             impl {
                 fn min_samples(&self) -> usize {
                     self.inner.min_samples()
@@ -417,12 +424,7 @@ recursive_identifier! {
     "ARMAX, eq. (4), by recursive extended least squares (Karra & Karim without the bias).",
     n = 2, m = 2, p = 2, has_p = true,
     description "ARMAX (eq. 4) by recursive extended least squares (Karra & Karim, no bias)";
-    orders {
-        n: Int(2), "order of A(q)", |q| q.n;
-        m: Int(2), "order of B(q) (b1 q^-1 .. bm q^-m)", |q| q.m;
-        p: Int(2), "order of C(q) (moving average)", |q| q.p;
-        delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |q| q.delay;
-    }
+    order p { p: Int(2), "order of C(q) (moving average)", |q| q.p; }
 }
 
 recursive_identifier! {
@@ -430,10 +432,7 @@ recursive_identifier! {
     "EARX, eq. (7): ARX plus a time-varying bias η_k, by the decoupled recursive estimator of Karra & Karim.",
     n = 2, m = 2, p = 0, has_p = false,
     description "EARX (eq. 7): ARX + time-varying bias, decoupled recursive LS with forgetting";
-    orders {
-        n: Int(2), "order of A(q)", |q| q.n;
-        m: Int(2), "order of B(q) (b1 q^-1 .. bm q^-m)", |q| q.m;
-        delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |q| q.delay;
+    option {
         lambda_beta: Real(0.8),
             "forgetting factor of the time-varying bias (smaller tracks faster)",
             |q| q.tuning.lambda_beta;
@@ -445,11 +444,8 @@ recursive_identifier! {
     "EARMAX, eq. (8): ARMAX plus a time-varying bias η_k, by the decoupled recursive estimator of Karra & Karim.",
     n = 2, m = 2, p = 2, has_p = true,
     description "EARMAX (eq. 8): ARMAX + time-varying bias, decoupled recursive ELS with forgetting";
-    orders {
-        n: Int(2), "order of A(q)", |q| q.n;
-        m: Int(2), "order of B(q) (b1 q^-1 .. bm q^-m)", |q| q.m;
-        p: Int(2), "order of C(q) (moving average)", |q| q.p;
-        delay: Int(0), "dead time t_d in samples (first input lag is 1 + delay)", |q| q.delay;
+    order p { p: Int(2), "order of C(q) (moving average)", |q| q.p; }
+    option {
         lambda_beta: Real(0.8),
             "forgetting factor of the time-varying bias (smaller tracks faster)",
             |q| q.tuning.lambda_beta;

@@ -156,7 +156,14 @@ fn step6_columns_match_separate_simulations() {
         for d_required in [false, true] {
             let npar = 3 * n + usize::from(d_required);
             let mut ab = vec![f64::NAN; len * npar];
-            step6_columns_dispatch(n, &ak, &c, &us, &ys, d_required, &mut ab);
+            let step6 = Step6 {
+                ak: &ak,
+                c: &c,
+                us: &us,
+                ys: &ys,
+                d_required,
+            };
+            step6.write(n, &mut ab);
             // reference: one simulation per column
             let sim = |bk: &[f64], k: &[f64], x0: &[f64]| -> Vec<f64> {
                 let mut x = x0.to_vec();
