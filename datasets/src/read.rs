@@ -426,37 +426,22 @@ impl Column {
 }
 
 fn refuse(cell: Cell, file: String, row: u64, column: String, text: String) -> DataError {
+    macro_rules! error {
+        ($variant:ident) => {
+            DataError::$variant {
+                file,
+                row,
+                column,
+                text,
+            }
+        };
+    }
     match cell {
-        Cell::BadMode => DataError::BadMode {
-            file,
-            row,
-            column,
-            text,
-        },
-        Cell::NotFinite => DataError::NotFinite {
-            file,
-            row,
-            column,
-            text,
-        },
-        Cell::TooLarge => DataError::TooLarge {
-            file,
-            row,
-            column,
-            text,
-        },
-        Cell::BadTime => DataError::BadTime {
-            file,
-            row,
-            column,
-            text,
-        },
-        _ => DataError::NotANumber {
-            file,
-            row,
-            column,
-            text,
-        },
+        Cell::BadMode => error!(BadMode),
+        Cell::NotFinite => error!(NotFinite),
+        Cell::TooLarge => error!(TooLarge),
+        Cell::BadTime => error!(BadTime),
+        _ => error!(NotANumber),
     }
 }
 

@@ -102,21 +102,12 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 f64::NEG_INFINITY
             }
         };
-        let fits = Fits {
-            pred_id: score(pred, first..split),
-            pred_val: score(pred, split..n - k0),
-            sim_id: score(&sim, first..split),
-            sim_val: score(&sim, split..n - k0),
-            mv: self
-                .problem
-                .mv
-                .map(|m| linear_id::fit_mv(&m[k0..], &mv[k0..])),
-            valid_from: k0,
-            init_fell_back: run.fell_back,
-        };
-        if !fits.pred_val.is_finite() {
-            return Err(Skip::NonFinitePrediction);
-        }
+        let fits = self.fits(
+            (score(pred, first..split), score(pred, split..n - k0)),
+            (score(&sim, first..split), score(&sim, split..n - k0)),
+            mv,
+            run,
+        )?;
         let full = keep.then(|| Evaluated {
             linear,
             mv: mv.clone(),
@@ -322,7 +313,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 }
             }
         };
-        let (sim_id, sim_val) = if self.simulate {
+        let sim_fits = if self.simulate {
             let init_len = linear.first_sample().min(n - k0);
             sim_buf.resize(n - k0, 0.0);
             let sim_ok = linear
@@ -336,9 +327,26 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         } else {
             (f64::NAN, f64::NAN)
         };
-        let fits = Fits {
-            pred_id: pred_fits.0,
-            pred_val: pred_fits.1,
+        self.fits(pred_fits, sim_fits, mv, run)
+    }
+
+    /// A node's [`Fits`] from the (identification, validation) F_PV of its one-step prediction
+    /// and of its free run; [`Skip::NonFinitePrediction`] when the prediction's validation
+    /// F_PV is not finite.
+    fn fits(
+        &self,
+        (pred_id, pred_val): (f64, f64),
+        (sim_id, sim_val): (f64, f64),
+        mv: &[f64],
+        run: RunInfo,
+    ) -> Result<Fits, Skip> {
+        if !pred_val.is_finite() {
+            return Err(Skip::NonFinitePrediction);
+        }
+        let k0 = run.valid_from;
+        Ok(Fits {
+            pred_id,
+            pred_val,
             sim_id,
             sim_val,
             mv: self
@@ -347,11 +355,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
                 .map(|m| linear_id::fit_mv(&m[k0..], &mv[k0..])),
             valid_from: k0,
             init_fell_back: run.fell_back,
-        };
-        if !fits.pred_val.is_finite() {
-            return Err(Skip::NonFinitePrediction);
-        }
-        Ok(fits)
+        })
     }
 }
 
@@ -376,7 +380,16 @@ pub(crate) fn polynomial_prediction_sse(
     }
     let (um, ym) = linear.means();
     let kconst = ym * a[1..].iter().sum::<f64>() - um * b.iter().sum::<f64>();
-    let sse = match fixed_order_sse(a, b, *delay, kconst, ym, u, y, lo, hi) {
+    let one_step = OneStep {
+        a: &a[1..],
+        b,
+        delay: *delay,
+        kconst,
+        ym,
+        u,
+        y,
+    };
+    let sse = match fixed_order_sse(one_step, lo, hi) {
         Some(sse) => sse,
         None => {
             // predictions over [lo, hi) coefficient by coefficient (vectorised), in `buf`
@@ -413,35 +426,30 @@ pub(crate) fn polynomial_prediction_sse(
     sse.is_finite().then_some(sse)
 }
 
-/// The squared one-step residuals summed over `[lo, hi)`, for orders up to (3, 3) as
-/// compile-time constants: one fused pass, each prediction summed in `predict_one_step`'s
+/// The one-step prediction of a polynomial model without C(q) or bias on a record `(u, y)`:
+/// `kconst - Σ a_i y(k - i) + Σ b_j u(k - delay - j) + ym`, summed in `predict_one_step`'s
 /// order (`kconst`, then the A terms, then the B terms, then `ym`).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn fixed_order_sse(
-    a: &[f64],
-    b: &[f64],
-    delay: usize,
-    kconst: f64,
-    ym: f64,
-    u: &[f64],
-    y: &[f64],
-    lo: usize,
-    hi: usize,
-) -> Option<f64> {
-    fn run<const NA: usize, const NB: usize>(
-        a: &[f64],
-        b: &[f64],
-        delay: usize,
-        kconst: f64,
-        ym: f64,
-        u: &[f64],
-        y: &[f64],
-        lo: usize,
-        hi: usize,
-    ) -> Option<f64> {
+#[derive(Clone, Copy)]
+pub(crate) struct OneStep<'a> {
+    /// `a_1..a_n` (without the leading 1).
+    pub a: &'a [f64],
+    /// `b_1..b_m`.
+    pub b: &'a [f64],
+    pub delay: usize,
+    pub kconst: f64,
+    pub ym: f64,
+    pub u: &'a [f64],
+    pub y: &'a [f64],
+}
+
+/// The squared one-step residuals summed over `[lo, hi)`, for orders up to (3, 3) as
+/// compile-time constants: one fused pass.
+pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Option<f64> {
+    fn run<const NA: usize, const NB: usize>(p: OneStep<'_>, lo: usize, hi: usize) -> Option<f64> {
         const L: usize = 8;
-        let a: [f64; NA] = a.try_into().ok()?;
-        let b: [f64; NB] = b.try_into().ok()?;
+        let (delay, kconst, ym, u, y) = (p.delay, p.kconst, p.ym, p.u, p.y);
+        let a: [f64; NA] = p.a.try_into().ok()?;
+        let b: [f64; NB] = p.b.try_into().ok()?;
         if lo < NA.max(delay + NB) || hi > y.len() || lo >= hi {
             return if lo >= hi { Some(0.0) } else { None };
         }
@@ -473,8 +481,16 @@ pub(crate) fn fixed_order_sse(
         }
         Some(s)
     }
+    let OneStep {
+        a,
+        b,
+        delay,
+        kconst,
+        ym,
+        u,
+        y,
+    } = one_step;
     let n = y.len();
-    let a = &a[1..];
     if let (&[a1, a2], &[b1, b2]) = (a, b) {
         // the paper's ARX(2, 2): one zip of the five lagged slices (no index arithmetic, so it
         // vectorises), the same per-sample order as `run`
@@ -530,7 +546,7 @@ pub(crate) fn fixed_order_sse(
     macro_rules! fixed {
         ($(($na:literal, $nb:literal))*) => {
             match (a.len(), b.len()) {
-                $(($na, $nb) => run::<$na, $nb>(a, b, delay, kconst, ym, u, y, lo, hi),)*
+                $(($na, $nb) => run::<$na, $nb>(one_step, lo, hi),)*
                 _ => None,
             }
         };
