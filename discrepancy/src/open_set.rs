@@ -233,10 +233,11 @@ impl Diagnoser<'_> {
         open: &mut Option<Finding>,
     ) -> Option<Stretches> {
         let (problem, base, options) = (self.problem, self.base, self.options);
-        // ... or on the model of a cause the first round fitted no worse than the baseline and
-        // the selection did not choose (`stretches::change_on_causes`)
+        // ... or on the model of a cause the first round found significant (or fitted no worse
+        // than the final model) and the selection did not choose (`stretches::change_on_causes`)
         let mut seen = if open.as_ref().is_some_and(|f| !f.significant) {
-            stretches::change_on_causes(problem, &sel.findings, &sel.causes, options)
+            let final_fit = sel.selected_model().unwrap_or(base).fit_val();
+            stretches::change_on_causes(problem, &sel.findings, &sel.causes, final_fit, options)
         } else {
             None
         };
@@ -263,7 +264,8 @@ impl Diagnoser<'_> {
                 return Some(check);
             }
             // no cause chosen, the change seen on a competing model that fits no worse than
-            // the baseline: named where the open set can see it (suite loop 1095)
+            // the baseline (the final model): named where the open set can see it (suite
+            // loop 1095)
             let seen = seen
                 .take()
                 .filter(|_| chain.is_empty() && check.change_at < base.result.split_index)?;
