@@ -553,17 +553,26 @@ impl Selection {
             return Ok(Path::default());
         };
         let other = path.causes[1];
+        self.name_pair(
+            k,
+            &format!(
+                " and {other} alone does not gain significantly either; with {other} on top, the pair's model gains significantly over this cause's extension (the next step) and likelihood ratio {lr:.0} over {other}'s alone (threshold {:.0})",
+                d.options.threshold(1)
+            ),
+        );
+        Ok(path)
+    }
+
+    /// The first round's finding `k` named as the first of a pair (significant, chosen), its
+    /// evidence saying so: what it gains alone, then `why` (from its separator on).
+    fn name_pair(&mut self, k: usize, why: &str) {
         let f = &mut self.findings[k];
         f.significant = true;
         f.evidence = format!(
-            "{} Named as a pair: alone it gains likelihood ratio {:.0} (threshold {:.0}) and {other} alone does not gain significantly either; with {other} on top, the pair's model gains significantly over this cause's extension (the next step) and likelihood ratio {lr:.0} over {other}'s alone (threshold {:.0}).",
-            f.evidence,
-            f.lr,
-            f.threshold,
-            d.options.threshold(1)
+            "{} Named as a pair: alone it gains likelihood ratio {:.0} (threshold {:.0}){why}.",
+            f.evidence, f.lr, f.threshold
         );
         self.chosen = Some(k);
-        Ok(path)
     }
 
     /// Two causes that mask each other: a cause that gained on the baseline but not enough
@@ -635,16 +644,13 @@ impl Selection {
         let Some((k, lr, other)) = best else {
             return Ok(path);
         };
-        let f = &mut self.findings[k];
-        f.significant = true;
-        f.evidence = format!(
-            "{} Named as a pair: alone it gains likelihood ratio {:.0} (threshold {:.0}); with {first} on top, the pair's model gains likelihood ratio {lr:.0} over {first}'s alone (threshold {:.0}).",
-            f.evidence,
-            f.lr,
-            f.threshold,
-            d.options.threshold(1)
+        self.name_pair(
+            k,
+            &format!(
+                "; with {first} on top, the pair's model gains likelihood ratio {lr:.0} over {first}'s alone (threshold {:.0})",
+                d.options.threshold(1)
+            ),
         );
-        self.chosen = Some(k);
         Ok(other)
     }
 }

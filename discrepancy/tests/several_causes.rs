@@ -210,18 +210,11 @@ fn two_weak_causes_are_named_as_a_pair() {
     let mut causes = d.causes.clone();
     causes.sort();
     assert_eq!(causes, ["time-delay", "valve-characteristic"]);
+    // the first cause did not gain significantly alone: named as a pair
     let first = &d.findings[d.chosen.expect("a first cause")];
-    assert!(
-        first.lr < first.threshold,
-        "LR {} threshold {}",
-        first.lr,
-        first.threshold
-    );
-    assert!(
-        first.evidence.contains("Named as a pair"),
-        "{}",
-        first.evidence
-    );
+    let (lr, threshold, evidence) = (first.lr, first.threshold, &first.evidence);
+    assert!(lr < threshold, "LR {lr} threshold {threshold}");
+    assert!(evidence.contains("Named as a pair"), "{evidence}");
     let without = c.diagnose(&[discrepancy::PAIRS.to_string()]);
     assert!(without.causes.is_empty(), "{:?}", without.causes);
 }

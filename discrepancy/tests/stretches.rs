@@ -142,17 +142,18 @@ fn a_change_seen_only_on_a_causes_model_is_tested_on_the_stretches() {
     );
     assert!(!check.holds("valve-characteristic"));
     assert_eq!(d.causes, vec![discrepancy::UNEXPLAINED]);
+    assert_seen_on(&d, "extension's model");
+}
+
+/// `unexplained` significant, its evidence containing `what`.
+fn assert_seen_on(d: &discrepancy::Diagnosis, what: &str) {
     let open = d
         .findings
         .iter()
         .find(|f| f.cause == discrepancy::UNEXPLAINED)
         .expect("the open set's finding");
     assert!(open.significant);
-    assert!(
-        open.evidence.contains("extension's model"),
-        "{}",
-        open.evidence
-    );
+    assert!(open.evidence.contains(what), "{}", open.evidence);
 }
 
 #[test]
@@ -167,18 +168,7 @@ fn a_change_seen_on_a_model_no_worse_than_the_baseline_is_named() {
     let d = c.diagnose(&[]);
     println!("causes {:?}\n{}", d.causes, d.summary);
     assert_eq!(d.causes, vec![discrepancy::UNEXPLAINED]);
-    let open = d
-        .findings
-        .iter()
-        .find(|f| f.cause == discrepancy::UNEXPLAINED)
-        .expect("the open set's finding");
-    assert!(open.significant);
-    assert!(
-        open.evidence
-            .contains("the valve-characteristic extension's linear part"),
-        "{}",
-        open.evidence
-    );
+    assert_seen_on(&d, "the valve-characteristic extension's linear part");
     let check = d.stretches.as_ref().expect("stretches tested");
     assert!(check.change_at < 2000, "located at {}", check.change_at);
 }
