@@ -5,7 +5,6 @@
 use std::time::Instant;
 
 use grid_search::NodeFit;
-use linear_id::find_identifier;
 use stiction_models::{find_model, MAX_SHAPE};
 
 use crate::eval::{Admit, Evaluator, LocalFit, PatternSearch};
@@ -118,10 +117,7 @@ impl Cause for ValveCharacteristic {
         let started = Instant::now();
         let entry = find_model("kano-char")?;
         let kano = find_model("kano")?;
-        let linear = find_identifier(ctx.baseline.linear)?;
-        let identifier = ctx
-            .combination(entry, linear, ctx.baseline.delay)
-            .identifier(ctx.baseline.delay)?;
+        let (linear, identifier) = ctx.identifier_with(entry)?;
         let q = &ctx.baseline.result;
         let fine = ctx.options.search.grid.step();
         let coarse = (ctx.span / 20.0).max(fine);

@@ -120,6 +120,27 @@ impl Context<'_> {
             .run(self.problem, None)?)
     }
 
+    /// The baseline's linear model (its registry entry) and its identifier at the baseline's
+    /// dead time, for the valve model `stiction` (a cause's local search of another valve
+    /// around the baseline's).
+    pub fn identifier_with(
+        &self,
+        stiction: &'static ModelEntry,
+    ) -> Result<
+        (
+            &'static IdentifierEntry,
+            Box<dyn linear_id::LinearIdentifier>,
+        ),
+        DiagnoseError,
+    > {
+        let linear = linear_id::find_identifier(self.baseline.linear)?;
+        let delay = self.baseline.delay;
+        let identifier = self
+            .combination(stiction, linear, delay)
+            .identifier(delay)?;
+        Ok((linear, identifier))
+    }
+
     /// The baseline's combination with another stiction model, identifier and dead time, on
     /// the diagnosis's grid and search options.
     pub fn combination(
@@ -326,7 +347,8 @@ pub(crate) fn span_of(op: &[f64]) -> f64 {
 pub const UNEXPLAINED: &str = "unexplained";
 
 /// The name that disables the search for two causes that mask each other (the forward
-/// selection started from a cause that gained on the baseline below its threshold, see
+/// selection started from a cause that gained on the baseline below its threshold, beside a
+/// chosen first cause or, when none is significant, as a pair of weak causes; see
 /// `diagnose`); like [`UNEXPLAINED`], not a plugin.
 pub const PAIRS: &str = "pairs";
 

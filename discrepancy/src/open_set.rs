@@ -21,6 +21,23 @@ fn coefficients(fit: &linear_id::LinearFit) -> usize {
     }
 }
 
+/// The valve's four initial states of In.3 (moving up or down, stuck or not): the valve of a
+/// whole window is run from each and the best-predicting one kept, so that an unlucky initial
+/// state does not pass for a changed process.
+pub(crate) fn four_initial_states() -> impl Iterator<Item = stiction_models::InitialState> + Clone {
+    use stiction_models::{Direction, InitialState};
+    [Direction::Up, Direction::Down]
+        .into_iter()
+        .flat_map(|direction| {
+            [true, false].map(|stuck| InitialState {
+                direction,
+                stuck,
+                stuck_at: None,
+                position: None,
+            })
+        })
+}
+
 /// The open-set check on the final model `last`: is something left that no registered cause
 /// explains?
 ///
@@ -54,7 +71,7 @@ pub(crate) fn open_set(
     last: &Fitted,
     options: &DiagnoseOptions,
 ) -> Option<Finding> {
-    use stiction_models::{Direction, InitialState, Initialization};
+    use stiction_models::{InitialState, Initialization};
     let q = &last.result;
     let (pv, mv) = (problem.pv, &q.mv_est);
     let (ni, n) = (q.split_index, pv.len());
@@ -71,16 +88,7 @@ pub(crate) fn open_set(
             .map(|(e, y)| (e - y) * (e - y))
             .sum()
     };
-    let starts = [Direction::Up, Direction::Down]
-        .into_iter()
-        .flat_map(|direction| {
-            [true, false].map(|stuck| InitialState {
-                direction,
-                stuck,
-                stuck_at: None,
-                position: None,
-            })
-        });
+    let starts = four_initial_states();
     // OP on a lattice: the valve from its best initial state and, as well, with its
     // thresholds moved by up to one quantisation step (see `rounding_band`)
     let mut valves = vec![q.stiction.box_clone()];
@@ -225,10 +233,11 @@ impl Diagnoser<'_> {
         open: &mut Option<Finding>,
     ) -> Option<Stretches> {
         let (problem, base, options) = (self.problem, self.base, self.options);
-        // ... or on the model of a cause the first round found significant and the selection
-        // did not choose (`stretches::change_on_causes`)
+        // ... or on the model of a cause the first round found significant (or fitted no worse
+        // than the final model) and the selection did not choose (`stretches::change_on_causes`)
         let mut seen = if open.as_ref().is_some_and(|f| !f.significant) {
-            stretches::change_on_causes(problem, &sel.findings, &sel.causes, options)
+            let final_fit = sel.selected_model().unwrap_or(base).fit_val();
+            stretches::change_on_causes(problem, &sel.findings, &sel.causes, final_fit, options)
         } else {
             None
         };
@@ -251,10 +260,17 @@ impl Diagnoser<'_> {
         // 46-100 on loops with no disturbance, docs/decisions/2026-11-27-stretches.md)
         let kept: Vec<&'static str> = chain.iter().copied().filter(|c| check.holds(c)).collect();
         if kept == chain {
-            return open
-                .as_ref()
-                .is_some_and(|f| f.significant)
-                .then_some(check);
+            if open.as_ref().is_some_and(|f| f.significant) {
+                return Some(check);
+            }
+            // no cause chosen, the change seen on a competing model that fits no worse than
+            // the baseline (the final model): named where the open set can see it (suite
+            // loop 1095)
+            let seen = seen
+                .take()
+                .filter(|_| chain.is_empty() && check.change_at < base.result.split_index)?;
+            *open = Some(seen);
+            return Some(check);
         }
         let first_round = sel.first_extension();
         // the forward selection's model of the causes that hold, in its order

@@ -271,6 +271,14 @@ pub(crate) struct Selection {
 /// Progress: `(done, what)`.
 pub(crate) type Tell<'a> = &'a (dyn Fn(usize, &str) + Sync);
 
+/// What every forward-selection path of one diagnosis shares: the diagnosis, its progress
+/// report and the progress count reached.
+struct Run<'r, 'a> {
+    d: &'r Diagnoser<'a>,
+    tell: Tell<'r>,
+    done: usize,
+}
+
 impl Selection {
     /// Every cause of `testable` that is not disabled tested on the baseline of `ctx`, judged
     /// and ordered (significant null hypothesis, then significant by margin, then the rest by
@@ -426,11 +434,15 @@ impl Selection {
         done: usize,
     ) -> Result<(), DiagnoseError> {
         let mut path = Path::default();
+        let run = Run { d, tell, done };
+        let pairs = !d.options.disabled.iter().any(|c| c == PAIRS) && !self.null_holds;
         if let Some(i) = self.first_extension() {
-            path = self.two_starts(d, tell, done, i)?;
-            if !d.options.disabled.iter().any(|c| c == PAIRS) && !self.null_holds {
-                path = self.pairs(d, tell, done, i, path)?;
+            path = self.two_starts(&run, i)?;
+            if pairs {
+                path = self.pairs(&run, i, path)?;
             }
+        } else if pairs && self.chosen.is_none() {
+            path = self.pair_of_weak_causes(&run)?;
         }
         let Path {
             causes,
@@ -453,13 +465,8 @@ impl Selection {
     /// scanned dead time is not the scan of EARX's dead time): the runner-up's path wins only
     /// when its final model fits the validation data significantly better (LR over
     /// `lr_base`), never for naming more causes.
-    fn two_starts(
-        &mut self,
-        d: &Diagnoser<'_>,
-        tell: Tell<'_>,
-        done: usize,
-        i: usize,
-    ) -> Result<Path, DiagnoseError> {
+    fn two_starts(&mut self, run: &Run<'_, '_>, i: usize) -> Result<Path, DiagnoseError> {
+        let Run { d, tell, done } = *run;
         let findings = &self.findings;
         let runner_up = findings
             .iter()
@@ -494,6 +501,80 @@ impl Selection {
         Ok(path)
     }
 
+    /// Two causes that mask each other when neither gains significantly on the baseline alone:
+    /// every cause that gained on the baseline (LR > 0) is a start, on its extension every
+    /// other cause is tested (the forward selection's step, its own LR rule), and the pair is
+    /// named when its model gains significantly over each of the two causes' extensions alone
+    /// (over the start's: the step's test; over the other's: LR over the one-parameter
+    /// threshold). The best-fitting such pair wins; the forward selection goes on from it.
+    /// An installed characteristic with a dead time on a loop detuned for both (suite loops
+    /// 6000-6023, PI gains 3-6 times lower than either effect's alone).
+    fn pair_of_weak_causes(&mut self, run: &Run<'_, '_>) -> Result<Path, DiagnoseError> {
+        let Run { d, tell, done } = *run;
+        let findings = &self.findings;
+        let starts: Vec<usize> = findings
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| {
+                !f.significant && f.role == Role::Extension && f.fitted.is_some() && f.lr > 0.0
+            })
+            .map(|(k, _)| k)
+            .collect();
+        let paths: Vec<(usize, Result<Path, DiagnoseError>)> = starts
+            .into_par_iter()
+            .map(|k| (k, d.forward(&findings[k], tell, done, None)))
+            .collect();
+        let n_val = d.n_val();
+        let alone = |cause: &str| {
+            findings
+                .iter()
+                .find(|f| f.cause == cause)
+                .and_then(|f| f.fitted.as_ref())
+                .map_or(f64::NEG_INFINITY, Fitted::fit_val)
+        };
+        let mut best: Option<(usize, f64, f64, Path)> = None;
+        for (k, path) in paths {
+            let path = path?;
+            let (Some(&p), Some(&other)) = (path.picks.first(), path.causes.get(1)) else {
+                continue;
+            };
+            let Some(pair) = path.steps[0][p].fitted.as_ref() else {
+                continue;
+            };
+            let lr = lr_of(n_val, alone(other), pair.fit_val());
+            if lr.is_finite()
+                && lr > d.options.threshold(1)
+                && best.as_ref().is_none_or(|b| pair.fit_val() > b.2)
+            {
+                best = Some((k, lr, pair.fit_val(), path));
+            }
+        }
+        let Some((k, lr, _, path)) = best else {
+            return Ok(Path::default());
+        };
+        let other = path.causes[1];
+        self.name_pair(
+            k,
+            &format!(
+                " and {other} alone does not gain significantly either; with {other} on top, the pair's model gains significantly over this cause's extension (the next step) and likelihood ratio {lr:.0} over {other}'s alone (threshold {:.0})",
+                d.options.threshold(1)
+            ),
+        );
+        Ok(path)
+    }
+
+    /// The first round's finding `k` named as the first of a pair (significant, chosen), its
+    /// evidence saying so: what it gains alone, then `why` (from its separator on).
+    fn name_pair(&mut self, k: usize, why: &str) {
+        let f = &mut self.findings[k];
+        f.significant = true;
+        f.evidence = format!(
+            "{} Named as a pair: alone it gains likelihood ratio {:.0} (threshold {:.0}){why}.",
+            f.evidence, f.lr, f.threshold
+        );
+        self.chosen = Some(k);
+    }
+
     /// Two causes that mask each other: a cause that gained on the baseline but not enough
     /// (a dead time part of which a disturbance absorbs, and the other way round; a dead time
     /// under an asymmetric valve) is a start too. On its extension the selected path's first
@@ -501,14 +582,8 @@ impl Selection {
     /// significantly over that first cause's extension alone (one extra parameter) and its
     /// path's final model fits no worse. Judging the whole path instead named a third
     /// cause's gain as a pair (docs/DIAGNOSE.md, item 5).
-    fn pairs(
-        &mut self,
-        d: &Diagnoser<'_>,
-        tell: Tell<'_>,
-        done: usize,
-        i: usize,
-        path: Path,
-    ) -> Result<Path, DiagnoseError> {
+    fn pairs(&mut self, run: &Run<'_, '_>, i: usize, path: Path) -> Result<Path, DiagnoseError> {
+        let Run { d, tell, done } = *run;
         let Some(first) = path.causes.first().copied() else {
             return Ok(path);
         };
@@ -569,16 +644,13 @@ impl Selection {
         let Some((k, lr, other)) = best else {
             return Ok(path);
         };
-        let f = &mut self.findings[k];
-        f.significant = true;
-        f.evidence = format!(
-            "{} Named as a pair: alone it gains likelihood ratio {:.0} (threshold {:.0}); with {first} on top, the pair's model gains likelihood ratio {lr:.0} over {first}'s alone (threshold {:.0}).",
-            f.evidence,
-            f.lr,
-            f.threshold,
-            d.options.threshold(1)
+        self.name_pair(
+            k,
+            &format!(
+                "; with {first} on top, the pair's model gains likelihood ratio {lr:.0} over {first}'s alone (threshold {:.0})",
+                d.options.threshold(1)
+            ),
         );
-        self.chosen = Some(k);
         Ok(other)
     }
 }

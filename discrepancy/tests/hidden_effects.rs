@@ -208,9 +208,9 @@ fn diagnose_names_the_hidden_effect() {
             );
         }
     }
-    // characteristic + dead time: measured and printed, not yet asserted (15 of 24 at full
-    // size, 2 of 6 at CI size: on 5 loops of a weak characteristic, a gain ratio of 1.24-1.52,
-    // and 3-5 samples of dead time neither cause gains significantly; docs/DIAGNOSE.md)
+    // characteristic + dead time: measured and printed, not yet asserted (17 of 24 at full
+    // size, 2 of 6 at CI size: the loops are detuned for both effects, PI gains a third to a
+    // sixth of either single situation's, and each cause shows less; docs/DIAGNOSE.md)
     if let Some((_, [n, _, set, _, _], _)) = table.iter().find(|r| r.0 == Effect::Compression) {
         assert!(
             set * 10 >= n * 8,

@@ -2,7 +2,6 @@
 
 use std::time::Instant;
 
-use linear_id::find_identifier;
 use stiction_models::find_model;
 
 use super::{keeps_stiction_model, pattern_search};
@@ -41,10 +40,7 @@ impl Cause for AsymmetricStiction {
     fn extend(&self, ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         let started = Instant::now();
         let entry = find_model("kano-asym")?;
-        let linear = find_identifier(ctx.baseline.linear)?;
-        let identifier = ctx
-            .combination(entry, linear, ctx.baseline.delay)
-            .identifier(ctx.baseline.delay)?;
+        let (linear, identifier) = ctx.identifier_with(entry)?;
         let q = &ctx.baseline.result;
         let fine = ctx.options.search.grid.step();
         let snap = |v: f64| (v / fine).round() * fine;
