@@ -1,6 +1,8 @@
 //! `detect` on one registration of 751 samples (the plant data's length): every registered test
-//! and the score; and the Hammerstein test's output-error evidence on 3000 samples, the
-//! detector's most expensive part (`cargo xtask bench detect`; targets < 50 ms and <= 20 ms).
+//! and the score; the Hammerstein test's output-error evidence on 3000 samples, the
+//! detector's most expensive part; and `detect` on 3000 samples, the detector's share of
+//! `quantify`'s path (`quantify` runs it once beside the grid, whose share is grid-search's
+//! `kano_arx_exhaustive_step_0_1`) (`cargo xtask bench detect`; targets < 50 ms, <= 20 ms).
 
 use datasets::simulate::{Controller, Plant, PlantSpec, Scenario, Setpoint};
 use detection::{detect, find_test, Registration};
@@ -27,29 +29,39 @@ fn registration(samples: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     (sim.sp, sim.pv, sim.op)
 }
 
-#[divan::bench]
-fn detect_751_samples(bencher: divan::Bencher) {
-    let (sp, pv, op) = registration(751);
+/// `run` on a registration of `samples` samples (SP, PV, OP at 10 s) built anew each time, as a
+/// command builds it from the file it read.
+fn bench_on<T>(
+    bencher: divan::Bencher,
+    samples: usize,
+    run: impl Fn(&Registration<'_>) -> T + Sync,
+) {
+    let (sp, pv, op) = registration(samples);
     bencher.bench(|| {
         let reg = Registration::new(&pv, &op, 10.0)
             .expect("same lengths")
             .with_sp(&sp)
             .expect("same lengths");
-        detect(divan::black_box(&reg))
+        run(divan::black_box(&reg))
     });
+}
+
+#[divan::bench]
+fn detect_751_samples(bencher: divan::Bencher) {
+    bench_on(bencher, 751, detect);
+}
+
+/// Every test, the score and the parts' check (its first half, its second half, every second
+/// sample) on a 3000-sample registration: what `quantify` adds to its grid.
+#[divan::bench]
+fn detect_3000_samples(bencher: divan::Bencher) {
+    bench_on(bencher, 3000, detect);
 }
 
 /// The Hammerstein test alone (its output-error and one-step fits over the valve grid) on a
 /// 3000-sample registration.
 #[divan::bench]
 fn hammerstein_3000_samples(bencher: divan::Bencher) {
-    let (sp, pv, op) = registration(3000);
     let test = find_test("hammerstein").expect("registered").test;
-    bencher.bench(|| {
-        let reg = Registration::new(&pv, &op, 10.0)
-            .expect("same lengths")
-            .with_sp(&sp)
-            .expect("same lengths");
-        test.run(divan::black_box(&reg))
-    });
+    bench_on(bencher, 3000, |reg| test.run(reg));
 }

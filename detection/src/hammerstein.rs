@@ -66,23 +66,6 @@ const MAX_DELAY: usize = 3;
 /// Regressors: two outputs, two inputs, a constant.
 const P: usize = 5;
 
-/// Residual sum of squares of `y(t)` on `[y(t−1), y(t−2), u(t−1−d), u(t−2−d), 1]`, `t` from
-/// `start` (the same rows for every model, so that the sums compare): the definition, which
-/// [`best_arx`] computes for every delay at once.
-#[cfg(test)]
-fn arx_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> f64 {
-    let mut gram = SMatrix::<f64, P, P>::zeros();
-    let mut b = SVector::<f64, P>::zeros();
-    let mut yy = 0.0;
-    for t in start..y.len() {
-        let x = SVector::<f64, P>::from([y[t - 1], y[t - 2], u[t - 1 - d], u[t - 2 - d], 1.0]);
-        gram.ger(1.0, &x, &x, 1.0);
-        b.axpy(y[t], &x, 1.0);
-        yy += y[t] * y[t];
-    }
-    arx_solve(gram, b, yy)
-}
-
 /// The one-step residual `yᵀy − bᵀG⁻¹b` of the normal equations `G`, `b` (a ridge of 1e-10
 /// of G's trace: the projection without a rank decision).
 fn arx_solve(mut gram: SMatrix<f64, P, P>, b: SVector<f64, P>, yy: f64) -> f64 {
@@ -168,6 +151,8 @@ struct Target {
     /// The nuisance regressors as written, over every sample (not cut at `start`): the
     /// constant, then a sine and a cosine per frequency.
     raw: Vec<Vec<f64>>,
+    /// `raw` sample by sample: `rows[t][j]` is `raw[j][t]` (0 beyond `raw`'s count).
+    rows: Vec<[f64; MAX_BASIS]>,
     /// The frequencies of `raw`'s pairs (rad/sample).
     omegas: Vec<f64>,
     /// The orthonormal basis of the regressors over the rows, as combinations of `raw`: basis
@@ -222,9 +207,16 @@ impl Target {
             ry.iter_mut().zip(q).for_each(|(x, qq)| *x -= c * qq);
         }
         let yy = dot(&ry, &ry);
+        let mut rows = vec![[0.0; MAX_BASIS]; n];
+        for (j, r) in raw.iter().enumerate().take(MAX_BASIS) {
+            for (row, &v) in rows.iter_mut().zip(r) {
+                row[j] = v;
+            }
+        }
         Target {
             ry,
             yy,
+            rows,
             raw,
             omegas: omegas.to_vec(),
             coef,
@@ -233,10 +225,14 @@ impl Target {
     }
 }
 
+/// Inputs whose output-error fits run side by side, one per lane ([`best_oe_many`]).
+const LANES: usize = 4;
+
 /// Residual sums of squares of `y(t) = K·x(t) + nuisance` on the target's rows, for every
 /// delay variant at once, `x` the input `u` through the lag `x(t) = p·x(t−1) + (1−p)·u(t−d)`
 /// with `d` from 1 to `MAX_DELAY + 1` samples (variants `0..=MAX_DELAY`) and the same plus
-/// half a sample (the input `(u(t) + u(t−1))/2`, the next variants).
+/// half a sample (the input `(u(t) + u(t−1))/2`, the next variants); for `L` inputs and poles
+/// at once, lane by lane (`u[t][l]`: input `l` at `t`).
 ///
 /// One pass serves them all: the lag is linear and time-invariant, so the output at delay
 /// `d` is the output at delay 1 shifted by `d − 1` samples (the start-up values are `u(0)`
@@ -245,36 +241,112 @@ impl Target {
 /// products, and their products with the nuisance regressors as written (a sine shifted by
 /// `s` samples is a rotation of the sine and the cosine); each variant's sums are then a
 /// combination of these, with the few samples at the window's ends corrected.
-fn oe_rss_at(tg: &Target, u: &[f64], p: f64, x: &mut [f64]) -> [f64; VARIANTS] {
+///
+/// Why lanes: the lag's recursion is a chain of dependent operations, so one input's pass
+/// waits on it sample after sample; independent inputs in the lanes of one pass fill that
+/// wait and share the vector instructions. Each lane's sums are the same operations in the
+/// same order as a pass of its own, so are their bits.
+#[inline(always)]
+fn oe_rss_lanes<const L: usize>(
+    tg: &Target,
+    u: &[[f64; L]],
+    p: [f64; L],
+    x: &mut [[f64; L]],
+) -> [[f64; VARIANTS]; L] {
+    // The nuisance regressors' count as a constant: the pass's sums then stay in registers.
+    match tg.raw.len() {
+        1 => oe_rss_fixed::<L, 1>(tg, u, p, x),
+        3 => oe_rss_fixed::<L, 3>(tg, u, p, x),
+        5 => oe_rss_fixed::<L, 5>(tg, u, p, x),
+        _ => oe_rss_fixed::<L, MAX_BASIS>(tg, u, p, x),
+    }
+}
+
+/// [`oe_rss_lanes`] for `NR` nuisance regressors as written (the constant and the sines).
+#[inline(always)]
+fn oe_rss_fixed<const L: usize, const NR: usize>(
+    tg: &Target,
+    u: &[[f64; L]],
+    p: [f64; L],
+    x: &mut [[f64; L]],
+) -> [[f64; VARIANTS]; L] {
     let n = tg.ry.len();
     let start = tg.start;
-    // The lag at delay 1.
+    let g: [f64; L] = p.map(|p| 1.0 - p);
+    // The lag at delay 1, and in the same pass: a[s] = Σ_{t ≥ start} x(t−s)·ry(t); over
+    // every τ in 1..n the squares, the neighbour products and the products with the
+    // nuisance regressors as written.
+    let (x, u, ry, rows) = (&mut x[..n], &u[..n], &tg.ry[..n], &tg.rows[..n]);
     x[0] = u[0];
     x[1] = u[0];
-    let g = 1.0 - p;
-    for t in 2..n {
-        x[t] = p * x[t - 1] + g * u[t - 1];
-    }
-    // a[s] = Σ_{t ≥ start} x(t−s)·ry(t).
-    let mut a = [0.0; SHIFTS];
-    for t in start..n {
-        let r = tg.ry[t];
-        for (s, acc) in a.iter_mut().enumerate() {
-            *acc += x[t - s] * r;
+    let mut a = [[0.0; L]; SHIFTS];
+    let (mut sq, mut nb) = ([0.0; L], [0.0; L]);
+    let mut full = [[0.0; L]; NR];
+    // The last SHIFTS values of the lag, newest first, held in registers: the recursion and
+    // the products read them without a round trip through memory.
+    let mut last = [u[0]; SHIFTS];
+    for t in 1..n {
+        if t >= 2 {
+            let ut = u[t - 1];
+            let mut v = [0.0; L];
+            for l in 0..L {
+                v[l] = p[l] * last[0][l] + g[l] * ut[l];
+            }
+            x[t] = v;
+            last.copy_within(0..SHIFTS - 1, 1);
+            last[0] = v;
+        }
+        let (v, w) = (last[0], last[1]);
+        for l in 0..L {
+            sq[l] += v[l] * v[l];
+            nb[l] += v[l] * w[l];
+        }
+        let row = &rows[t];
+        for (f, &rt) in full.iter_mut().zip(row) {
+            for l in 0..L {
+                f[l] += v[l] * rt;
+            }
+        }
+        if t >= start {
+            let r = ry[t];
+            for (acc, xs) in a.iter_mut().zip(&last) {
+                for l in 0..L {
+                    acc[l] += xs[l] * r;
+                }
+            }
         }
     }
-    // Sums over every τ in 1..n; the window of shift s is τ in start−s ..= n−1−s.
+    let mut out = [[0.0; VARIANTS]; L];
+    for (l, o) in out.iter_mut().enumerate() {
+        let mut lane_full = [0.0; MAX_BASIS];
+        for (f, v) in lane_full.iter_mut().zip(&full) {
+            *f = v[l];
+        }
+        let sums = PassSums {
+            a: a.map(|v| v[l]),
+            sq: sq[l],
+            nb: nb[l],
+            full: lane_full,
+        };
+        *o = oe_variants(tg, &sums, &|t| x[t][l]);
+    }
+    out
+}
+
+/// One lane's sums of the pass of [`oe_rss_lanes`].
+struct PassSums {
+    a: [f64; SHIFTS],
+    sq: f64,
+    nb: f64,
+    full: [f64; MAX_BASIS],
+}
+
+/// Every delay variant's residual from one input's pass sums and its lagged input `x`.
+fn oe_variants(tg: &Target, sums: &PassSums, x: &dyn Fn(usize) -> f64) -> [f64; VARIANTS] {
+    let n = tg.ry.len();
+    let start = tg.start;
     let nr = tg.raw.len();
-    let (mut sq, mut nb) = (0.0, 0.0);
-    let mut full = [0.0; MAX_BASIS];
-    for tau in 1..n {
-        let v = x[tau];
-        sq += v * v;
-        nb += v * x[tau - 1];
-        for (f, r) in full[..nr].iter_mut().zip(&tg.raw) {
-            *f += v * r[tau];
-        }
-    }
+    let (a, sq, nb, full) = (&sums.a, sums.sq, sums.nb, &sums.full);
     // Window sums of f(τ) for shift s: the full sum less the ends outside the window.
     let window = |total: f64, s: usize, f: &dyn Fn(usize) -> f64| -> f64 {
         total - (1..start - s).map(f).sum::<f64>() - (n - s..n).map(f).sum::<f64>()
@@ -284,11 +356,11 @@ fn oe_rss_at(tg: &Target, u: &[f64], p: f64, x: &mut [f64]) -> [f64; VARIANTS] {
     // r[s][j] = Σ_{t ≥ start} x(t−s)·raw_j(t), from the window sums of x(τ)·raw_j(τ).
     let mut r = [[0.0; MAX_BASIS]; SHIFTS];
     for s in 0..SHIFTS {
-        q[s] = window(sq, s, &|t| x[t] * x[t]);
-        l[s] = window(nb, s, &|t| x[t] * x[t - 1]);
+        q[s] = window(sq, s, &|t| x(t) * x(t));
+        l[s] = window(nb, s, &|t| x(t) * x(t - 1));
         let mut w = [0.0; MAX_BASIS];
         for j in 0..nr {
-            w[j] = window(full[j], s, &|t| x[t] * tg.raw[j][t]);
+            w[j] = window(full[j], s, &|t| x(t) * tg.raw[j][t]);
         }
         r[s][0] = w[0];
         for (i, &om) in tg.omegas.iter().enumerate() {
@@ -331,48 +403,124 @@ fn oe_rss_at(tg: &Target, u: &[f64], p: f64, x: &mut [f64]) -> [f64; VARIANTS] {
     out
 }
 
-/// The best output-error residual over the delay variants and the pole for input `u`:
-/// `(rss, delay in samples)`. The poles of [`POLES`] first, then a golden-section search
-/// between the best one's neighbours on the best residual over the variants.
-fn best_oe(tg: &Target, u: &[f64], x: &mut [f64]) -> (f64, f64) {
-    let mut best = (f64::INFINITY, 0.0);
-    let mut eval = |p: f64, best: &mut (f64, f64)| -> f64 {
-        let r = oe_rss_at(tg, u, p, x);
-        let mut m = f64::INFINITY;
-        for (v, &rv) in r.iter().enumerate() {
-            m = m.min(rv);
-            if rv < best.0 {
-                let extra = if v > MAX_DELAY { 0.5 } else { 0.0 };
-                *best = (rv, (v % (MAX_DELAY + 1) + 1) as f64 + extra);
+/// The best output-error residual over the delay variants and the pole for each lane's
+/// input: `(rss, delay in samples)`. The poles of [`POLES`] first, then a golden-section
+/// search between the best one's neighbours on the best residual over the variants; the
+/// lanes run the same steps side by side, each on its own pole.
+#[inline(always)]
+fn best_oe_lanes<const L: usize>(
+    tg: &Target,
+    u: &[[f64; L]],
+    x: &mut [[f64; L]],
+) -> [(f64, f64); L] {
+    /// One pass at the poles `p`: each lane's best residual over the variants, its best
+    /// model so far updated.
+    #[inline(always)]
+    fn eval<const L: usize>(
+        tg: &Target,
+        u: &[[f64; L]],
+        x: &mut [[f64; L]],
+        p: [f64; L],
+        best: &mut [(f64, f64); L],
+    ) -> [f64; L] {
+        let r = oe_rss_lanes(tg, u, p, x);
+        let mut m = [f64::INFINITY; L];
+        for l in 0..L {
+            for (v, &rv) in r[l].iter().enumerate() {
+                m[l] = m[l].min(rv);
+                if rv < best[l].0 {
+                    let extra = if v > MAX_DELAY { 0.5 } else { 0.0 };
+                    best[l] = (rv, (v % (MAX_DELAY + 1) + 1) as f64 + extra);
+                }
             }
         }
         m
-    };
-    let at: Vec<f64> = POLES.iter().map(|&p| eval(p, &mut best)).collect();
-    let i = (0..POLES.len())
-        .min_by(|&a, &b| at[a].total_cmp(&at[b]))
-        .unwrap_or(0);
-    let (mut lo, mut hi) = (
-        POLES[i.saturating_sub(1)],
-        POLES[(i + 1).min(POLES.len() - 1)],
-    );
+    }
+    let mut best = [(f64::INFINITY, 0.0); L];
+    let mut at = [[0.0; L]; POLES.len()];
+    for (f, &p) in at.iter_mut().zip(&POLES) {
+        *f = eval(tg, u, x, [p; L], &mut best);
+    }
     let g = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut a, mut b) = (hi - g * (hi - lo), lo + g * (hi - lo));
-    let (mut fa, mut fb) = (eval(a, &mut best), eval(b, &mut best));
+    let (mut lo, mut hi) = ([0.0; L], [0.0; L]);
+    let (mut a, mut b) = ([0.0; L], [0.0; L]);
+    for l in 0..L {
+        let i = (0..POLES.len())
+            .min_by(|&i, &j| at[i][l].total_cmp(&at[j][l]))
+            .unwrap_or(0);
+        lo[l] = POLES[i.saturating_sub(1)];
+        hi[l] = POLES[(i + 1).min(POLES.len() - 1)];
+        a[l] = hi[l] - g * (hi[l] - lo[l]);
+        b[l] = lo[l] + g * (hi[l] - lo[l]);
+    }
+    let mut fa = eval(tg, u, x, a, &mut best);
+    let mut fb = eval(tg, u, x, b, &mut best);
     for _ in 0..GOLDEN_STEPS {
-        if fa < fb {
-            hi = b;
-            (b, fb) = (a, fa);
-            a = hi - g * (hi - lo);
-            fa = eval(a, &mut best);
-        } else {
-            lo = a;
-            (a, fa) = (b, fb);
-            b = lo + g * (hi - lo);
-            fb = eval(b, &mut best);
+        let mut next = [0.0; L];
+        let mut left = [false; L];
+        for l in 0..L {
+            left[l] = fa[l] < fb[l];
+            if left[l] {
+                hi[l] = b[l];
+                (b[l], fb[l]) = (a[l], fa[l]);
+                a[l] = hi[l] - g * (hi[l] - lo[l]);
+                next[l] = a[l];
+            } else {
+                lo[l] = a[l];
+                (a[l], fa[l]) = (b[l], fb[l]);
+                b[l] = lo[l] + g * (hi[l] - lo[l]);
+                next[l] = b[l];
+            }
+        }
+        let f = eval(tg, u, x, next, &mut best);
+        for l in 0..L {
+            if left[l] {
+                fa[l] = f[l];
+            } else {
+                fb[l] = f[l];
+            }
         }
     }
     best
+}
+
+/// The best output-error residual over the delay variants and the pole for each input:
+/// `(rss, delay in samples)`, [`LANES`] inputs per pass (the last pass padded with a copy of
+/// its last input), compiled for the best instruction set the processor has (pulp's runtime
+/// dispatch, through faer: with AVX2, four lanes per instruction instead of two; the IEEE
+/// operations are the same, so are the bits: the compiler fuses no multiply-add unless asked
+/// to).
+fn best_oe_many(tg: &Target, inputs: &[&[f64]]) -> Vec<(f64, f64)> {
+    struct Run<'a> {
+        tg: &'a Target,
+        u: &'a [[f64; LANES]],
+        x: &'a mut [[f64; LANES]],
+    }
+    impl faer::traits::pulp::WithSimd for Run<'_> {
+        type Output = [(f64, f64); LANES];
+        #[inline(always)]
+        fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> Self::Output {
+            best_oe_lanes::<LANES>(self.tg, self.u, self.x)
+        }
+    }
+    let n = tg.ry.len();
+    let mut u = vec![[0.0; LANES]; n];
+    let mut x = vec![[0.0; LANES]; n];
+    let mut out = Vec::with_capacity(inputs.len());
+    for chunk in inputs.chunks(LANES) {
+        for (t, row) in u.iter_mut().enumerate() {
+            for (l, v) in row.iter_mut().enumerate() {
+                *v = chunk[l.min(chunk.len() - 1)][t];
+            }
+        }
+        let r = faer::traits::pulp::Arch::new().dispatch(Run {
+            tg,
+            u: &u,
+            x: &mut x,
+        });
+        out.extend_from_slice(&r[..chunk.len()]);
+    }
+    out
 }
 
 /// The output's side of the one-step ARX normal equations (the same for every valve).
@@ -410,8 +558,8 @@ impl<'a> ArxTarget<'a> {
 /// Input lags the ARX fits use: `u(t−1−d)` and `u(t−2−d)` for `d` in `0..=MAX_DELAY`.
 const ARX_LAGS: usize = MAX_DELAY + 2;
 
-/// The best one-step ARX residual over the delays for input `u` ([`arx_rss`] for every delay,
-/// from one pass: the products of the output's lags with the input's lags 1 to
+/// The best one-step ARX residual over the delays for input `u` (the tests' `arx_rss` for
+/// every delay, from one pass: the products of the output's lags with the input's lags 1 to
 /// `MAX_DELAY + 2`, and the input's lagged sums, squares and neighbour products).
 fn best_arx(tg: &ArxTarget<'_>, u: &[f64]) -> f64 {
     arx_all(tg, u).into_iter().fold(f64::INFINITY, f64::min)
@@ -495,6 +643,19 @@ fn arx_all(tg: &ArxTarget<'_>, u: &[f64]) -> [f64; MAX_DELAY + 1] {
     out
 }
 
+/// One valve of the grid in [`compare`]: its node in the profile over S, S, J, and its fits.
+#[derive(Debug, Clone, Copy, Default)]
+struct ValveFit {
+    node: usize,
+    s: f64,
+    j: f64,
+    /// The one-step ARX residual.
+    arx: f64,
+    /// The output-error residual and its delay (samples).
+    oe: f64,
+    delay: f64,
+}
+
 /// The Hammerstein comparison of a registration's output `y` and OP (same length).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Comparison {
@@ -557,18 +718,27 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
     let om = mean(op);
     let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
     let tg = Target::new(&y, start, omegas);
-    let mut scratch = vec![0.0; n];
-    let (oe0, _) = best_oe(&tg, &u0, &mut scratch);
     let arx_tg = ArxTarget::new(&z, start);
     let arx0 = best_arx(&arx_tg, &u0);
-    let mut best = (f64::INFINITY, 0.0, 0.0, 0.0);
-    let mut arx1 = (f64::INFINITY, 0.0);
     // The valve's state at the start of the record is unknown: at rest after moving down or
     // after moving up (a creeping OP that keeps going one way holds a valve of the second kind
     // for S, the first only for J); each node keeps the better of the two.
     let starts = [InitialState::down(), InitialState::up()];
     // The profile over S: the best output-error residual of each S (over J and the starts).
     let mut profile: Vec<(f64, f64)> = Vec::with_capacity(S_GRID.len());
+    // Every valve's fit in the grid's order: its node in the profile, S, J, the one-step
+    // residual, then the output-error residual and delay, filled [`LANES`] valves at a time
+    // (the free valve first).
+    let mut fits: Vec<ValveFit> = vec![ValveFit::default()];
+    let mut pending: Vec<Vec<f64>> = vec![u0.clone()];
+    let flush = |pending: &mut Vec<Vec<f64>>, fits: &mut [ValveFit]| {
+        let inputs: Vec<&[f64]> = pending.iter().map(Vec::as_slice).collect();
+        let k = fits.len() - inputs.len();
+        for (f, (oe, d)) in fits[k..].iter_mut().zip(best_oe_many(&tg, &inputs)) {
+            (f.oe, f.delay) = (oe, d);
+        }
+        pending.clear();
+    };
     for &s in S_GRID.iter().filter(|&&s| s <= range) {
         // A stop requested (Ctrl-C in Python): the caller discards the answer.
         if stiction_models::cancel::requested() {
@@ -583,18 +753,33 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
                 let Ok(mv) = valve.simulate(&u0, init) else {
                     continue;
                 };
-                let (oe, d) = best_oe(&tg, &mv, &mut scratch);
-                let arx = best_arx(&arx_tg, &mv);
-                if oe < best.0 {
-                    best = (oe, s, j, d);
-                }
-                if let Some(last) = profile.last_mut() {
-                    last.1 = last.1.min(oe);
-                }
-                if arx < arx1.0 {
-                    arx1 = (arx, s);
+                fits.push(ValveFit {
+                    node: profile.len() - 1,
+                    s,
+                    j,
+                    arx: best_arx(&arx_tg, &mv),
+                    ..ValveFit::default()
+                });
+                pending.push(mv);
+                if pending.len() == LANES {
+                    flush(&mut pending, &mut fits);
                 }
             }
+        }
+    }
+    if !pending.is_empty() {
+        flush(&mut pending, &mut fits);
+    }
+    let oe0 = fits[0].oe;
+    let mut best = (f64::INFINITY, 0.0, 0.0, 0.0);
+    let mut arx1 = (f64::INFINITY, 0.0);
+    for f in &fits[1..] {
+        if f.oe < best.0 {
+            best = (f.oe, f.s, f.j, f.delay);
+        }
+        profile[f.node].1 = profile[f.node].1.min(f.oe);
+        if f.arx < arx1.0 {
+            arx1 = (f.arx, f.s);
         }
     }
     let rows = n - start;
@@ -658,9 +843,8 @@ pub fn oracle_lr(y: &[f64], op: &[f64], mv: &[f64]) -> Option<f64> {
     let u: Vec<f64> = op[..n].iter().map(|v| v - om).collect();
     let m: Vec<f64> = mv[..n].iter().map(|v| v - om).collect();
     let tg = Target::new(&y, start, &[]);
-    let mut scratch = vec![0.0; n];
-    let (r_op, _) = best_oe(&tg, &u, &mut scratch);
-    let (r_mv, _) = best_oe(&tg, &m, &mut scratch);
+    let fits = best_oe_many(&tg, &[&u, &m]);
+    let (r_op, r_mv) = (fits[0].0, fits[1].0);
     (r_op > 0.0 && r_mv > 0.0 && r_op.is_finite() && r_mv.is_finite())
         .then(|| (n - start) as f64 * (r_op / r_mv).max(1.0).ln())
 }
@@ -794,184 +978,4 @@ inventory::submit! {
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used)]
-mod tests {
-    use super::*;
-    use crate::testing::noise;
-
-    /// A first-order process driven through a Kano valve by a slow triangular OP.
-    fn process(sticky: bool) -> (Vec<f64>, Vec<f64>) {
-        let n = 800;
-        let op: Vec<f64> = (0..n)
-            .map(|k| {
-                let t = (k % 200) as f64;
-                if t < 100.0 {
-                    t / 10.0
-                } else {
-                    (200.0 - t) / 10.0
-                }
-            })
-            .collect();
-        let valve = Kano::params()
-            .s(if sticky { 3.0 } else { 0.0 })
-            .j(if sticky { 1.0 } else { 0.0 })
-            .check()
-            .unwrap();
-        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
-        let e = noise(n, 0.05, 3);
-        let mut y = vec![0.0; n];
-        for t in 1..n {
-            y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + e[t];
-        }
-        (y, op)
-    }
-
-    /// The output-error residual of one delay variant, summed directly: the input (delayed by
-    /// half a sample for the half variants) through the lag, projected on the nuisance
-    /// regressors sample by sample.
-    fn oe_direct(tg: &Target, u: &[f64], variant: usize, p: f64) -> f64 {
-        let n = u.len();
-        let d = variant % (MAX_DELAY + 1) + 1;
-        let input: Vec<f64> = if variant > MAX_DELAY {
-            (0..n)
-                .map(|t| 0.5 * (u[t] + u[t.saturating_sub(1)]))
-                .collect()
-        } else {
-            u.to_vec()
-        };
-        let mut x = vec![input[0]; n];
-        for t in d + 1..n {
-            x[t] = p * x[t - 1] + (1.0 - p) * input[t - d];
-        }
-        let basis: Vec<Vec<f64>> = tg
-            .coef
-            .iter()
-            .map(|c| {
-                (0..n)
-                    .map(|t| c.iter().zip(&tg.raw).map(|(a, r)| a * r[t]).sum::<f64>())
-                    .collect()
-            })
-            .collect();
-        let (mut sxx, mut sxy) = (0.0, 0.0);
-        let mut proj = vec![0.0; basis.len()];
-        for t in tg.start..n {
-            sxx += x[t] * x[t];
-            sxy += x[t] * tg.ry[t];
-            for (pi, q) in proj.iter_mut().zip(&basis) {
-                *pi += q[t] * x[t];
-            }
-        }
-        let vxx = sxx - proj.iter().map(|v| v * v).sum::<f64>();
-        (tg.yy - sxy * sxy / vxx).max(0.0)
-    }
-
-    /// The one-pass sums of every delay variant equal the direct sums of each (the fast path
-    /// of the output-error and one-step fits; breaking a shift's window correction or the
-    /// sine's rotation fails it).
-    #[test]
-    fn the_one_pass_fits_equal_the_direct_ones() {
-        let (y, op) = process(true);
-        let e = noise(y.len(), 0.3, 9);
-        let y: Vec<f64> = y.iter().zip(&e).map(|(a, b)| a + b).collect();
-        let start = MAX_DELAY + 2;
-        let valve = Kano::params().s(2.0).j(0.5).check().unwrap();
-        let mv = valve.simulate(&op, &InitialState::up()).unwrap();
-        for omegas in [vec![], vec![0.0314], vec![0.0314, 0.09, 0.2]] {
-            let tg = Target::new(&y, start, &omegas);
-            let mut x = vec![0.0; y.len()];
-            for &p in &[0.0, 0.5, 0.93] {
-                let fast = oe_rss_at(&tg, &mv, p, &mut x);
-                for (v, &f) in fast.iter().enumerate() {
-                    let direct = oe_direct(&tg, &mv, v, p);
-                    assert!(
-                        (f - direct).abs() <= 1e-9 * tg.yy,
-                        "ω {omegas:?}, p {p}, variant {v}: {f} against {direct}"
-                    );
-                }
-            }
-        }
-        let arx = ArxTarget::new(&y, start);
-        for (d, fast) in arx_all(&arx, &mv).into_iter().enumerate() {
-            let direct = arx_rss(&y, &mv, d, start);
-            assert!(
-                (fast - direct).abs() <= 1e-9 * direct,
-                "delay {d}: {fast} against {direct}"
-            );
-        }
-    }
-
-    /// A valve stickier than the grid's largest band: the best fit is pinned at the edge, and
-    /// the test says so and gives no statistic (the score reads no evidence from it).
-    #[test]
-    fn an_optimum_on_the_grid_edge_is_no_evidence() {
-        // OP ramps up and down over 60 % in slow steps with noise; the valve's band is 14 %.
-        let n = 1800;
-        let e = noise(n, 0.4, 5);
-        let op: Vec<f64> = (0..n)
-            .map(|k| {
-                let t = (k % 600) as f64;
-                let tri = if t < 300.0 {
-                    t / 5.0
-                } else {
-                    (600.0 - t) / 5.0
-                };
-                tri + e[k]
-            })
-            .collect();
-        let fit = |s: f64| {
-            let valve = Kano::params().s(s).j(1.0).check().unwrap();
-            let mv = valve.simulate(&op, &InitialState::default()).unwrap();
-            let w = noise(n, 0.05, 6);
-            let mut y = vec![0.0; n];
-            for t in 1..n {
-                y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + w[t];
-            }
-            let reg = Registration::new(&y, &op, 1.0).unwrap();
-            Hammerstein.run(&reg).unwrap()
-        };
-        let o = fit(14.0);
-        assert_eq!(o.verdict, Verdict::Inconclusive, "{o:?}");
-        assert_eq!(o.statistic, None, "{o:?}");
-        assert!(o.evidence.contains("grid's edge"), "{}", o.evidence);
-        assert_eq!(o.value("lr_arx"), None);
-        // the same loop with a band inside the grid is evidence
-        let o = fit(5.0);
-        assert!(o.statistic.is_some_and(|lr| lr > STICTION_LR), "{o:?}");
-    }
-
-    #[test]
-    fn the_oracle_sees_a_valve_that_sticks_and_not_one_that_follows_op() {
-        let (y, op) = process(true);
-        let valve = Kano::params().s(3.0).j(1.0).check().unwrap();
-        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
-        let stuck = oracle_lr(&y, &op, &mv).unwrap();
-        assert!(stuck > 100.0, "{stuck}");
-        let (y, op) = process(false);
-        let free = oracle_lr(&y, &op, &op).unwrap();
-        assert!(free < 1e-9, "{free}");
-        assert!(oracle_lr(&y[..20], &op[..20], &op[..20]).is_none());
-    }
-
-    #[test]
-    fn the_dominant_frequency_is_the_sine_in_the_noise() {
-        let e = noise(3000, 1.0, 7);
-        let x: Vec<f64> = (0..3000)
-            .map(|t| 0.05 * t as f64 + 0.8 * (0.0377 * t as f64 + 0.3).sin() + e[t])
-            .collect();
-        let w = dominant_frequency(&x).unwrap();
-        assert!((w - 0.0377).abs() < 2e-4, "{w}");
-        assert_eq!(dominant_frequency(&x[..40]), None);
-        assert_eq!(dominant_frequency(&[1.0; 500]), None);
-    }
-
-    #[test]
-    fn a_sticky_valve_is_found_and_a_free_one_is_not() {
-        let (y, op) = process(true);
-        let c = compare(&y, &y, &op, &[]).unwrap();
-        assert!(c.lr > STICTION_LR, "{c:?}");
-        assert!((c.s - 3.0).abs() <= 1.0, "{c:?}");
-        let (y, op) = process(false);
-        let c = compare(&y, &y, &op, &[]).unwrap();
-        assert!(c.lr < FREE_LR, "{c:?}");
-    }
-}
+mod tests;

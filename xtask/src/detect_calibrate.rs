@@ -124,39 +124,30 @@ fn validation_sets() -> Vec<Set> {
         sample_time: TRAIN_TS,
         samples: TRAIN_N,
     };
+    // The training ranges but for every record's length, or every record's sampling time.
+    let length = |name: &'static str, n: usize, seed: u64| Set {
+        name,
+        spec: PopulationSpec {
+            samples: [n, n],
+            ..base(seed)
+        },
+    };
+    let sampling = |name: &'static str, ts: f64, seed: u64| Set {
+        name,
+        spec: PopulationSpec {
+            sample_time: [ts, ts],
+            ..base(seed)
+        },
+    };
     vec![
         Set {
             name: "in range",
             spec: base(1_000_001),
         },
-        Set {
-            name: "N = 400",
-            spec: PopulationSpec {
-                samples: [400, 400],
-                ..base(2_000_001)
-            },
-        },
-        Set {
-            name: "N = 4000",
-            spec: PopulationSpec {
-                samples: [4000, 4000],
-                ..base(3_000_001)
-            },
-        },
-        Set {
-            name: "Ts = 1 s",
-            spec: PopulationSpec {
-                sample_time: [1.0, 1.0],
-                ..base(4_000_001)
-            },
-        },
-        Set {
-            name: "Ts = 60 s",
-            spec: PopulationSpec {
-                sample_time: [60.0, 60.0],
-                ..base(5_000_001)
-            },
-        },
+        length("N = 400", 400, 2_000_001),
+        length("N = 4000", 4000, 3_000_001),
+        sampling("Ts = 1 s", 1.0, 4_000_001),
+        sampling("Ts = 60 s", 60.0, 5_000_001),
         Set {
             name: "composition (left out)",
             spec: PopulationSpec {

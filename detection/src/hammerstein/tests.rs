@@ -1,0 +1,230 @@
+//! The Hammerstein test's fast sums against their definitions, and its evidence on simple
+//! processes.
+#![allow(clippy::unwrap_used)]
+
+use super::*;
+use crate::testing::noise;
+
+/// Residual sum of squares of `y(t)` on `[y(t−1), y(t−2), u(t−1−d), u(t−2−d), 1]`, `t` from
+/// `start` (the same rows for every model, so that the sums compare): the definition, which
+/// [`best_arx`] computes for every delay at once.
+fn arx_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> f64 {
+    let mut gram = SMatrix::<f64, P, P>::zeros();
+    let mut b = SVector::<f64, P>::zeros();
+    let mut yy = 0.0;
+    for t in start..y.len() {
+        let x = SVector::<f64, P>::from([y[t - 1], y[t - 2], u[t - 1 - d], u[t - 2 - d], 1.0]);
+        gram.ger(1.0, &x, &x, 1.0);
+        b.axpy(y[t], &x, 1.0);
+        yy += y[t] * y[t];
+    }
+    arx_solve(gram, b, yy)
+}
+
+/// [`oe_rss_lanes`] for one input (the definition the tests check against the direct sums).
+fn oe_rss_at(tg: &Target, u: &[f64], p: f64, x: &mut [f64]) -> [f64; VARIANTS] {
+    let u: Vec<[f64; 1]> = u.iter().map(|&v| [v]).collect();
+    let mut xl = vec![[0.0]; x.len()];
+    let [out] = oe_rss_lanes::<1>(tg, &u, [p], &mut xl);
+    x.iter_mut().zip(&xl).for_each(|(a, b)| *a = b[0]);
+    out
+}
+
+/// A first-order process driven through a Kano valve by a slow triangular OP.
+fn process(sticky: bool) -> (Vec<f64>, Vec<f64>) {
+    let n = 800;
+    let op: Vec<f64> = (0..n)
+        .map(|k| {
+            let t = (k % 200) as f64;
+            if t < 100.0 {
+                t / 10.0
+            } else {
+                (200.0 - t) / 10.0
+            }
+        })
+        .collect();
+    let valve = Kano::params()
+        .s(if sticky { 3.0 } else { 0.0 })
+        .j(if sticky { 1.0 } else { 0.0 })
+        .check()
+        .unwrap();
+    let mv = valve.simulate(&op, &InitialState::default()).unwrap();
+    let e = noise(n, 0.05, 3);
+    let mut y = vec![0.0; n];
+    for t in 1..n {
+        y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + e[t];
+    }
+    (y, op)
+}
+
+/// The output-error residual of one delay variant, summed directly: the input (delayed by
+/// half a sample for the half variants) through the lag, projected on the nuisance
+/// regressors sample by sample.
+fn oe_direct(tg: &Target, u: &[f64], variant: usize, p: f64) -> f64 {
+    let n = u.len();
+    let d = variant % (MAX_DELAY + 1) + 1;
+    let input: Vec<f64> = if variant > MAX_DELAY {
+        (0..n)
+            .map(|t| 0.5 * (u[t] + u[t.saturating_sub(1)]))
+            .collect()
+    } else {
+        u.to_vec()
+    };
+    let mut x = vec![input[0]; n];
+    for t in d + 1..n {
+        x[t] = p * x[t - 1] + (1.0 - p) * input[t - d];
+    }
+    let basis: Vec<Vec<f64>> = tg
+        .coef
+        .iter()
+        .map(|c| {
+            (0..n)
+                .map(|t| c.iter().zip(&tg.raw).map(|(a, r)| a * r[t]).sum::<f64>())
+                .collect()
+        })
+        .collect();
+    let (mut sxx, mut sxy) = (0.0, 0.0);
+    let mut proj = vec![0.0; basis.len()];
+    for t in tg.start..n {
+        sxx += x[t] * x[t];
+        sxy += x[t] * tg.ry[t];
+        for (pi, q) in proj.iter_mut().zip(&basis) {
+            *pi += q[t] * x[t];
+        }
+    }
+    let vxx = sxx - proj.iter().map(|v| v * v).sum::<f64>();
+    (tg.yy - sxy * sxy / vxx).max(0.0)
+}
+
+/// The one-pass sums of every delay variant equal the direct sums of each (the fast path
+/// of the output-error and one-step fits; breaking a shift's window correction or the
+/// sine's rotation fails it).
+#[test]
+fn the_one_pass_fits_equal_the_direct_ones() {
+    let (y, op) = process(true);
+    let e = noise(y.len(), 0.3, 9);
+    let y: Vec<f64> = y.iter().zip(&e).map(|(a, b)| a + b).collect();
+    let start = MAX_DELAY + 2;
+    let valve = Kano::params().s(2.0).j(0.5).check().unwrap();
+    let mv = valve.simulate(&op, &InitialState::up()).unwrap();
+    for omegas in [vec![], vec![0.0314], vec![0.0314, 0.09, 0.2]] {
+        let tg = Target::new(&y, start, &omegas);
+        let mut x = vec![0.0; y.len()];
+        for &p in &[0.0, 0.5, 0.93] {
+            let fast = oe_rss_at(&tg, &mv, p, &mut x);
+            for (v, &f) in fast.iter().enumerate() {
+                let direct = oe_direct(&tg, &mv, v, p);
+                assert!(
+                    (f - direct).abs() <= 1e-9 * tg.yy,
+                    "ω {omegas:?}, p {p}, variant {v}: {f} against {direct}"
+                );
+            }
+        }
+    }
+    // Four valves side by side, each lane at its own pole, equal each one's direct sums.
+    let mvs: Vec<Vec<f64>> = [(0.5, 0.0), (2.0, 0.5), (4.0, 4.0), (1.0, 0.5)]
+        .iter()
+        .map(|&(s, j)| {
+            let v = Kano::params().s(s).j(j).check().unwrap();
+            v.simulate(&op, &InitialState::down()).unwrap()
+        })
+        .collect();
+    let tg = Target::new(&y, start, &[0.0314, 0.09]);
+    let u: Vec<[f64; LANES]> = (0..y.len())
+        .map(|t| [mvs[0][t], mvs[1][t], mvs[2][t], mvs[3][t]])
+        .collect();
+    let mut x = vec![[0.0; LANES]; y.len()];
+    let poles = [0.1, 0.5, 0.93, 0.7];
+    for (l, fast) in oe_rss_lanes(&tg, &u, poles, &mut x).iter().enumerate() {
+        for (v, &f) in fast.iter().enumerate() {
+            let direct = oe_direct(&tg, &mvs[l], v, poles[l]);
+            assert!(
+                (f - direct).abs() <= 1e-9 * tg.yy,
+                "lane {l}, variant {v}: {f} against {direct}"
+            );
+        }
+    }
+    let arx = ArxTarget::new(&y, start);
+    for (d, fast) in arx_all(&arx, &mv).into_iter().enumerate() {
+        let direct = arx_rss(&y, &mv, d, start);
+        assert!(
+            (fast - direct).abs() <= 1e-9 * direct,
+            "delay {d}: {fast} against {direct}"
+        );
+    }
+}
+
+/// A valve stickier than the grid's largest band: the best fit is pinned at the edge, and
+/// the test says so and gives no statistic (the score reads no evidence from it).
+#[test]
+fn an_optimum_on_the_grid_edge_is_no_evidence() {
+    // OP ramps up and down over 60 % in slow steps with noise; the valve's band is 14 %.
+    let n = 1800;
+    let e = noise(n, 0.4, 5);
+    let op: Vec<f64> = (0..n)
+        .map(|k| {
+            let t = (k % 600) as f64;
+            let tri = if t < 300.0 {
+                t / 5.0
+            } else {
+                (600.0 - t) / 5.0
+            };
+            tri + e[k]
+        })
+        .collect();
+    let fit = |s: f64| {
+        let valve = Kano::params().s(s).j(1.0).check().unwrap();
+        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
+        let w = noise(n, 0.05, 6);
+        let mut y = vec![0.0; n];
+        for t in 1..n {
+            y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + w[t];
+        }
+        let reg = Registration::new(&y, &op, 1.0).unwrap();
+        Hammerstein.run(&reg).unwrap()
+    };
+    let o = fit(14.0);
+    assert_eq!(o.verdict, Verdict::Inconclusive, "{o:?}");
+    assert_eq!(o.statistic, None, "{o:?}");
+    assert!(o.evidence.contains("grid's edge"), "{}", o.evidence);
+    assert_eq!(o.value("lr_arx"), None);
+    // the same loop with a band inside the grid is evidence
+    let o = fit(5.0);
+    assert!(o.statistic.is_some_and(|lr| lr > STICTION_LR), "{o:?}");
+}
+
+#[test]
+fn the_oracle_sees_a_valve_that_sticks_and_not_one_that_follows_op() {
+    let (y, op) = process(true);
+    let valve = Kano::params().s(3.0).j(1.0).check().unwrap();
+    let mv = valve.simulate(&op, &InitialState::default()).unwrap();
+    let stuck = oracle_lr(&y, &op, &mv).unwrap();
+    assert!(stuck > 100.0, "{stuck}");
+    let (y, op) = process(false);
+    let free = oracle_lr(&y, &op, &op).unwrap();
+    assert!(free < 1e-9, "{free}");
+    assert!(oracle_lr(&y[..20], &op[..20], &op[..20]).is_none());
+}
+
+#[test]
+fn the_dominant_frequency_is_the_sine_in_the_noise() {
+    let e = noise(3000, 1.0, 7);
+    let x: Vec<f64> = (0..3000)
+        .map(|t| 0.05 * t as f64 + 0.8 * (0.0377 * t as f64 + 0.3).sin() + e[t])
+        .collect();
+    let w = dominant_frequency(&x).unwrap();
+    assert!((w - 0.0377).abs() < 2e-4, "{w}");
+    assert_eq!(dominant_frequency(&x[..40]), None);
+    assert_eq!(dominant_frequency(&[1.0; 500]), None);
+}
+
+#[test]
+fn a_sticky_valve_is_found_and_a_free_one_is_not() {
+    let (y, op) = process(true);
+    let c = compare(&y, &y, &op, &[]).unwrap();
+    assert!(c.lr > STICTION_LR, "{c:?}");
+    assert!((c.s - 3.0).abs() <= 1.0, "{c:?}");
+    let (y, op) = process(false);
+    let c = compare(&y, &y, &op, &[]).unwrap();
+    assert!(c.lr < FREE_LR, "{c:?}");
+}
