@@ -233,11 +233,10 @@ impl Diagnoser<'_> {
         open: &mut Option<Finding>,
     ) -> Option<Stretches> {
         let (problem, base, options) = (self.problem, self.base, self.options);
-        // ... or on the model of a cause the first round found significant (or fitted no worse
-        // than the final model) and the selection did not choose (`stretches::change_on_causes`)
+        // ... or on the model of a cause the first round found significant and the selection
+        // did not choose (`stretches::change_on_causes`)
         let mut seen = if open.as_ref().is_some_and(|f| !f.significant) {
-            let final_fit = sel.selected_model().unwrap_or(base).fit_val();
-            stretches::change_on_causes(problem, &sel.findings, &sel.causes, final_fit, options)
+            stretches::change_on_causes(problem, &sel.findings, &sel.causes, options)
         } else {
             None
         };
@@ -260,17 +259,10 @@ impl Diagnoser<'_> {
         // 46-100 on loops with no disturbance, docs/decisions/2026-11-27-stretches.md)
         let kept: Vec<&'static str> = chain.iter().copied().filter(|c| check.holds(c)).collect();
         if kept == chain {
-            if open.as_ref().is_some_and(|f| f.significant) {
-                return Some(check);
-            }
-            // no cause chosen, the change seen on a competing model that fits no worse than
-            // the baseline (the final model): named where the open set can see it (suite
-            // loop 1095)
-            let seen = seen
-                .take()
-                .filter(|_| chain.is_empty() && check.change_at < base.result.split_index)?;
-            *open = Some(seen);
-            return Some(check);
+            return open
+                .as_ref()
+                .is_some_and(|f| f.significant)
+                .then_some(check);
         }
         let first_round = sel.first_extension();
         // the forward selection's model of the causes that hold, in its order

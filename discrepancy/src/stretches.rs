@@ -317,26 +317,10 @@ fn test_stretch(
         .collect()
 }
 
-/// Whether the model of a first-round finding is admissible evidence of a change: a
-/// significant extension, or one that predicts the validation data no worse than the model the
-/// open set was asked on (`final_fit`, its validation F_PV: the baseline when no cause was
-/// chosen). A model that fits at least as well as the one asked describes the record at least
-/// as well, so a change it shows is as much a change. A model that fits worse is no evidence
-/// (on suite loop 1095 `disturbance`'s model, LR -107 on the baseline, read 841; admitting the
-/// models that fit no worse than the baseline beside chosen causes named a change on loops
-/// without one: 1049, 1117, 1128, 6004 of the full suite, 2026-11-27).
-fn admissible(f: &Finding, final_fit: f64) -> bool {
-    f.role == Role::Extension
-        && f.fitted
-            .as_ref()
-            .is_some_and(|x| f.significant || x.fit_val() >= final_fit)
-}
-
-/// The open set tested on the model of each cause the first round found significant or fitted
-/// no worse than the final model `final_fit` ([`admissible`]) and the forward selection did not choose (its extension of the
-/// baseline; not `no-stiction`, not a cause of `chain`): the one whose likelihood ratio
-/// passes its threshold by the most, its evidence saying on which model, `None` when it
-/// passes on none.
+/// The open set tested on the model of each cause the first round found significant but the
+/// forward selection did not choose (its extension of the baseline; not `no-stiction`, not a
+/// cause of `chain`): the one whose likelihood ratio passes its threshold by the most, its
+/// evidence saying on which model, `None` when it passes on none.
 ///
 /// A cause with extra freedom can absorb a change of the process: on its model, and on the
 /// final model built on it, the recent part of the record no longer predicts better than the
@@ -357,12 +341,11 @@ pub(crate) fn change_on_causes(
     problem: Problem<'_>,
     findings: &[Finding],
     chain: &[&'static str],
-    final_fit: f64,
     options: &DiagnoseOptions,
 ) -> Option<Finding> {
     let tested: Vec<(&'static str, Finding)> = findings
         .par_iter()
-        .filter(|f| admissible(f, final_fit) && !chain.contains(&f.cause))
+        .filter(|f| f.significant && f.role == Role::Extension && !chain.contains(&f.cause))
         .filter_map(|f| {
             let data = crate::framework::seen(problem, f.data.as_ref());
             Some((
@@ -392,7 +375,7 @@ pub(crate) fn change_on_causes(
             1,
         );
     open.evidence.push_str(&format!(
-        " The change was tested on the model of each cause the first round found significant or fitted no worse than the final model: it is not significant on the final model nor on the baseline, where a cause absorbed it, but it is on the {cause} extension's model."
+        " The change was tested on the model of each cause the first round found significant: it is not significant on the final model nor on the baseline, where a cause absorbed it, but it is on the {cause} extension's model."
     ));
     open.reference = format!("the {cause} extension");
     Some(open)
