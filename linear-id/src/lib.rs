@@ -144,6 +144,7 @@ pub mod declare;
 mod error;
 mod fit;
 mod harmonic;
+mod harmonic_sums;
 mod la;
 mod lagged;
 mod lanes;
