@@ -212,20 +212,9 @@ crate::linear_identifier! {
             // the notch's transient pair)
             self.n.max(self.m + self.delay) + self.n + self.m + 4
         }
-        fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError> {
-            let mut fit = self.fit_bare(u, y)?;
-            fit.refresh_info(u, y)?;
-            Ok(fit)
-        }
-        fn identify_predict_many(
-            &self,
-            inputs: &[(usize, &[f64])],
-            y: &[f64],
-            split: usize,
-            outs: &mut [Vec<f64>],
-        ) -> Vec<Result<crate::Identified, IdError>> {
-            crate::harmonic_sums::identify_predict_many(self, inputs, y, split, outs)
-        }
+        crate::declare::identify_from_bare!(fit_bare, many |this, inputs, y, split, outs| {
+            crate::harmonic_sums::identify_predict_many(this, inputs, y, split, outs)
+        });
     }
 }
 

@@ -40,7 +40,7 @@ use crate::arx_sums::{cholesky_in_place, cholesky_solve, MAX_COLS};
 use crate::error::check_data;
 use crate::harmonic::{notch_filter, pole_radius, with_transient};
 use crate::la::{dot, sum};
-use crate::{input_start, mean, Harx, IdError, Identified, LinearFit, LinearIdentifier, Structure};
+use crate::{mean, Harx, IdError, Identified, LinearFit, LinearIdentifier, Structure};
 
 /// Products of the regression's columns over the rows, in the layout of `Harx::solve`:
 /// `0..n` the output lags (unsigned), `n..n+m` the input lags, `n+m` the intercept, `n+m+1` and
@@ -321,27 +321,18 @@ pub(crate) fn identify_predict_many(
     split: usize,
     outs: &mut [Vec<f64>],
 ) -> Vec<Result<Identified, IdError>> {
-    inputs
-        .iter()
-        .zip(outs.iter_mut())
-        .map(|(&(start, u), out)| {
-            let split = split.min(y.len());
-            let start = input_start(start, u, y, split)?;
-            let (uw, yw) = (&u[start..split], &y[start..split]);
-            check_data(uw, yw, h.min_samples())?;
-            out.resize(y.len() - start, 0.0);
-            let (u, y) = (&u[start..], &y[start..]);
-            let (fit, predicted) = match fit_from_sums(h, (u, y), split - start, out) {
-                Some(fit) => (fit, Ok(())),
-                None => {
-                    let fit = h.fit_bare(uw, yw)?;
-                    let predicted = fit.predict_one_step_into(u, y, out);
-                    (fit, predicted)
-                }
-            };
-            fit.diagnose_from_prediction((u, y), split - start, out, predicted)
+    crate::predict_many_with(inputs, y, split, outs, |(u, y), window, out| {
+        let (uw, yw) = (&u[..window], &y[..window]);
+        check_data(uw, yw, h.min_samples())?;
+        Ok(match fit_from_sums(h, (u, y), window, out) {
+            Some(fit) => (fit, Ok(())),
+            None => {
+                let fit = h.fit_bare(uw, yw)?;
+                let predicted = fit.predict_one_step_into(u, y, out);
+                (fit, predicted)
+            }
         })
-        .collect()
+    })
 }
 
 #[cfg(test)]

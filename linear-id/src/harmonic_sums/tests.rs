@@ -74,14 +74,7 @@ fn inputs(u0: &[f64], starts: &[usize]) -> Vec<(usize, Vec<f64>)> {
     starts
         .iter()
         .enumerate()
-        .map(|(i, &start)| {
-            let u = u0
-                .iter()
-                .enumerate()
-                .map(|(k, v)| v * (1.0 + 0.07 * i as f64) + ((k * (i + 1)) % 7) as f64 * 0.01)
-                .collect();
-            (start, u)
-        })
+        .map(|(i, &start)| (start, crate::test_data::varied_input(u0, i)))
         .collect()
 }
 
