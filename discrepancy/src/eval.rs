@@ -80,9 +80,6 @@ impl LocalFit {
 /// fits depend on its parameters only: the same bits).
 pub(crate) struct Evaluator<'a> {
     inner: NodeEvaluator<'a, dyn LinearIdentifier + 'a>,
-    samples: usize,
-    identifier: &'a (dyn LinearIdentifier + 'a),
-    max_work: f64,
     seen: Mutex<HashMap<Vec<u64>, NodeFit>>,
 }
 
@@ -96,9 +93,6 @@ impl<'a> Evaluator<'a> {
     ) -> Result<Self, SearchError> {
         Ok(Evaluator {
             inner: NodeEvaluator::new(entry, identifier, problem, options)?,
-            samples: problem.op.len(),
-            identifier,
-            max_work: options.max_work,
             seen: Mutex::new(HashMap::new()),
         })
     }
@@ -116,13 +110,7 @@ impl<'a> Evaluator<'a> {
     /// (in parallel, in the given order), the others from memory; in the given order.
     pub fn evaluate(&self, nodes: Vec<Vec<f64>>) -> Result<Vec<NodeFit>, SearchError> {
         // the same work check as for the whole list
-        grid_search::budget::check_work(
-            nodes.len(),
-            self.samples,
-            self.identifier,
-            self.max_work,
-            "nodes",
-        )?;
+        self.inner.check_work(nodes.len())?;
         let key = |p: &[f64]| p.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
         let fresh: Vec<Vec<f64>> = {
             let seen = self.seen.lock().unwrap_or_else(|e| e.into_inner());

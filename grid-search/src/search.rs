@@ -525,15 +525,14 @@ impl<'a, I: LinearIdentifier + ?Sized> NodeEvaluator<'a, I> {
         })
     }
 
+    /// The work budget's check of `count` nodes on this problem ([`crate::budget::check_work`]).
+    pub fn check_work(&self, count: usize) -> Result<(), SearchError> {
+        crate::budget::check_work(count, self.samples, self.identifier, self.max_work, "nodes")
+    }
+
     /// Evaluate `nodes` in parallel, in the given order (within the work budget).
     pub fn evaluate(&self, nodes: Vec<Vec<f64>>) -> Result<Vec<NodeFit>, SearchError> {
-        crate::budget::check_work(
-            nodes.len(),
-            self.samples,
-            self.identifier,
-            self.max_work,
-            "nodes",
-        )?;
+        self.check_work(nodes.len())?;
         let fits = self.prep.ctx.evaluate_all(nodes, &|| {});
         if stiction_models::cancel::requested() {
             return Err(SearchError::Interrupted);

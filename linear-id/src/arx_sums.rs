@@ -68,7 +68,7 @@ pub const GRAM_PIVOT_TOL: f64 = 1e-4;
 const CENTERING_LOSS: f64 = 1e-3;
 
 /// Largest `n + m` handled from sums (the Gram matrix lives on the stack).
-const MAX_COLS: usize = 12;
+pub(crate) const MAX_COLS: usize = 12;
 
 /// What [`Arx::output_sums`] precomputes from the output record.
 #[derive(Debug, Clone)]
@@ -840,7 +840,7 @@ fn center_products(
 
 /// Cholesky `A = L L'` of the leading `d × d` block, in place (lower triangle); `None` when a
 /// pivot is below [`GRAM_PIVOT_TOL`].
-fn cholesky_in_place(a: &mut [[f64; MAX_COLS]; MAX_COLS], d: usize) -> Option<()> {
+pub(crate) fn cholesky_in_place(a: &mut [[f64; MAX_COLS]; MAX_COLS], d: usize) -> Option<()> {
     for j in 0..d {
         let mut v = a[j][j];
         for k in 0..j {
@@ -863,7 +863,7 @@ fn cholesky_in_place(a: &mut [[f64; MAX_COLS]; MAX_COLS], d: usize) -> Option<()
 }
 
 /// Solve `L L' x = rhs` (`L` the lower triangle of `l`, order `d`).
-fn cholesky_solve(
+pub(crate) fn cholesky_solve(
     l: &[[f64; MAX_COLS]; MAX_COLS],
     rhs: &[f64; MAX_COLS],
     d: usize,

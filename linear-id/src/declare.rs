@@ -197,8 +197,16 @@ pub(crate) use identifier_params;
 /// [`linear_identifier!`](crate::linear_identifier)): `identify` adds them from a prediction,
 /// `identify_predict_many` from the prediction's identification window
 /// ([`predict_many_from_bare`](crate::predict_many_from_bare)).
+/// With `many |this, batch| { .. }`, that block is `identify_predict_many`.
 macro_rules! identify_from_bare {
     ($fit_bare:ident) => {
+        $crate::declare::identify_from_bare!(
+            $fit_bare,
+            many | this,
+            batch | { $crate::predict_many_from_bare(batch, |u, y| this.$fit_bare(u, y)) }
+        );
+    };
+    ($fit_bare:ident, many |$this:ident, $batch:ident| $many:block) => {
         fn identify(&self, u: &[f64], y: &[f64]) -> Result<$crate::LinearFit, $crate::IdError> {
             let mut fit = self.$fit_bare(u, y)?;
             fit.refresh_info(u, y)?;
@@ -206,9 +214,10 @@ macro_rules! identify_from_bare {
         }
         fn identify_predict_many(
             &self,
-            batch: $crate::Batch<'_>,
+            $batch: $crate::Batch<'_>,
         ) -> Vec<Result<$crate::Identified, $crate::IdError>> {
-            $crate::predict_many_from_bare(batch, |u, y| self.$fit_bare(u, y))
+            let $this = self;
+            $many
         }
     };
 }

@@ -144,6 +144,7 @@ pub mod declare;
 mod error;
 mod fit;
 mod harmonic;
+mod harmonic_sums;
 mod la;
 mod lagged;
 mod lanes;
@@ -333,17 +334,35 @@ pub(crate) fn predict_many_from_bare(
     batch: Batch<'_>,
     fit_bare: impl Fn(&[f64], &[f64]) -> Result<LinearFit, IdError>,
 ) -> Vec<Result<Identified, IdError>> {
-    let (inputs, y, split, outs) = (batch.inputs, batch.y, batch.split, batch.outs);
+    predict_many_with(batch, |(u, y), window, out| {
+        let fit = fit_bare(&u[..window], &y[..window])?;
+        let predicted = fit.predict_one_step_into(u, y, out);
+        Ok((fit, predicted))
+    })
+}
+
+/// [`predict_many_from_bare`] with `fit_predict((u, y), window, out)` giving each input's fit
+/// on `(u[..window], y[..window])` and its one-step prediction of all of `y` in `out` (with
+/// the outcome [`LinearFit::predict_one_step_into`] gives).
+#[allow(clippy::type_complexity)]
+pub(crate) fn predict_many_with(
+    batch: Batch<'_>,
+    fit_predict: impl Fn(
+        (&[f64], &[f64]),
+        usize,
+        &mut [f64],
+    ) -> Result<(LinearFit, Result<(), IdError>), IdError>,
+) -> Vec<Result<Identified, IdError>> {
+    let Batch { inputs, y, split, outs } = batch;
     inputs
         .iter()
         .zip(outs.iter_mut())
         .map(|(&(start, u), out)| {
             let split = split.min(y.len());
             let start = input_start(start, u, y, split)?;
-            let fit = fit_bare(&u[start..split], &y[start..split])?;
             out.resize(y.len() - start, 0.0);
             let (u, y) = (&u[start..], &y[start..]);
-            let predicted = fit.predict_one_step_into(u, y, out);
+            let (fit, predicted) = fit_predict((u, y), split - start, out)?;
             fit.diagnose_from_prediction((u, y), split - start, out, predicted)
         })
         .collect()

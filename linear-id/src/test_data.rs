@@ -29,6 +29,14 @@ pub(crate) fn valve_loop(len: usize, seed: u64, noise: f64) -> (Vec<f64>, Vec<f6
     (u, y)
 }
 
+/// The `i`-th input derived from `u0` (scaled and perturbed differently for each `i`).
+pub(crate) fn varied_input(u0: &[f64], i: usize) -> Vec<f64> {
+    u0.iter()
+        .enumerate()
+        .map(|(k, v)| v * (1.0 + 0.07 * i as f64) + ((k * (i + 1)) % 7) as f64 * 0.01)
+        .collect()
+}
+
 /// [`crate::LinearIdentifier::identify_predict_many`] of `id` against `identify` +
 /// `predict_one_step_into`, input by input, compared bit for bit: `n` inputs starting at
 /// different samples, the third of them constant (an error in its place).
@@ -40,12 +48,7 @@ pub(crate) fn identify_predict_many_matches(id: &dyn crate::LinearIdentifier, n:
             if i == 2 {
                 (start, vec![1.5; y.len()])
             } else {
-                let u = u0
-                    .iter()
-                    .enumerate()
-                    .map(|(k, v)| v * (1.0 + 0.07 * i as f64) + ((k * (i + 1)) % 7) as f64 * 0.01)
-                    .collect();
-                (start, u)
+                (start, varied_input(&u0, i))
             }
         })
         .collect();

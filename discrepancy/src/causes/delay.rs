@@ -274,18 +274,28 @@ fn warm_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
         Ok(f.is_finite().then_some((f, nodes)))
     })?;
     let (best, _, nodes) = fits.swap_remove(i);
+    at_delay(ctx, (spec.identifier(best)?, best), nodes, scores, started)
+}
+
+/// The extension with `identifier` at dead time `delay` (the baseline's valve model), from
+/// the nodes searched there and the current valve, with the scan's `scores`.
+fn at_delay(
+    ctx: &Context<'_>,
+    (identifier, delay): (Box<dyn LinearIdentifier>, usize),
+    nodes: Vec<grid_search::NodeFit>,
+    scores: Vec<(usize, f64)>,
+    started: Instant,
+) -> Result<Extension, DiagnoseError> {
+    let spec = ctx.baseline_spec;
     let fit = LocalFit {
-        entry,
+        entry: spec.stiction,
         linear: spec.linear,
-        identifier: spec.identifier(best)?,
-        delay: best,
+        identifier,
+        delay,
         started,
     };
     let mut ext = from_current_valve(ctx, fit, nodes)?;
-    ext.fitted.delay_scan = Some(grid_search::DelayScan {
-        delay: best,
-        scores,
-    });
+    ext.fitted.delay_scan = Some(grid_search::DelayScan { delay, scores });
     Ok(ext)
 }
 
@@ -321,19 +331,7 @@ fn local_delay(ctx: &Context<'_>) -> Result<Extension, DiagnoseError> {
     let evaluator = Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
     let nodes = axis_search(ctx, &evaluator, &start)?;
     drop(evaluator);
-    let fit = LocalFit {
-        entry,
-        linear: spec.linear,
-        identifier,
-        delay: best,
-        started,
-    };
-    let mut ext = from_current_valve(ctx, fit, nodes)?;
-    ext.fitted.delay_scan = Some(grid_search::DelayScan {
-        delay: best,
-        scores,
-    });
-    Ok(ext)
+    at_delay(ctx, (identifier, best), nodes, scores, started)
 }
 
 inventory::submit! {

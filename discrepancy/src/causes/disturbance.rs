@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use linear_id::{find_identifier, OrderValue};
+use linear_id::{find_identifier, LinearIdentifier, OrderValue};
 
 use super::{
     axis_search, current_valve, from_current_valve, keeps_stiction_model, notches_the_valves_cycle,
@@ -231,14 +231,7 @@ fn warm_grid(ctx: &Context<'_>, combination: run::Combination) -> Result<Extensi
         nodes.extend(refine(&start)?);
     }
     drop(evaluator);
-    let fit = LocalFit {
-        entry,
-        linear,
-        identifier,
-        delay: ctx.baseline.delay,
-        started,
-    };
-    from_current_valve(ctx, fit, nodes)
+    at_baseline_delay(ctx, (linear, identifier), nodes, started)
 }
 
 /// The disturbance extension of a model whose valve has three parameters (`kano-asym`, found
@@ -263,8 +256,22 @@ fn local_disturbance(
         nodes.extend(axis_search(ctx, &evaluator, start)?);
     }
     drop(evaluator);
+    at_baseline_delay(ctx, (linear, identifier), nodes, started)
+}
+
+/// The extension with `identifier` (of `linear`) at the baseline's dead time and valve model,
+/// from the nodes searched and the current valve.
+fn at_baseline_delay(
+    ctx: &Context<'_>,
+    (linear, identifier): (
+        &'static linear_id::IdentifierEntry,
+        Box<dyn LinearIdentifier>,
+    ),
+    nodes: Vec<grid_search::NodeFit>,
+    started: Instant,
+) -> Result<Extension, DiagnoseError> {
     let fit = LocalFit {
-        entry,
+        entry: ctx.baseline_spec.stiction,
         linear,
         identifier,
         delay: ctx.baseline.delay,
