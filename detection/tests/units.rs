@@ -2,33 +2,22 @@
 //! changed by `a·x + b` (scales 1e-6 to 1e12) give the same detection as the loop in %.
 #![allow(clippy::unwrap_used)]
 
-use datasets::simulate::Scenario;
+use datasets::simulate::{Scenario, SimulatedLoop};
 use detection::{detect, Detection, Registration, Verdict};
 use stiction_models::Kano;
 
-struct Loop {
-    sp: Vec<f64>,
-    pv: Vec<f64>,
-    op: Vec<f64>,
-}
-
 /// The simulator's default loop (`stiction simulate --valve kano --param S=4 --param J=1`).
-fn kano(s: f64, j: f64, seed: u64) -> Loop {
-    let sim = Scenario {
+fn kano(s: f64, j: f64, seed: u64) -> SimulatedLoop {
+    Scenario {
         valve: Box::new(Kano::params().s(s).j(j).check().unwrap()),
         seed,
         ..Scenario::default()
     }
     .simulate()
-    .unwrap();
-    Loop {
-        sp: sim.sp,
-        pv: sim.pv,
-        op: sim.op,
-    }
+    .unwrap()
 }
 
-fn run(l: &Loop, scale: f64, offset: f64) -> Detection {
+fn run(l: &SimulatedLoop, scale: f64, offset: f64) -> Detection {
     let pv: Vec<f64> = l.pv.iter().map(|v| v * scale + offset).collect();
     let sp: Vec<f64> = l.sp.iter().map(|v| v * scale + offset).collect();
     let reg = Registration::new(&pv, &l.op, 1.0)

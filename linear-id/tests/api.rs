@@ -253,7 +253,7 @@ fn unstable_model_is_reported_not_silently_used() {
 
 #[test]
 fn prediction_simulation_and_disturbance_of_a_fit() {
-    let (u, y) = paper_closed_loop_sticky(1500, 0.5, 0.1, 4, 5.0, 2.0);
+    let (u, y) = closed_loop_valve(&PAPER, 1500, 0.5, 0.1, 4, (5.0, 2.0));
     let earx = Earx::params().check().unwrap().identify(&u, &y).unwrap();
     let eta = earx.disturbance().unwrap();
     assert_eq!(eta.len(), 1500);

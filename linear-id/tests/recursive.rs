@@ -122,7 +122,7 @@ fn recursive_armax_agrees_with_batch_ills_armax() {
 /// identified from the true MV.
 fn scores(a_dist: f64) -> Vec<(&'static str, f64, f64)> {
     let w = frequency_grid(E_G_GRID_POINTS);
-    let g_true = polynomial_frequency_response(&PAPER_A, &PAPER_B, 0, &w);
+    let g_true = polynomial_frequency_response(&PAPER.a, &PAPER.b, 0, &w);
     let ids: Vec<Box<dyn LinearIdentifier>> = vec![
         Box::new(Arx::params().check().unwrap()),
         Box::new(Armax::params().check().unwrap()),
@@ -132,7 +132,7 @@ fn scores(a_dist: f64) -> Vec<(&'static str, f64, f64)> {
     let mut out: Vec<(&'static str, f64, f64)> =
         ids.iter().map(|id| (id.name(), 0.0, 0.0)).collect();
     for seed in 1..=3 {
-        let (mv, pv) = paper_closed_loop_sticky(3000, a_dist, 0.1, seed, 5.0, 2.0);
+        let (mv, pv) = closed_loop_valve(&PAPER, 3000, a_dist, 0.1, seed, (5.0, 2.0));
         for (id, o) in ids.iter().zip(out.iter_mut()) {
             let fit = id.identify(&mv, &pv).unwrap();
             o.1 += (fit.static_gain() - 1.0).abs() / 3.0;

@@ -1,6 +1,6 @@
 //! The figures of a report, built from a loop's signals and the results of a run.
 
-use grid_search::{Criterion, GridPlan, Quantification};
+use grid_search::{Criterion, GridPlan, NodeFit, Quantification};
 use stiction_models::{run_valve, InitialState, Initialization, StictionModel};
 
 use crate::chart::{
@@ -111,6 +111,19 @@ fn split_rule(axis: &TimeAxis, split: usize) -> Rule {
     }
 }
 
+/// The figure `name`: `chart` drawn, with `caption` under it.
+fn line_figure(
+    name: &str,
+    chart: &LineChart,
+    caption: impl Into<String>,
+) -> Result<Figure, ReportError> {
+    Ok(Figure {
+        name: name.into(),
+        caption: caption.into(),
+        svg: render_lines(chart)?,
+    })
+}
+
 fn criterion_words(c: Criterion) -> &'static str {
     match c {
         Criterion::Prediction => "one-step prediction",
@@ -164,16 +177,16 @@ pub fn time_trends(
     }
     op_panel.push_xy("MV estimated", &axis.x, &q.mv_est, palette::BLUE);
     op_panel.rules.push(split_rule(&axis, q.split_index));
-    let svg = render_lines(&LineChart {
-        title: title("Time trends", sig, model),
-        x_label: axis.label.into(),
-        panels: vec![pv_panel, op_panel],
-        side_by_side: false,
-        size: (960, 620),
-    })?;
-    Ok(Figure {
-        name: name.into(),
-        caption: format!(
+    line_figure(
+        name,
+        &LineChart {
+            title: title("Time trends", sig, model),
+            x_label: axis.label.into(),
+            panels: vec![pv_panel, op_panel],
+            side_by_side: false,
+            size: (960, 620),
+        },
+        format!(
             "Measured SP, PV and OP with the model's PV (free-run simulation from the estimated \
              MV{}) and the estimated valve position MV. The model is identified left of the red \
              line and scored right of it (validation F_PV {:.1} %, {}).",
@@ -185,8 +198,7 @@ pub fn time_trends(
             q.fits_score(q.criterion),
             criterion_words(q.criterion)
         ),
-        svg,
-    })
+    )
 }
 
 /// MV(OP) of `model` for a slow sine sweep over `[lo, hi]`: the model's signature.
@@ -265,24 +277,23 @@ pub fn phase_plots(
         series: mv_series,
         ..Panel::default()
     };
-    let svg = render_lines(&LineChart {
-        title: title("Phase plots", sig, model),
-        x_label: "OP (% of valve span)".into(),
-        panels: vec![pv_panel, mv_panel],
-        side_by_side: true,
-        size: (1200, 520),
-    })?;
-    Ok(Figure {
-        name: name.into(),
-        caption: format!(
+    line_figure(
+        name,
+        &LineChart {
+            title: title("Phase plots", sig, model),
+            x_label: "OP (% of valve span)".into(),
+            panels: vec![pv_panel, mv_panel],
+            side_by_side: true,
+            size: (1200, 520),
+        },
+        format!(
             "Left: PV against OP, measured and simulated by the model. Right: the estimated valve \
              position against OP and the fitted model's signature for a slow sweep (red): the \
              horizontal stretches are the valve stuck (deadband + stickband S = {:.2}), the \
              vertical jumps the slip J = {:.2}, in % of valve span.",
             q.s, q.j
         ),
-        svg,
-    })
+    )
 }
 
 fn on_lattice(v: f64, step: f64) -> bool {
@@ -362,18 +373,11 @@ pub fn fit_surface(
                 .total_cmp(&b.value.unwrap_or(f64::NEG_INFINITY)),
         )
     });
-    let s_max = q
-        .surface
-        .iter()
-        .map(|n| n.s)
-        .fold(q.s, f64::max)
-        .max(coarse);
-    let j_max = q
-        .surface
-        .iter()
-        .map(|n| n.j)
-        .fold(q.j, f64::max)
-        .max(coarse);
+    // The axes reach the largest node and the optimum, and at least one coarse step.
+    let top = |at: fn(&NodeFit) -> f64, optimum: f64| {
+        q.surface.iter().map(at).fold(optimum, f64::max).max(coarse)
+    };
+    let (s_max, j_max) = (top(|n| n.s, q.s), top(|n| n.j, q.j));
     let j_min = q.surface.iter().map(|n| n.j).fold(0.0, f64::min);
     let iv = q.interval;
     let region: Vec<(f64, f64)> = q
@@ -452,14 +456,16 @@ fn pair_label(base: &str, extended: Option<&str>) -> String {
     }
 }
 
-/// The baseline's line of `line(fit)` in black and, when there is one, the extended model's
-/// in blue.
+/// The one-panel chart of the baseline's `line(fit)` in black and, when there is one, the
+/// extended model's in blue, titled `kind: loop …, baseline vs extended`.
 fn base_and_extended(
-    panel: &mut Panel,
+    sig: &LoopSignals<'_>,
+    (kind, x_label): (&str, &str),
+    mut panel: Panel,
     base: (&Quantification, &str),
     extended: Option<(&Quantification, &str)>,
     line: impl Fn(&Quantification) -> Vec<(f64, f64)>,
-) {
+) -> LineChart {
     panel.series.push(Series::line(
         format!("baseline {}", base.1),
         line(base.0),
@@ -471,6 +477,13 @@ fn base_and_extended(
             line(q),
             palette::BLUE,
         ));
+    }
+    LineChart {
+        title: title(kind, sig, &pair_label(base.1, extended.map(|e| e.1))),
+        x_label: x_label.into(),
+        panels: vec![panel],
+        side_by_side: false,
+        size: (960, 380),
     }
 }
 
@@ -490,32 +503,23 @@ pub fn residual_trends(
     name: &str,
 ) -> Result<Figure, ReportError> {
     let axis = TimeAxis::of(sig);
-    let mut panel = Panel {
+    let panel = Panel {
         y_label: "PV residual (engineering units)".into(),
         caption: "one-step prediction residual, PV measured - PV predicted".into(),
+        rules: vec![split_rule(&axis, base.0.split_index)],
         ..Panel::default()
     };
-    base_and_extended(&mut panel, base, extended, |q| {
+    let chart = base_and_extended(sig, ("Residuals", axis.label), panel, base, extended, |q| {
         axis.x.iter().copied().zip(residuals(sig.pv, q)).collect()
     });
-    panel.rules.push(split_rule(&axis, base.0.split_index));
-    let model = pair_label(base.1, extended.map(|e| e.1));
-    let svg = render_lines(&LineChart {
-        title: title("Residuals", sig, &model),
-        x_label: axis.label.into(),
-        panels: vec![panel],
-        side_by_side: false,
-        size: (960, 380),
-    })?;
-    Ok(Figure {
-        name: name.into(),
-        caption: "What the model gets wrong: the one-step prediction residuals of the baseline \
-                  model and of the extended model, over the whole record (validation right of \
-                  the red line). Slow drifts and oscillations left in the residuals are \
-                  structure the model has not captured."
-            .into(),
-        svg,
-    })
+    line_figure(
+        name,
+        &chart,
+        "What the model gets wrong: the one-step prediction residuals of the baseline \
+         model and of the extended model, over the whole record (validation right of \
+         the red line). Slow drifts and oscillations left in the residuals are \
+         structure the model has not captured.",
+    )
 }
 
 /// Welch power spectral density (Hann window, 50 % overlap) in dB of `x`, with frequency in
@@ -570,41 +574,31 @@ pub fn residual_spectrum(
     extended: Option<(&Quantification, &str)>,
     name: &str,
 ) -> Result<Figure, ReportError> {
-    let axis = TimeAxis::of(sig);
-    let (x_label, fscale) = match axis.ts() {
+    let (x_label, fscale) = match TimeAxis::of(sig).ts() {
         Some(ts) => ("frequency (mHz)", 1000.0 / ts),
         None => ("frequency (cycles/sample)", 1.0),
     };
-    let val = |q: &Quantification| {
-        let r = residuals(sig.pv, q);
-        welch_db(&r[q.split_index.min(r.len())..])
-            .into_iter()
-            .map(|(f, p)| (f * fscale, p))
-            .collect::<Vec<_>>()
-    };
-    let mut panel = Panel {
+    let panel = Panel {
         y_label: "power spectral density (dB)".into(),
         caption: "residual spectrum, validation data".into(),
         ..Panel::default()
     };
-    base_and_extended(&mut panel, base, extended, val);
-    let model = pair_label(base.1, extended.map(|e| e.1));
-    let svg = render_lines(&LineChart {
-        title: title("Residual spectrum", sig, &model),
-        x_label: x_label.into(),
-        panels: vec![panel],
-        side_by_side: false,
-        size: (960, 380),
-    })?;
-    Ok(Figure {
-        name: name.into(),
-        caption: "Welch spectrum (Hann window, 50 % overlap) of the one-step residuals on the \
-                  validation data. White residuals give a flat spectrum; a peak is an \
-                  oscillation the model does not explain, a rise at low frequency a slow \
-                  disturbance."
-            .into(),
-        svg,
-    })
+    let labels = ("Residual spectrum", x_label);
+    let chart = base_and_extended(sig, labels, panel, base, extended, |q| {
+        let r = residuals(sig.pv, q);
+        welch_db(&r[q.split_index.min(r.len())..])
+            .into_iter()
+            .map(|(f, p)| (f * fscale, p))
+            .collect()
+    });
+    line_figure(
+        name,
+        &chart,
+        "Welch spectrum (Hann window, 50 % overlap) of the one-step residuals on the \
+         validation data. White residuals give a flat spectrum; a peak is an \
+         oscillation the model does not explain, a rise at low frequency a slow \
+         disturbance.",
+    )
 }
 
 /// The disturbance η̂ estimated by an extended (EARX/EARMAX) model over the identification
@@ -628,7 +622,9 @@ pub fn disturbance(
         .skip(skip)
         .map(|(i, &v)| (axis.at(start + i), v))
         .collect();
-    let svg = render_lines(&LineChart {
+    let span = |k: usize| axis.at(k.min(axis.x.len().saturating_sub(1)));
+    let (from, to) = (span(start + skip), span(end.saturating_sub(1)));
+    let chart = LineChart {
         title: title("Estimated disturbance", sig, model),
         x_label: axis.label.into(),
         panels: vec![Panel {
@@ -639,12 +635,11 @@ pub fn disturbance(
         }],
         side_by_side: false,
         size: (960, 340),
-    })?;
-    let span = |k: usize| axis.at(k.min(axis.x.len().saturating_sub(1)));
-    let (from, to) = (span(start + skip), span(end.saturating_sub(1)));
-    Ok(Some(Figure {
-        name: name.into(),
-        caption: format!(
+    };
+    line_figure(
+        name,
+        &chart,
+        format!(
             "The nonstationary disturbance η̂ the extended model estimates alongside the process \
              model (PV units, around the PV mean). It covers {from:.0}-{to:.0} {} only: η̂ is \
              estimated on the identification data, which starts where the valve model's initial \
@@ -652,8 +647,8 @@ pub fn disturbance(
              validation data begin; on the validation data the model predicts without it.",
             axis.label_unit()
         ),
-        svg,
-    }))
+    )
+    .map(Some)
 }
 
 /// How a registration counts in a trend.
@@ -762,26 +757,24 @@ pub fn s_trend(
         x_label: String::new(),
         x_dates: dated,
     };
-    let svg = render_lines(&LineChart {
-        title: format!("S over registrations: valve {valve}, {model}"),
-        x_label: if dated {
-            "start of the registration (date, UTC)".into()
-        } else {
-            "registration (-)".into()
+    line_figure(
+        name,
+        &LineChart {
+            title: format!("S over registrations: valve {valve}, {model}"),
+            x_label: if dated {
+                "start of the registration (date, UTC)".into()
+            } else {
+                "registration (-)".into()
+            },
+            panels: vec![panel],
+            side_by_side: false,
+            size: (960, 420),
         },
-        panels: vec![panel],
-        side_by_side: false,
-        size: (960, 420),
-    })?;
-    Ok(Figure {
-        name: name.into(),
-        caption: "Estimated stiction S of each registration with its likelihood-ratio range \
-                  (bars). Filled: used in the trend; hollow: left out (weak validation fit, or \
-                  outside the band around the median). The green line is the Theil-Sen trend \
-                  of the used registrations."
-            .into(),
-        svg,
-    })
+        "Estimated stiction S of each registration with its likelihood-ratio range \
+         (bars). Filled: used in the trend; hollow: left out (weak validation fit, or \
+         outside the band around the median). The green line is the Theil-Sen trend \
+         of the used registrations.",
+    )
 }
 
 /// The raw columns of a file the reader refused, against the row number.
@@ -813,18 +806,16 @@ pub fn raw_signals(
         })
         .collect::<Vec<_>>();
     let h = (160 * panels.len() as u32 + 80).clamp(300, 1100);
-    let svg = render_lines(&LineChart {
-        title: format!("Raw data: loop {loop_name}, not analysed"),
-        x_label: "row (-)".into(),
-        panels,
-        side_by_side: false,
-        size: (960, h),
-    })?;
-    Ok(Figure {
-        name: name.into(),
-        caption: "The file's numeric columns as logged, against the row number (cells that are \
-                  not numbers are left out). The data were refused for the reason above."
-            .into(),
-        svg,
-    })
+    line_figure(
+        name,
+        &LineChart {
+            title: format!("Raw data: loop {loop_name}, not analysed"),
+            x_label: "row (-)".into(),
+            panels,
+            side_by_side: false,
+            size: (960, h),
+        },
+        "The file's numeric columns as logged, against the row number (cells that are \
+         not numbers are left out). The data were refused for the reason above.",
+    )
 }

@@ -8,6 +8,8 @@
 mod common;
 use common::{he, kano, kano_asym};
 
+use rand::{Rng as _, RngCore, SeedableRng};
+use rand_xoshiro::SplitMix64;
 use stiction_models::{Direction, He, InitialState, StictionError, StictionModel};
 
 const GOLDEN_OP: [f64; 20] = [
@@ -145,10 +147,10 @@ fn golden_vectors_through_boxed_valve_state() -> Result<(), StictionError> {
 // Literal re-implementation of the specification's pseudo-code
 // ---------------------------------------------------------------------------------------------
 
-/// `KANO_STEP` of ALGORITHMS.md §1.3, written out literally (no clipping).
-struct SpecKano {
-    s: f64,
-    j: f64,
+/// The variables Kano's pseudo-code carries from one sample to the next (§1.3; Kano-asym's
+/// of §3.2 are the same): the previous input and its change, where the valve stuck, whether it
+/// is stuck, the direction, the previous output.
+struct KanoVars {
     u_prev: f64,
     du_prev: f64,
     u_s: f64,
@@ -157,49 +159,54 @@ struct SpecKano {
     mv_prev: f64,
 }
 
-impl SpecKano {
-    /// `KANO_INIT(OP_0; d0, stp0, u_s0, mv0)` of §1.4; returns the state and `MV(0)`.
-    fn init(s: f64, j: f64, op_0: f64, d0: f64, stp0: u8, u_s0: f64, mv0: f64) -> (Self, f64) {
-        let state = SpecKano {
-            s,
-            j,
-            u_prev: op_0,
-            du_prev: 0.0,
-            u_s: u_s0,
-            stp: stp0,
-            d: d0,
-            mv_prev: mv0,
-        };
-        (state, mv0)
-    }
-
-    fn step(&mut self, op_k: f64) -> f64 {
-        let (s, j) = (self.s, self.j);
-        let u = op_k;
+impl KanoVars {
+    /// (a) detect that the valve has just stopped: input reversed or stayed flat. Returns the
+    /// input's change.
+    fn detect_stop(&mut self, u: f64) -> f64 {
         let du = u - self.u_prev;
-        // (a) detect that the valve has just stopped: input reversed or stayed flat
         if self.stp == 0 && du * self.du_prev <= 0.0 {
             self.u_s = self.u_prev;
             self.stp = 1;
         }
-        // (b) decide output
-        let mv;
-        if self.stp == 0 {
-            mv = u - self.d * (s - j) / 2.0;
-        } else if -self.d * (u - self.u_s) > s {
-            self.d = -self.d;
-            mv = u - self.d * (s - j) / 2.0;
-            self.stp = 0;
-        } else if self.d * (u - self.u_s) > j {
-            mv = u - self.d * (s - j) / 2.0;
-            self.stp = 0;
-        } else {
-            mv = self.mv_prev;
-        }
+        du
+    }
+
+    /// The end of a step: keep the input, its change and the output for the next sample.
+    fn keep(&mut self, u: f64, du: f64, mv: f64) -> f64 {
         self.du_prev = du;
         self.u_prev = u;
         self.mv_prev = mv;
         mv
+    }
+}
+
+/// `KANO_STEP` of ALGORITHMS.md §1.3, written out literally (no clipping).
+struct SpecKano {
+    s: f64,
+    j: f64,
+    v: KanoVars,
+}
+
+impl SpecKano {
+    fn step(&mut self, op_k: f64) -> f64 {
+        let (s, j, v) = (self.s, self.j, &mut self.v);
+        let u = op_k;
+        let du = v.detect_stop(u);
+        // (b) decide output
+        let mv;
+        if v.stp == 0 {
+            mv = u - v.d * (s - j) / 2.0;
+        } else if -v.d * (u - v.u_s) > s {
+            v.d = -v.d;
+            mv = u - v.d * (s - j) / 2.0;
+            v.stp = 0;
+        } else if v.d * (u - v.u_s) > j {
+            mv = u - v.d * (s - j) / 2.0;
+            v.stp = 0;
+        } else {
+            mv = v.mv_prev;
+        }
+        v.keep(u, du, mv)
     }
 }
 
@@ -210,50 +217,39 @@ struct SpecKanoAsym {
     dd: f64,
     j_up: f64,
     j_dn: f64,
-    u_prev: f64,
-    du_prev: f64,
-    u_s: f64,
-    stp: u8,
-    d: f64,
-    mv_prev: f64,
+    v: KanoVars,
 }
 
 impl SpecKanoAsym {
     // Transcribed branch by branch from the specification's pseudo-code, repeats included.
     #[allow(clippy::if_same_then_else)]
     fn step(&mut self, op_k: f64) -> f64 {
+        let (dd, j_up, j_dn, v) = (self.dd, self.j_up, self.j_dn, &mut self.v);
         let u = op_k;
-        let du = u - self.u_prev;
-        if self.stp == 0 && du * self.du_prev <= 0.0 {
-            self.u_s = self.u_prev;
-            self.stp = 1;
-        }
-        let s_up = self.dd + self.j_up;
-        let s_dn = self.dd + self.j_dn;
+        let du = v.detect_stop(u);
+        let s_up = dd + j_up;
+        let s_dn = dd + j_dn;
         let mv;
-        if self.stp == 0 {
-            mv = u - self.d * self.dd / 2.0;
-        } else if self.d == 1.0 && -(u - self.u_s) > s_dn {
-            self.d = -1.0;
-            mv = u - self.d * self.dd / 2.0;
-            self.stp = 0;
-        } else if self.d == -1.0 && (u - self.u_s) > s_up {
-            self.d = 1.0;
-            mv = u - self.d * self.dd / 2.0;
-            self.stp = 0;
-        } else if self.d == 1.0 && (u - self.u_s) > self.j_up {
-            mv = u - self.d * self.dd / 2.0;
-            self.stp = 0;
-        } else if self.d == -1.0 && -(u - self.u_s) > self.j_dn {
-            mv = u - self.d * self.dd / 2.0;
-            self.stp = 0;
+        if v.stp == 0 {
+            mv = u - v.d * dd / 2.0;
+        } else if v.d == 1.0 && -(u - v.u_s) > s_dn {
+            v.d = -1.0;
+            mv = u - v.d * dd / 2.0;
+            v.stp = 0;
+        } else if v.d == -1.0 && (u - v.u_s) > s_up {
+            v.d = 1.0;
+            mv = u - v.d * dd / 2.0;
+            v.stp = 0;
+        } else if v.d == 1.0 && (u - v.u_s) > j_up {
+            mv = u - v.d * dd / 2.0;
+            v.stp = 0;
+        } else if v.d == -1.0 && -(u - v.u_s) > j_dn {
+            mv = u - v.d * dd / 2.0;
+            v.stp = 0;
         } else {
-            mv = self.mv_prev;
+            mv = v.mv_prev;
         }
-        self.du_prev = du;
-        self.u_prev = u;
-        self.mv_prev = mv;
-        mv
+        v.keep(u, du, mv)
     }
 }
 
@@ -294,17 +290,10 @@ impl SpecHe {
     }
 }
 
-/// The crate's documented mapping of an [`InitialState`] onto the spec's Kano variables
-/// (`d0`, `stp0`, `u_s0`, `mv0`, plus our moving-start extension `du_prev = d0`).
-struct KanoStart {
-    d0: f64,
-    stp0: u8,
-    u_s0: f64,
-    mv0: f64,
-    du_prev: f64,
-}
-
-fn kano_start(offset: f64, op_0: f64, init: &InitialState) -> KanoStart {
+/// `KANO_INIT(OP_0; d0, stp0, u_s0, mv0)` of §1.4 with the crate's documented mapping of an
+/// [`InitialState`] onto `d0`, `stp0`, `u_s0`, `mv0` (plus our moving-start extension
+/// `du_prev = d0`); `offset` is the valve's lag behind a moving input.
+fn kano_start(offset: f64, op_0: f64, init: &InitialState) -> KanoVars {
     let d0 = match init.direction {
         Direction::Up => 1.0,
         Direction::Down => -1.0,
@@ -315,12 +304,13 @@ fn kano_start(offset: f64, op_0: f64, init: &InitialState) -> KanoStart {
     } else {
         op_0 - d0 * offset
     };
-    KanoStart {
-        d0,
-        stp0: if init.stuck { 1 } else { 0 },
-        u_s0,
-        mv0: init.position.unwrap_or(consistent),
+    KanoVars {
+        u_prev: op_0,
         du_prev: if init.stuck { 0.0 } else { d0 },
+        u_s: u_s0,
+        stp: if init.stuck { 1 } else { 0 },
+        d: d0,
+        mv_prev: init.position.unwrap_or(consistent),
     }
 }
 
@@ -328,10 +318,9 @@ fn spec_kano(s: f64, j: f64, op: &[f64], init: &InitialState) -> Vec<f64> {
     let Some(&op_0) = op.first() else {
         return Vec::new();
     };
-    let st = kano_start((s - j) / 2.0, op_0, init);
-    let (mut valve, mv0) = SpecKano::init(s, j, op_0, st.d0, st.stp0, st.u_s0, st.mv0);
-    valve.du_prev = st.du_prev;
-    let mut mv = vec![mv0];
+    let v = kano_start((s - j) / 2.0, op_0, init);
+    let mut mv = vec![v.mv_prev];
+    let mut valve = SpecKano { s, j, v };
     mv.extend(op[1..].iter().map(|&u| valve.step(u)));
     mv
 }
@@ -340,19 +329,9 @@ fn spec_kano_asym(dd: f64, j_up: f64, j_dn: f64, op: &[f64], init: &InitialState
     let Some(&op_0) = op.first() else {
         return Vec::new();
     };
-    let st = kano_start(dd / 2.0, op_0, init);
-    let mut valve = SpecKanoAsym {
-        dd,
-        j_up,
-        j_dn,
-        u_prev: op_0,
-        du_prev: st.du_prev,
-        u_s: st.u_s0,
-        stp: st.stp0,
-        d: st.d0,
-        mv_prev: st.mv0,
-    };
-    let mut mv = vec![st.mv0];
+    let v = kano_start(dd / 2.0, op_0, init);
+    let mut mv = vec![v.mv_prev];
+    let mut valve = SpecKanoAsym { dd, j_up, j_dn, v };
     mv.extend(op[1..].iter().map(|&u| valve.step(u)));
     mv
 }
@@ -404,26 +383,22 @@ fn literal_pseudo_code_reproduces_the_golden_vectors() {
 // Generated inputs
 // ---------------------------------------------------------------------------------------------
 
-/// SplitMix64: a small seeded generator, so that the test needs no RNG crate.
-struct Rng(u64);
+/// SplitMix64 with the draws the generators need.
+struct Rng(SplitMix64);
 
 impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+    fn seeded(seed: u64) -> Rng {
+        Rng(SplitMix64::seed_from_u64(seed))
     }
     /// Uniform in [0, 1).
     fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.random()
     }
     fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.uniform()
     }
     fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
+        (self.0.next_u64() % n as u64) as usize
     }
     fn chance(&mut self, p: f64) -> bool {
         self.uniform() < p
@@ -611,7 +586,7 @@ fn equals_the_spec_on_generated_inputs(
     seed: u64,
     mut draw: impl FnMut(&mut Rng) -> (String, Box<dyn StictionModel>, Spec),
 ) -> Result<(), StictionError> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::seeded(seed);
     for case in 0..CASES {
         let (kind, op) = generate_op(&mut rng);
         let (params, model, spec) = draw(&mut rng);

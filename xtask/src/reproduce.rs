@@ -17,6 +17,8 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use datasets::simulate::{Controller, Disturbance, Plant, PlantPreset, PlantSpec, Scenario};
 use grid_search::{Criterion, Problem, SearchOptions};
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::SplitMix64;
 use rayon::prelude::*;
 use stiction_models::Kano;
 
@@ -388,6 +390,11 @@ struct Summary {
 }
 
 impl Summary {
+    /// The cells `S hit | J hit`: hits out of the runs that did not fail.
+    fn hit_cells(&self) -> String {
+        format!("{}/{} | {}/{}", self.hit_s, self.n, self.hit_j, self.n)
+    }
+
     /// The recovery table's cells `loops | S hit | J hit | mean abs err S | mean abs err J |
     /// failed`, the hit shares with `pct` decimals and the errors with `err`.
     fn recovery_cells(&self, pct: usize, err: usize) -> String {
@@ -578,17 +585,14 @@ fn sweep_md(title: &str, jobs: &[Job], res: &[Result<Outcome, String>], by_a: bo
         };
         let _ = writeln!(
             md,
-            "| {m} | {case} | {} | {} | {} | {} | {:.1} | {:.2} | {}/{} | {}/{} | {} |",
+            "| {m} | {case} | {} | {} | {} | {} | {:.1} | {:.2} | {} | {} |",
             f2(su.s.0),
             f2(su.s.1),
             f2(su.j.0),
             f2(su.j.1),
             su.e_g,
             su.pred_val,
-            su.hit_s,
-            su.n,
-            su.hit_j,
-            su.n,
+            su.hit_cells(),
             su.failed
         );
     }
@@ -682,7 +686,7 @@ fn criterion(args: &Args) -> Result<String> {
     for ((slow, noise, c, s, j), su) in &rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | ({}, {}) | {} | {} | {}/{} | {}/{} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            "| {} | {} | {} | ({}, {}) | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} |",
             if *slow { "slow" } else { "paper" },
             -*noise as f64 / 1000.0,
             if *c { "simulation" } else { "prediction" },
@@ -690,10 +694,7 @@ fn criterion(args: &Args) -> Result<String> {
             *j as f64 / 1000.0,
             f2(su.s.0),
             f2(su.j.0),
-            su.hit_s,
-            su.n,
-            su.hit_j,
-            su.n,
+            su.hit_cells(),
             su.err_s,
             su.err_j,
             su.pred_val,
@@ -720,31 +721,15 @@ fn criterion(args: &Args) -> Result<String> {
     Ok(md)
 }
 
-/// SplitMix64: a tiny portable generator to draw the recovery loops' (S, J).
-pub(crate) struct SplitMix(pub u64);
-
-impl SplitMix {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-/// `n` loops: S ~ U[1, 12], J ~ U[0.5, min(4, S)], seeds seed0.. (same draw as the test
-/// `grid-search/tests/recovery.rs`, with a different generator seed).
+/// `n` loops: S ~ U[1, 12], J ~ U[0.5, min(4, S)] drawn by SplitMix64 from `rng_seed`, seeds
+/// seed0.. (same draw as the test `grid-search/tests/recovery.rs`, with a different generator
+/// seed).
 fn recovery_loops(n: usize, rng_seed: u64, seed0: u64) -> Vec<(f64, f64, u64)> {
-    let mut rng = SplitMix(rng_seed);
+    let mut rng = SplitMix64::seed_from_u64(rng_seed);
     (0..n)
         .map(|i| {
-            let s = 1.0 + 11.0 * rng.uniform();
-            let j = 0.5 + (4.0f64.min(s) - 0.5) * rng.uniform();
+            let s = 1.0 + 11.0 * rng.random::<f64>();
+            let j = 0.5 + (4.0f64.min(s) - 0.5) * rng.random::<f64>();
             (s, j, seed0 + i as u64)
         })
         .collect()

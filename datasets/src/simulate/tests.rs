@@ -15,19 +15,24 @@ fn default_scenario_runs_around_the_operating_point() {
     assert_eq!(sim.t[3], 3.0);
 }
 
-#[test]
-fn op_clipping_holds_limits() {
-    let s = Scenario {
+/// 400 samples from rest, the set point stepping by `size` at sample 50, OP clamped to
+/// [0, 100].
+fn setpoint_step(size: f64) -> Scenario {
+    Scenario {
         samples: 400,
         warmup: 0,
         setpoint: Setpoint {
-            steps: vec![SetpointStep { at: 50, size: 80.0 }],
+            steps: vec![SetpointStep { at: 50, size }],
             ..Setpoint::constant()
         },
         op_limits: Some([0.0, 100.0]),
         ..Scenario::default()
-    };
-    let sim = s.simulate().unwrap();
+    }
+}
+
+#[test]
+fn op_clipping_holds_limits() {
+    let sim = setpoint_step(80.0).simulate().unwrap();
     assert!(sim.op.iter().all(|&v| (0.0..=100.0).contains(&v)));
     assert!(sim.op.contains(&100.0));
 }
@@ -37,15 +42,8 @@ fn op_clipping_holds_limits() {
 #[test]
 fn travel_limit_stops_the_valve() {
     let s = Scenario {
-        samples: 400,
-        warmup: 0,
-        setpoint: Setpoint {
-            steps: vec![SetpointStep { at: 50, size: 20.0 }],
-            ..Setpoint::constant()
-        },
-        op_limits: Some([0.0, 100.0]),
         travel_limit: Some(60.0),
-        ..Scenario::default()
+        ..setpoint_step(20.0)
     };
     let sim = s.simulate().unwrap();
     assert!(sim.mv.iter().all(|&m| m <= 60.0));

@@ -1,29 +1,34 @@
-//! A third party's model is listed, built and run by the stock CLI code.
+//! A third party's model is listed, built and run by the stock CLI code: the example's own
+//! binary, `stiction-custom`.
+
+use std::io::Write;
+use std::process::{Command, Stdio};
 
 use custom_model as _;
-use stiction_cli::{run_from, Streams};
 
+/// Run `stiction-custom ARGS` with `stdin`: exit status, stdout, stderr.
 fn run(args: &[&str], stdin: &str) -> (i32, String, String) {
-    let mut input = stdin.as_bytes();
-    let mut out = Vec::new();
-    let mut err = Vec::new();
-    let mut streams = Streams {
-        stdin: &mut input,
-        stdout: &mut out,
-        stderr: &mut err,
-        progress: false,
-    };
-    let code = run_from(args.iter().copied(), &mut streams);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_stiction-custom"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the example's binary runs");
+    let mut input = child.stdin.take().expect("stdin");
+    input.write_all(stdin.as_bytes()).expect("stdin written");
+    drop(input);
+    let out = child.wait_with_output().expect("the binary ends");
     (
-        code,
-        String::from_utf8(out).expect("utf8"),
-        String::from_utf8(err).expect("utf8"),
+        out.status.code().expect("an exit status"),
+        String::from_utf8(out.stdout).expect("utf8"),
+        String::from_utf8(out.stderr).expect("utf8"),
     )
 }
 
 #[test]
 fn plugin_is_listed_next_to_the_built_ins() {
-    let (code, out, err) = run(&["stiction", "models"], "");
+    let (code, out, err) = run(&["models"], "");
     assert_eq!(code, 0, "{err}");
     for name in ["backlash", "kano", "he", "kano-asym"] {
         assert!(out.contains(name), "{name} missing from:\n{out}");
@@ -35,9 +40,7 @@ fn plugin_runs_through_the_valve_command() {
     // OP rises 0 -> 4, falls back to 0; backlash width 2: MV lags by 1 and holds across the band.
     let csv = "OP\n0\n1\n2\n3\n4\n3\n2\n1\n0\n";
     let (code, out, err) = run(
-        &[
-            "stiction", "valve", "-", "--model", "backlash", "--param", "B=2",
-        ],
+        &["valve", "-", "--model", "backlash", "--param", "B=2"],
         csv,
     );
     assert_eq!(code, 0, "{err}");
@@ -59,9 +62,7 @@ fn plugin_runs_through_the_valve_command() {
 #[test]
 fn plugin_parameters_are_validated_by_the_plugin() {
     let (code, _, err) = run(
-        &[
-            "stiction", "valve", "-", "--model", "backlash", "--param", "B=-1",
-        ],
+        &["valve", "-", "--model", "backlash", "--param", "B=-1"],
         "OP\n1\n2\n",
     );
     assert_eq!(code, 2);

@@ -5,10 +5,26 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
+/// A third-order ARMAX plant `A(q) y = B(q) u + C(q) e`, `b` on q^-1..q^-3.
+pub struct Plant {
+    pub a: [f64; 4],
+    pub b: [f64; 3],
+    pub c: [f64; 4],
+}
+
 /// The paper's plant, eq. (10): A, B (b0 = 0), C.
-pub const PAPER_A: [f64; 4] = [1.0, -0.5215, 0.0590, -0.0009];
-pub const PAPER_B: [f64; 3] = [0.2836, 0.2442, 0.0088];
-pub const PAPER_C: [f64; 4] = [1.0, 0.5, 1.0, -1.0];
+pub const PAPER: Plant = Plant {
+    a: [1.0, -0.5215, 0.0590, -0.0009],
+    b: [0.2836, 0.2442, 0.0088],
+    c: [1.0, 0.5, 1.0, -1.0],
+};
+
+/// The second plant of spec §6.3 (static gain 1.889).
+pub const PLANT2: Plant = Plant {
+    a: [1.0, -1.4, 0.55, -0.06],
+    b: [0.1, 0.05, 0.02],
+    c: [1.0, 0.3, 0.1, 0.05],
+};
 
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)
@@ -90,40 +106,19 @@ pub fn paper_disturbance(len: usize, a: f64, offset: usize) -> Vec<f64> {
 /// difference equation, PI Kc = KI = 0.5, random-walk set point eq. (12), valve MV = OP
 /// (no stiction: the identifiers get the true MV). Returns (MV, PV) after `warm` samples.
 pub fn paper_closed_loop(len: usize, a_dist: f64, sigma_e: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
-    closed_loop(&PAPER_A, &PAPER_B, &PAPER_C, len, a_dist, sigma_e, seed)
+    closed_loop(&PAPER, len, a_dist, sigma_e, seed)
 }
 
-/// As [`paper_closed_loop`] with a sticky valve: Kano's model (spec §1.3) with `(s, j)`.
-pub fn paper_closed_loop_sticky(
-    len: usize,
-    a_dist: f64,
-    sigma_e: f64,
-    seed: u64,
-    s: f64,
-    j: f64,
-) -> (Vec<f64>, Vec<f64>) {
-    closed_loop_valve(
-        &PAPER_A, &PAPER_B, &PAPER_C, len, a_dist, sigma_e, seed, s, j,
-    )
-}
-
-/// The second plant of spec §6.3 (static gain 1.889).
-pub const PLANT2_A: [f64; 4] = [1.0, -1.4, 0.55, -0.06];
-pub const PLANT2_B: [f64; 3] = [0.1, 0.05, 0.02];
-pub const PLANT2_C: [f64; 4] = [1.0, 0.3, 0.1, 0.05];
-
-/// Closed loop with a third-order ARMAX plant `(a, b, c)` (b on q^-1..q^-3), PI 0.5/0.5,
-/// random-walk set point, disturbance eq. (11) with amplitude `a_dist`, MV = OP.
+/// Closed loop with `plant`, PI 0.5/0.5, random-walk set point, disturbance eq. (11) with
+/// amplitude `a_dist`, MV = OP.
 pub fn closed_loop(
-    pa: &[f64; 4],
-    pb: &[f64; 3],
-    pc: &[f64; 4],
+    plant: &Plant,
     len: usize,
     a_dist: f64,
     sigma_e: f64,
     seed: u64,
 ) -> (Vec<f64>, Vec<f64>) {
-    closed_loop_valve(pa, pb, pc, len, a_dist, sigma_e, seed, 0.0, 0.0)
+    closed_loop_valve(plant, len, a_dist, sigma_e, seed, (0.0, 0.0))
 }
 
 /// Kano's valve (spec §1.3), no clipping; starts at rest at OP = MV = 0, d = +1.
@@ -162,17 +157,15 @@ impl Kano {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// As [`closed_loop`] with a sticky valve: Kano's model (spec §1.3) with `(s, j)` (MV = OP
+/// when both are 0).
 pub fn closed_loop_valve(
-    pa: &[f64; 4],
-    pb: &[f64; 3],
-    pc: &[f64; 4],
+    plant: &Plant,
     len: usize,
     a_dist: f64,
     sigma_e: f64,
     seed: u64,
-    s: f64,
-    j: f64,
+    (s, j): (f64, f64),
 ) -> (Vec<f64>, Vec<f64>) {
     let mut valve = Kano {
         s,
@@ -207,7 +200,7 @@ pub fn closed_loop_valve(
         let mut v = e[k] + eta[k];
         for i in 1..4 {
             if k >= i {
-                v += -pa[i] * y[k - i] + pb[i - 1] * mv[k - i] + pc[i] * e[k - i];
+                v += -plant.a[i] * y[k - i] + plant.b[i - 1] * mv[k - i] + plant.c[i] * e[k - i];
             }
         }
         y[k] = v;
