@@ -23,6 +23,16 @@ pub struct ReportFlags {
     pub png: bool,
 }
 
+/// What a command prints: one JSON document or the text, and the report page.
+#[derive(Debug, Clone, clap::Args)]
+pub struct Output {
+    /// Print one JSON document.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub report: ReportFlags,
+}
+
 /// Build the page with `page` and write it to the flags' directory (nothing without
 /// `--report`), saying so on stderr.
 pub(crate) fn write(

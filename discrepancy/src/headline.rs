@@ -28,7 +28,7 @@ pub struct Headline {
     pub action: String,
     /// Why, in one clause (the level S reaches, or what the diagnosis found instead).
     pub reason: String,
-    /// The S to use (% of valve span): the final model's.
+    /// The S to use (in [`Headline::s_unit`]): the final model's.
     #[serde(rename = "S")]
     pub s: f64,
     /// Its 95 % likelihood-ratio region in the final model.
@@ -37,6 +37,10 @@ pub struct Headline {
     /// The final model's J.
     #[serde(rename = "J")]
     pub j: f64,
+    /// The unit of S and J: `% of valve span`, or [`RANGE_SEEN_UNIT`] when OP's valve span
+    /// is unknown.
+    #[serde(rename = "S_unit")]
+    pub s_unit: &'static str,
     /// The model those numbers come from, e.g. `kano-asym + earx, dead time 2`.
     pub model: String,
     /// The causes that hold in the final model, each with the step that added it
@@ -48,6 +52,19 @@ pub struct Headline {
     pub holds_on: Vec<(String, Vec<[usize; 2]>)>,
     /// What limits the statement, when something does (a change of the process, a weak fit).
     pub caution: Option<String>,
+}
+
+/// The unit of S and J when OP's valve span is unknown: the reader took the range seen for it.
+pub const RANGE_SEEN_UNIT: &str = "% of the OP range seen";
+
+/// `x` with two decimals in its unit, as `quantify` prints S: `1.23 %` (% of valve span), or
+/// `1.23 (% of the OP range seen)` when OP's valve span is unknown (`span_unknown`).
+pub fn in_unit(x: f64, span_unknown: bool) -> String {
+    if span_unknown {
+        format!("{x:.2} ({RANGE_SEEN_UNIT})")
+    } else {
+        format!("{x:.2} %")
+    }
 }
 
 impl Diagnosis {
@@ -85,8 +102,16 @@ impl Diagnosis {
             })
     }
 
-    /// The decision: what to do, the S to use with its range, the causes in the final model.
+    /// The decision: what to do, the S to use with its range, the causes in the final model
+    /// (S in % of valve span; [`Diagnosis::headline_in`] for a record whose span is unknown).
     pub fn headline(&self) -> Headline {
+        self.headline_in(false)
+    }
+
+    /// [`Diagnosis::headline`] for a record whose OP valve span is unknown or not
+    /// (`span_unknown`). With the span unknown, S is in % of the OP range seen and the action
+    /// is judged against no threshold in % of valve span: it asks for the span instead.
+    pub fn headline_in(&self, span_unknown: bool) -> Headline {
         let final_fit = self.final_fit();
         // the cause is the chosen finding's: a null hypothesis that holds (`no-stiction`)
         let no_stiction = self
@@ -122,7 +147,19 @@ impl Diagnosis {
             (
                 "look elsewhere".to_string(),
                 format!(
-                    "the oscillation is not the valve's: a valve with S at most {NEGLIGIBLE_S} % explains PV as well"
+                    "the oscillation is not the valve's: a valve with S at most {} explains PV as well",
+                    if span_unknown {
+                        in_unit(NEGLIGIBLE_S, true)
+                    } else {
+                        format!("{NEGLIGIBLE_S} %")
+                    }
+                ),
+            )
+        } else if span_unknown {
+            (
+                "state OP's valve span to judge S".to_string(),
+                format!(
+                    "OP's valve span is unknown, so S is in {RANGE_SEEN_UNIT} and no threshold in % of valve span applies; the verdict is the detector's"
                 ),
             )
         } else {
@@ -180,6 +217,11 @@ impl Diagnosis {
             s: q.s,
             s_range: q.interval.s,
             j: q.j,
+            s_unit: if span_unknown {
+                RANGE_SEEN_UNIT
+            } else {
+                "% of valve span"
+            },
             model,
             causes,
             holds_on,
@@ -192,9 +234,16 @@ impl Headline {
     /// The first line: the action and the S to use, e.g. `schedule valve maintenance: S =
     /// 1.74 % [1.70, 1.80], J = 1.56 % (kano-asym + earx, dead time 2); S is at or above ...`.
     pub fn action_line(&self) -> String {
+        let unknown = self.s_unit == RANGE_SEEN_UNIT;
         format!(
-            "{}: S = {:.2} % [{:.2}, {:.2}], J = {:.2} % ({}); {}",
-            self.action, self.s, self.s_range[0], self.s_range[1], self.j, self.model, self.reason
+            "{}: S = {} [{:.2}, {:.2}], J = {} ({}); {}",
+            self.action,
+            in_unit(self.s, unknown),
+            self.s_range[0],
+            self.s_range[1],
+            in_unit(self.j, unknown),
+            self.model,
+            self.reason
         )
     }
 

@@ -49,7 +49,7 @@ pub use causes::{AsymmetricStiction, Disturbance, NoStiction, TimeDelay, TravelL
 pub use characteristic::ValveCharacteristic;
 pub use compression::Compression;
 pub use consensus::{consensus, Consensus, Disagreement};
-pub use headline::{Headline, Standing};
+pub use headline::{in_unit, Headline, Standing, RANGE_SEEN_UNIT};
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
 pub use stretches::{locate_change, StretchTest, Stretches, MIN_STRETCH};
 

@@ -257,41 +257,43 @@ fn summarise(
     }
 }
 
-/// The one line to act on: the cause and the model to use, with its S and J.
-pub fn action_line(dg: &Diagnosis) -> String {
+/// The one line to act on: the cause and the model to use, with its S and J in their unit
+/// ([`crate::headline::in_unit`]: without `%` when OP's valve span is unknown).
+pub fn action_line(dg: &Diagnosis, span_unknown: bool) -> String {
+    let u = |x: f64| crate::headline::in_unit(x, span_unknown);
     let chosen = dg.chosen.and_then(|i| dg.findings.get(i));
     match chosen {
         Some(f) if f.role == Role::NullHypothesis => format!(
             "no-stiction: the oscillation is not the valve's (a valve with negligible stiction{} explains PV as well); look elsewhere",
             f.extended
                 .as_ref()
-                .map_or(String::new(), |e| format!(", fitted S = {:.2} %,", e.s))
+                .map_or(String::new(), |e| format!(", fitted S = {},", u(e.s)))
         ),
         Some(f) => match dg.final_fit().map(Fitted::summary) {
             Some(e) => format!(
-                "{}: use {} + {} (dead time {}): S = {:.2} %, J = {:.2} % (validation F_PV {:+.2} points over the baseline)",
+                "{}: use {} + {} (dead time {}): S = {}, J = {} (validation F_PV {:+.2} points over the baseline)",
                 dg.causes.join(" + "),
                 e.stiction_model,
                 e.linear_model,
                 e.delay,
-                e.s,
-                e.j,
+                u(e.s),
+                u(e.j),
                 dg.gain_fit_pv_val
             ),
             None => f.cause.to_string(),
         },
         None if dg.cause == UNEXPLAINED => format!(
-            "unexplained: something no registered cause explains remains (see the summary); the baseline S = {:.2} %, J = {:.2} % with caution",
-            dg.baseline.s, dg.baseline.j
+            "unexplained: something no registered cause explains remains (see the summary); the baseline S = {}, J = {} with caution",
+            u(dg.baseline.s), u(dg.baseline.j)
         ),
         // a cause in the data named alone (`Cause::reframe`): the baseline with its warning
         None if dg.cause != "none" => format!(
-            "{}: the baseline S = {:.2} %, J = {:.2} % with caution (no other cause tested); see the summary",
-            dg.cause, dg.baseline.s, dg.baseline.j
+            "{}: the baseline S = {}, J = {} with caution (no other cause tested); see the summary",
+            dg.cause, u(dg.baseline.s), u(dg.baseline.j)
         ),
         None => format!(
-            "none: the baseline stands, S = {:.2} %, J = {:.2} %",
-            dg.baseline.s, dg.baseline.j
+            "none: the baseline stands, S = {}, J = {}",
+            u(dg.baseline.s), u(dg.baseline.j)
         ),
     }
 }

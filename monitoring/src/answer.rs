@@ -138,12 +138,29 @@ pub enum Rule {
 /// (`examples/s_evidence.rs`; docs/DETECTION.md, "One answer per record").
 pub const RULE: Rule = Rule::Agreeing;
 
-/// Whether `s` agrees with `verdict`: a sticky valve has more than a negligible band, a free
-/// one less than the maintenance threshold. An inconclusive verdict agrees with any S.
+/// Whether `s` (in % of valve span) agrees with `verdict`: a sticky valve has more than a
+/// negligible band, a free one less than the maintenance threshold. An inconclusive verdict
+/// agrees with any S.
 pub fn agrees(verdict: Verdict, s: f64) -> bool {
     match verdict {
         Verdict::Stiction => s > NEGLIGIBLE_S,
         Verdict::NoStiction => s < MAINTENANCE_S,
+        Verdict::Inconclusive => true,
+    }
+}
+
+/// Whether the estimate `e` agrees with `verdict`. With OP's valve span known, [`agrees`]
+/// on its S. With the span unknown (`span_unknown`), S is in % of the OP range seen and no
+/// threshold in % of valve span applies: the fit's own 95 % region decides, which needs no
+/// unit. A sticky valve's region excludes a free valve (its lower end above 0); a free
+/// valve's region holds one (its lower end at 0). An inconclusive verdict agrees with any S.
+pub fn agrees_in(verdict: Verdict, e: Estimate, span_unknown: bool) -> bool {
+    if !span_unknown {
+        return agrees(verdict, e.s);
+    }
+    match verdict {
+        Verdict::Stiction => e.range[0] > 0.0,
+        Verdict::NoStiction => e.range[0] <= 0.0,
         Verdict::Inconclusive => true,
     }
 }
@@ -187,7 +204,7 @@ fn verdict_str<S: serde::Serializer>(v: &Verdict, s: S) -> Result<S::Ok, S::Erro
 /// The unit of S when OP's span is known.
 pub const SPAN_UNIT: &str = "% of valve span";
 /// The unit of S when it is not.
-pub const RANGE_UNIT: &str = "% of the OP range seen";
+pub const RANGE_UNIT: &str = discrepancy::RANGE_SEEN_UNIT;
 
 impl Answer {
     /// The answer on a record analysed as `a`, from the detector's `det` and the one-step
@@ -209,7 +226,8 @@ impl Answer {
             .detection()
             .and_then(Estimate::output_error)
             .map(Estimate::rounded);
-        let chosen = choose(verdict, one_step, output_error, rule).map(|(e, f)| (e.rounded(), f));
+        let chosen = choose(verdict, one_step, output_error, rule, a.span_unknown)
+            .map(|(e, f)| (e.rounded(), f));
         let s = chosen.map(|(e, _)| e.s);
         let s_range = chosen.map(|(e, _)| {
             [one_step, output_error]
@@ -218,9 +236,10 @@ impl Answer {
                 .map(Estimate::rounded)
                 .fold(e.range, |r, x| [r[0].min(x.range[0]), r[1].max(x.range[1])])
         });
-        let caution = match s {
-            Some(s) if !agrees(verdict, s) => Some(format!(
-                "no fit gives an S that agrees with the verdict {verdict} (S {s:.2}): the S is not evidence for it; look at the figures, or repeat the registration"
+        let caution = match chosen {
+            Some((e, _)) if !agrees_in(verdict, e, a.span_unknown) => Some(format!(
+                "no fit gives an S that agrees with the verdict {verdict} (S {:.2}): the S is not evidence for it; look at the figures, or repeat the registration",
+                e.s
             )),
             None if verdict != Verdict::Inconclusive => {
                 Some("no fit gave an S: the verdict rests on the detector's tests alone".into())
@@ -244,6 +263,11 @@ impl Answer {
             integrating_by: a.kind.note(),
             caution,
         }
+    }
+
+    /// Whether OP's valve span is unknown (S in % of the OP range seen).
+    pub fn span_unknown(&self) -> bool {
+        self.s_unit != SPAN_UNIT
     }
 
     /// S with its unit: `2.00 %`, or `2.00 (% of the OP range seen)` when OP's span is
@@ -284,23 +308,54 @@ impl Answer {
     }
 }
 
+/// The S a registration reports ([`reported`]): the S that explains the detector's verdict,
+/// the hull of both fits' regions and which fit it comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Reported {
+    /// The S reported.
+    #[serde(rename = "S")]
+    pub s: f64,
+    /// The hull of both fits' 95 % regions.
+    #[serde(rename = "S_range")]
+    pub range: [f64; 2],
+    /// Which fit the S comes from.
+    #[serde(rename = "S_from")]
+    pub from: SFrom,
+}
+
 /// The S reported for a registration whose combination fitted `one_step` and whose record the
-/// detector answered `det` (`None`: it did not run): [`RULE`]'s choice, as [`Answer::new`]
-/// makes it. `trend` follows this S.
-pub fn reported_s(one_step: Estimate, det: Option<&crate::Detected>) -> (Estimate, SFrom) {
+/// detector answered `det` (`None`: it did not run), OP's span known or not (`span_unknown`):
+/// [`RULE`]'s choice, as [`Answer::new`] makes it, with the hull of both fits' regions.
+/// `trend` follows this S.
+pub fn reported(one_step: Estimate, det: Option<&crate::Detected>, span_unknown: bool) -> Reported {
     let verdict = det.map_or(Verdict::Inconclusive, crate::Detected::verdict);
     let output_error = det
         .and_then(crate::Detected::detection)
-        .and_then(Estimate::output_error);
-    choose(verdict, Some(one_step), output_error, RULE).unwrap_or((one_step, SFrom::OneStep))
+        .and_then(Estimate::output_error)
+        .map(Estimate::rounded);
+    let (e, from) = choose(verdict, Some(one_step), output_error, RULE, span_unknown)
+        .unwrap_or((one_step, SFrom::OneStep));
+    let range = output_error.map_or(one_step.range, |o| {
+        [
+            one_step.range[0].min(o.range[0]),
+            one_step.range[1].max(o.range[1]),
+        ]
+    });
+    Reported {
+        s: e.s,
+        range: [range[0].min(e.s), range[1].max(e.s)],
+        from,
+    }
 }
 
-/// The S reported under `rule`, and which fit it comes from.
+/// The S reported under `rule`, and which fit it comes from (agreement judged by
+/// [`agrees_in`]).
 fn choose(
     verdict: Verdict,
     one_step: Option<Estimate>,
     output_error: Option<Estimate>,
     rule: Rule,
+    span_unknown: bool,
 ) -> Option<(Estimate, SFrom)> {
     let os = one_step.map(|e| (e, SFrom::OneStep));
     let oe = output_error.map(|e| (e, SFrom::OutputError));
@@ -308,7 +363,9 @@ fn choose(
         Rule::OneStep => os.or(oe),
         Rule::OutputError => oe.or(os),
         Rule::Agreeing => {
-            let agreeing = |x: &Option<(Estimate, SFrom)>| x.filter(|(e, _)| agrees(verdict, e.s));
+            let agreeing = |x: &Option<(Estimate, SFrom)>| {
+                x.filter(|(e, _)| agrees_in(verdict, *e, span_unknown))
+            };
             agreeing(&os).or(agreeing(&oe)).or(os).or(oe)
         }
     }
@@ -324,7 +381,8 @@ mod tests {
 
     #[test]
     fn the_agreeing_rule_reports_the_fit_that_agrees_with_the_verdict() {
-        let pick = |v, a, b| choose(v, est(a), est(b), Rule::Agreeing).map(|(e, f)| (e.s, f));
+        let pick =
+            |v, a, b| choose(v, est(a), est(b), Rule::Agreeing, false).map(|(e, f)| (e.s, f));
         assert_eq!(
             pick(Verdict::Stiction, 0.04, 2.0),
             Some((2.0, SFrom::OutputError))
@@ -346,8 +404,32 @@ mod tests {
             Some((2.6, SFrom::OneStep))
         );
         assert_eq!(
-            choose(Verdict::Stiction, None, est(2.0), Rule::OneStep).map(|(e, _)| e.s),
+            choose(Verdict::Stiction, None, est(2.0), Rule::OneStep, false).map(|(e, _)| e.s),
             Some(2.0)
         );
+    }
+
+    /// With OP's span unknown, no % threshold: a sticky verdict agrees with a region that
+    /// excludes a free valve however small S is, a free verdict with one that holds a free
+    /// valve however large S is.
+    #[test]
+    fn in_unknown_units_the_region_decides_not_a_percent_threshold() {
+        let e = |s, lo, hi| Estimate { s, range: [lo, hi] };
+        // below the 0.2 % negligible band, yet the region excludes 0
+        assert!(agrees_in(Verdict::Stiction, e(0.1, 0.05, 0.15), true));
+        assert!(!agrees_in(Verdict::Stiction, e(0.1, 0.05, 0.15), false));
+        assert!(!agrees_in(Verdict::Stiction, e(5.0, 0.0, 6.0), true));
+        // above the 1.6 % maintenance threshold, yet the region holds 0
+        assert!(agrees_in(Verdict::NoStiction, e(2.0, 0.0, 2.5), true));
+        assert!(!agrees_in(Verdict::NoStiction, e(2.0, 0.0, 2.5), false));
+        assert!(!agrees_in(Verdict::NoStiction, e(0.3, 0.25, 0.35), true));
+        let picked = choose(
+            Verdict::NoStiction,
+            Some(e(0.3, 0.25, 0.35)),
+            Some(e(3.0, 0.0, 4.0)),
+            Rule::Agreeing,
+            true,
+        );
+        assert_eq!(picked.map(|(_, f)| f), Some(SFrom::OutputError));
     }
 }

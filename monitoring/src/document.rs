@@ -50,6 +50,8 @@ pub fn diagnose(
     answer: &Answer,
 ) -> Value {
     let mut v = dg.record(source, init);
+    // the headline in S's unit: no % threshold when OP's valve span is unknown
+    v["headline"] = json!(dg.headline_in(answer.span_unknown()));
     v["detection"] = json!(det.record());
     v["answer"] = json!(answer);
     let (value, reason) = match repair {

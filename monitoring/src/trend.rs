@@ -413,15 +413,11 @@ pub fn follow(
                 .map(|r| Point {
                     start: r.start,
                     // the registration's one answer: the S that explains the detector's
-                    // verdict (`answer::reported_s`), not the one-step S alone
-                    fit: r.fit(c).map(|f| {
-                        let one_step = crate::answer::Estimate {
-                            s: f.s,
-                            range: f.s_range,
-                        };
-                        let (s, _) = crate::answer::reported_s(one_step, r.detection.as_ref());
-                        (s.s, f.fit_val)
-                    }),
+                    // verdict (`Registration::reported`), not the one-step S alone
+                    fit: r
+                        .fit(c)
+                        .zip(r.reported(c))
+                        .map(|(f, rep)| (rep.s, f.fit_val)),
                 })
                 .collect();
             CombinationTrend {
@@ -545,6 +541,24 @@ fn latest_detections(regs: &[Registration], trends: &[CombinationTrend]) -> Vec<
     usable[usable.len().saturating_sub(DETECT_WINDOW)..].to_vec()
 }
 
+impl Registration {
+    /// The S registration reports for combination `c` (`None` without a fit): the S that
+    /// explains the detector's verdict on it ([`crate::answer::reported`]), as `quantify`
+    /// reports it for the record.
+    pub fn reported(&self, c: usize) -> Option<crate::answer::Reported> {
+        let f = self.fit(c)?;
+        let one_step = crate::answer::Estimate {
+            s: f.s,
+            range: f.s_range,
+        };
+        Some(crate::answer::reported(
+            one_step,
+            self.detection.as_ref(),
+            datasets::units::span_unknown(&self.notes),
+        ))
+    }
+}
+
 /// One registration in a combination's trend (`trend --json`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RegistrationRecord {
@@ -563,12 +577,23 @@ pub struct RegistrationRecord {
     /// Why there is no estimate.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
-    /// S, rounded to the grid.
+    /// S reported: the S that explains the detector's verdict ([`Registration::reported`]),
+    /// rounded to the grid.
     #[serde(rename = "S", skip_serializing_if = "Option::is_none")]
     pub s: Option<f64>,
-    /// Range of S.
+    /// Its range: the hull of both fits' 95 % regions.
     #[serde(rename = "S_range", skip_serializing_if = "Option::is_none")]
     pub s_range: Option<[f64; 2]>,
+    /// Which fit S comes from: `one-step` (the combination's) or `output-error` (the
+    /// detector's).
+    #[serde(rename = "S_from", skip_serializing_if = "Option::is_none")]
+    pub s_from: Option<crate::answer::SFrom>,
+    /// The combination's one-step-prediction S, rounded to the grid.
+    #[serde(rename = "S_one_step", skip_serializing_if = "Option::is_none")]
+    pub s_one_step: Option<f64>,
+    /// Its 95 % likelihood-ratio region.
+    #[serde(rename = "S_one_step_range", skip_serializing_if = "Option::is_none")]
+    pub s_one_step_range: Option<[f64; 2]>,
     /// J.
     #[serde(rename = "J", skip_serializing_if = "Option::is_none")]
     pub j: Option<f64>,
@@ -676,6 +701,7 @@ impl ValveTrend {
                     .zip(&t.trend.flags)
                     .map(|(r, flag)| {
                         let fit = r.fit(c);
+                        let rep = r.reported(c);
                         let g = |x: f64| fit.map_or(x, |f| run::on_grid(x, f.step));
                         RegistrationRecord {
                             file: r.file.clone(),
@@ -685,8 +711,11 @@ impl ValveTrend {
                             integrating: r.integrating,
                             notes: r.notes.iter().map(|n| n.text.clone()).collect(),
                             error: r.error(c).map(ToString::to_string),
-                            s: fit.map(|f| g(f.s)),
-                            s_range: fit.map(|f| f.s_range.map(g)),
+                            s: rep.map(|p| g(p.s)),
+                            s_range: rep.map(|p| p.range.map(g)),
+                            s_from: rep.map(|p| p.from),
+                            s_one_step: fit.map(|f| g(f.s)),
+                            s_one_step_range: fit.map(|f| f.s_range.map(g)),
                             j: fit.map(|f| g(f.j)),
                             j_range: fit.map(|f| f.j_range.map(g)),
                             fit_pv_val: fit.map(|f| f.fit_val),

@@ -470,11 +470,21 @@ fn run_csv(
     settings_json: &str,
 ) -> PyResult<String> {
     let reader = read_args(options)?;
-    let req = request(settings_json)?;
-    interruptible(py, || {
-        let d = read_text(text, source, &reader, true)?;
-        run_command(command, &d, &req)
+    run_read(py, command, settings_json, || {
+        read_text(text, source, &reader, true)
     })
+}
+
+/// `command` with the settings of `settings_json` on the record `read` returns: the read (when
+/// it does not need the GIL) and the command run without the GIL, interruptible.
+fn run_read(
+    py: Python<'_>,
+    command: &str,
+    settings_json: &str,
+    read: impl FnOnce() -> PyResult<LoopData> + Send,
+) -> PyResult<String> {
+    let req = request(settings_json)?;
+    interruptible(py, || run_command(command, &read()?, &req))
 }
 
 /// A command on named columns (a DataFrame's): the columns are read in place by the reader's
@@ -492,9 +502,8 @@ fn run_columns(
     settings_json: &str,
 ) -> PyResult<String> {
     let reader = read_args(options)?;
-    let req = request(settings_json)?;
     let d = read_frame(&names, &columns, source, &reader, true)?;
-    interruptible(py, || run_command(command, &d, &req))
+    run_read(py, command, settings_json, || Ok(d))
 }
 
 /// Named columns read by `datasets::read_columns` (with the GIL held: the arrays are Python's).
@@ -553,10 +562,8 @@ fn run_path(
     settings_json: &str,
 ) -> PyResult<String> {
     let opts = read_args(options)?.options(true, 3)?;
-    let req = request(settings_json)?;
-    interruptible(py, || {
-        let d = datasets::read_path(path, &opts).map_err(data_err)?;
-        run_command(command, &d, &req)
+    run_read(py, command, settings_json, || {
+        datasets::read_path(path, &opts).map_err(data_err)
     })
 }
 

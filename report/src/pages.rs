@@ -10,11 +10,11 @@ use datasets::LoopData;
 use detection::Detection;
 use discrepancy::Diagnosis;
 use grid_search::Criterion;
-use monitoring::{Detected, DetectionFigures, DetectionView};
+use monitoring::{Answer, Detected, DetectionFigures, DetectionView};
 use run::Fitted;
 
 use crate::figures::{self, Figure, LoopSignals};
-use crate::verdict::{f2, opt2, own_params, verdict, verdict_line};
+use crate::verdict::{f2, opt2, own_params, verdict};
 use crate::{Block, Report, ReportError, Section};
 
 mod trend;
@@ -54,8 +54,14 @@ pub fn combo(r: &Fitted) -> String {
     format!("{} × {}", r.stiction.name, r.linear)
 }
 
-/// The numbers of one run as name/value pairs.
-pub fn facts(r: &Fitted) -> Block {
+/// The numbers of one run as name/value pairs; S and J in % of valve span, or in % of the OP
+/// range seen when OP's valve span is unknown (`span_unknown`).
+pub fn facts(r: &Fitted, span_unknown: bool) -> Block {
+    let unit = if span_unknown {
+        discrepancy::RANGE_SEEN_UNIT
+    } else {
+        "% of valve span"
+    };
     let q = &r.result;
     let (fid, fval) = q.fits.rank(q.criterion);
     let (oid, oval) = q.fits.rank(q.criterion.other());
@@ -68,14 +74,14 @@ pub fn facts(r: &Fitted) -> Block {
         .collect();
     Block::Facts(vec![
         (
-            "S (% of valve span)".into(),
+            format!("S ({unit})"),
             format!(
                 "{:.2}  (region {:.2}-{:.2})",
                 q.s, q.interval.s[0], q.interval.s[1]
             ),
         ),
         (
-            "J (% of valve span)".into(),
+            format!("J ({unit})"),
             format!(
                 "{:.2}  (region {:.2}-{:.2})",
                 q.j, q.interval.j[0], q.interval.j[1]
@@ -148,20 +154,31 @@ pub fn run_figures(
     ])
 }
 
-/// The page of `quantify`: the numbers, the verdict, the figures, then what the detection
-/// tests say on the same record (`det`, [`monitoring::detect_file`]).
+/// The record's one answer as the pages show it (`Verdict: ...`, as the text output's
+/// `verdict:` line): the verdict, the S reported, its range and the evidence it rests on.
+fn answer_block(answer: &Answer) -> Block {
+    Block::Verdict(format!("Verdict: {}.", answer.line()))
+}
+
+/// The page of `quantify`: the record's one answer (`answer`, computed once by the command),
+/// the numbers, the figures, then what the detection tests say on the same record (`det`,
+/// [`monitoring::detect_file`]).
 pub fn quantify_page(
     d: &LoopData,
     r: &Fitted,
     det: &DetectionView,
     repair: &Result<repair::Repair, repair::NoRepair>,
+    answer: &Answer,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
+    let span_unknown = answer.span_unknown();
     let mut result = Section::new("Result");
-    result.push(facts(r));
-    result.push(Block::Paragraph(format!(
-        "Verdict: {}.",
-        verdict_line(&r.result)
+    result.push(facts(r, span_unknown));
+    // what this combination's fit says alone; the record's verdict is the answer's (summary)
+    result.push(Block::Paragraph(verdict(
+        &r.result,
+        &combo(r),
+        span_unknown,
     )));
     result.push(repair_paragraph(repair));
     for w in &r.result.warnings {
@@ -176,17 +193,21 @@ pub fn quantify_page(
     Ok(Report {
         title: format!("quantify: loop {name}, {}", combo(r)),
         subtitle: format!("{} · {} samples · stiction quantify", d.source, d.len()),
-        summary: vec![verdict(&r.result, &combo(r))],
+        summary: vec![format!("Verdict: {}.", answer.line())],
         sections: vec![result, figs, detection_section(d, det)?],
     })
 }
 
-/// The report of `compare`: the table, then each combination's numbers and figures.
+/// The report of `compare`: the table, then each combination's numbers and figures; S and J
+/// without `%` and judged against no threshold when OP's valve span is unknown
+/// (`span_unknown`).
 pub fn compare_page(
     d: &LoopData,
     rows: &[(&str, &str, Result<&Fitted, String>)],
     criterion: Criterion,
+    span_unknown: bool,
 ) -> Result<Report, ReportError> {
+    let u = |x: f64| discrepancy::in_unit(x, span_unknown);
     let name = loop_name(d);
     let header = [
         "stiction", "linear", "S", "S range", "J", "J range", "F_PV id", "F_PV val", "F_MV",
@@ -231,21 +252,21 @@ pub fn compare_page(
     if let Some(b) = best {
         summary.push(format!(
             "Best validation fit: {}",
-            verdict(&b.result, &combo(b))
+            verdict(&b.result, &combo(b), span_unknown)
         ));
         let mut ss: Vec<f64> = ok.iter().map(|r| r.result.s).collect();
         ss.sort_by(f64::total_cmp);
         summary.push(format!(
-            "Across the {} combinations that ran, S ranges {:.2}-{:.2} % (median {:.2} %) and \
-             J {:.2}-{:.2} %; {} failed.",
+            "Across the {} combinations that ran, S ranges {:.2} to {} (median {}) and \
+             J {:.2} to {}; {} failed.",
             ok.len(),
             ss[0],
-            ss[ss.len() - 1],
-            ss[ss.len() / 2],
+            u(ss[ss.len() - 1]),
+            u(ss[ss.len() / 2]),
             ok.iter().map(|r| r.result.j).fold(f64::INFINITY, f64::min),
-            ok.iter()
+            u(ok.iter()
                 .map(|r| r.result.j)
-                .fold(f64::NEG_INFINITY, f64::max),
+                .fold(f64::NEG_INFINITY, f64::max)),
             rows.len() - ok.len()
         ));
     } else {
@@ -253,8 +274,13 @@ pub fn compare_page(
     }
     let mut overview = Section::new("All combinations");
     overview.push(Block::Paragraph(format!(
-        "S and J in % of valve span with their likelihood-ratio ranges; F_PV in % ({}), \
+        "S and J in {} with their likelihood-ratio ranges; F_PV in % ({}), \
          identification and validation; F_MV when MV is logged.",
+        if span_unknown {
+            discrepancy::RANGE_SEEN_UNIT
+        } else {
+            "% of valve span"
+        },
         criterion.describe()
     )));
     overview.push(Block::Table {
@@ -266,8 +292,12 @@ pub fn compare_page(
     for r in &ok {
         let view = r;
         let mut sec = Section::new(combo(view));
-        sec.push(Block::Paragraph(verdict(&r.result, &combo(view))));
-        sec.push(facts(view));
+        sec.push(Block::Paragraph(verdict(
+            &r.result,
+            &combo(view),
+            span_unknown,
+        )));
+        sec.push(facts(view, span_unknown));
         for w in &r.result.warnings {
             sec.push(Block::Note(w.clone()));
         }
@@ -331,19 +361,22 @@ fn repair_paragraph(repair: &Result<repair::Repair, repair::NoRepair>) -> Block 
     })
 }
 
-/// The report of `diagnose`: the verdict, the findings, the baseline's and the extended
-/// model's figures, what the residuals show, and what the detection tests say on the same
-/// record (`det`, [`monitoring::detect_file`]), with what a repair would buy in the final model.
+/// The report of `diagnose`: the action and the record's one answer (`answer`, computed once
+/// by the command), the findings, the baseline's and the extended model's figures, what the
+/// residuals show, and what the detection tests say on the same record (`det`,
+/// [`monitoring::detect_file`]), with what a repair would buy in the final model.
 pub fn diagnose_page(
     d: &LoopData,
     dg: &Diagnosis,
     det: &DetectionView,
     repair: &Result<repair::Repair, repair::NoRepair>,
+    answer: &Answer,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
+    let span_unknown = answer.span_unknown();
     let base = &dg.baseline_fit;
     let base_label = combo(base);
-    let head = dg.headline();
+    let head = dg.headline_in(span_unknown);
     let final_fit = dg.final_fit();
     let findings = causes_section(dg, &base_label);
     let mut first = Section::new("Verdict");
@@ -351,6 +384,7 @@ pub fn diagnose_page(
         "{}.",
         capitalise(&head.action_line())
     )));
+    first.push(answer_block(answer));
     first.push(Block::Paragraph(format!(
         "Causes held in the final model: {}.",
         head.causes_line()
@@ -388,16 +422,16 @@ pub fn diagnose_page(
     }
     model.push(Block::Paragraph(match final_fit {
         Some(_) => format!(
-            "{} Against the baseline {base_label} (S = {:.2} %, J = {:.2} %), the final model \
+            "{} Against the baseline {base_label} (S = {}, J = {}), the final model \
              changes the validation F_PV by {:+.2} points.",
-            verdict(&use_fit.result, &use_label),
-            dg.baseline.s,
-            dg.baseline.j,
+            verdict(&use_fit.result, &use_label, span_unknown),
+            discrepancy::in_unit(dg.baseline.s, span_unknown),
+            discrepancy::in_unit(dg.baseline.j, span_unknown),
             dg.gain_fit_pv_val
         ),
-        None => verdict(&use_fit.result, &use_label),
+        None => verdict(&use_fit.result, &use_label, span_unknown),
     }));
-    model.push(facts(use_fit));
+    model.push(facts(use_fit, span_unknown));
     model.push(repair_paragraph(repair));
     sections.push(model);
     if final_fit.is_some() {
@@ -405,8 +439,9 @@ pub fn diagnose_page(
         baseline.push(Block::Paragraph(verdict(
             &base.result,
             &format!("Before the diagnosis, the baseline {base_label}"),
+            span_unknown,
         )));
-        baseline.push(facts(base));
+        baseline.push(facts(base, span_unknown));
         if let Some(sig) = &sig {
             for f in run_figures(sig, base, "baseline-", "baseline")? {
                 baseline.push(Block::Figure(f));
@@ -645,12 +680,14 @@ pub fn detection_blocks(
     Ok(blocks)
 }
 
-/// The report of `detect`: the verdict with its score and reason, then the tests' table and
-/// figures ([`detection_blocks`]) drawn from `figures`.
+/// The report of `detect`: the verdict with its score and reason, the record's one answer
+/// (`answer`, computed once by the command: the S that explains the verdict), then the tests'
+/// table and figures ([`detection_blocks`]) drawn from `figures`.
 pub fn detect_page(
     d: &LoopData,
     det: &Detection,
     figures: &Result<DetectionFigures, String>,
+    answer: &Answer,
 ) -> Result<Report, ReportError> {
     let name = loop_name(d);
     let mut first = Section::new("Verdict");
@@ -667,6 +704,7 @@ pub fn detect_page(
          never called sticky, and a record that cannot show stiction is inconclusive).",
         det.reason
     )));
+    first.push(Block::Paragraph(format!("Answer: {}.", answer.line())));
     let mut tests = Section::new("The tests");
     tests.blocks = detection_blocks(d, det, figures)?;
     Ok(Report {

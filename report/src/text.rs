@@ -250,8 +250,9 @@ pub fn held_cell(row: &discrepancy::Standing<'_>) -> String {
     }
 }
 
-/// The text of `diagnose`: the cause to act on, the summary and the table of causes.
-pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
+/// The text of `diagnose`: the cause to act on (S in the unit of the record's `answer`: no %
+/// threshold when OP's valve span is unknown), the summary and the table of causes.
+pub fn diagnose(d: &LoopData, dg: &Diagnosis, answer: &Answer) -> Result<String, fmt::Error> {
     let mut text = String::new();
     let out = &mut text;
 
@@ -264,7 +265,7 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
         d.len(),
         dg.elapsed_ms / 1e3
     )?;
-    let head = dg.headline();
+    let head = dg.headline_in(answer.span_unknown());
     writeln!(out, "action: {}", head.action_line())?;
     writeln!(out, "causes: {}", head.causes_line())?;
     writeln!(out)?;
@@ -321,16 +322,27 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis) -> Result<String, fmt::Error> {
     }
     writeln!(
         out,
-        "held: in the final model, with the forward selection's step that added the cause; LR, needed and ΔF_PV are that step's (step 1 against the baseline, step k on top of the causes before it). S, J: the fitted model's (no-stiction: the best valve with S at most {} %).",
-        grid_search::NEGLIGIBLE_S
+        "held: in the final model, with the forward selection's step that added the cause; LR, needed and ΔF_PV are that step's (step 1 against the baseline, step k on top of the causes before it). S, J: the fitted model's{} (no-stiction: the best valve with S at most {}).",
+        if answer.span_unknown() {
+            format!(", in {}", head.s_unit)
+        } else {
+            String::new()
+        },
+        if answer.span_unknown() {
+            discrepancy::in_unit(grid_search::NEGLIGIBLE_S, true)
+        } else {
+            format!("{} %", grid_search::NEGLIGIBLE_S)
+        }
     )?;
     writeln!(out)?;
     writeln!(out, "{}", dg.summary)?;
     Ok(text)
 }
 
-/// The text of `trend`: per combination the registrations with their flags and evidence, the
-/// level and the slope; then the verdict and its rule.
+/// The text of `trend`: per combination the registrations with their flags and evidence (S:
+/// the S each reports, [`monitoring::registration::Registration::reported`], marked `*` when
+/// it is the detector's output-error fit's), the level and the slope; then the verdict and its
+/// rule.
 pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
     let mut text = String::new();
     let out = &mut text;
@@ -359,10 +371,17 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
             "{:>3}  {:<16}  {:>6} {:>13}  {:>5} {:>11}  {:>8}  {:<7}  why",
             "#", "time", "S", "S range", "J", "J range", "F_PV val", "flag"
         )?;
+        let mut marked = false;
         for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
             let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
-            match (r.fit(c), r.error(c)) {
-                (Some(f), _) => {
+            match (r.fit(c).zip(r.reported(c)), r.error(c)) {
+                (Some((f, rep)), _) => {
+                    let mark = if rep.from == monitoring::SFrom::OutputError {
+                        marked = true;
+                        "*"
+                    } else {
+                        " "
+                    };
                     let why = if *flag == Flag::Used {
                         String::new()
                     } else if f.evidence.is_empty() {
@@ -374,10 +393,10 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
                     };
                     writeln!(
                         out,
-                        "{:>3}  {time:<16}  {:>6.2} {:>13}  {:>5.2} {:>11}  {:>8.1}  {:<7}  {why}",
+                        "{:>3}  {time:<16}  {:>6.2}{mark}{:>13}  {:>5.2} {:>11}  {:>8.1}  {:<7}  {why}",
                         k + 1,
-                        f.s,
-                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
+                        rep.s,
+                        format!("{:.2}-{:.2}", rep.range[0], rep.range[1]),
                         f.j,
                         format!("{:.2}-{:.2}", f.j_range[0], f.j_range[1]),
                         f.fit_val,
@@ -389,6 +408,12 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
                     writeln!(out, "{:>3}  {time:<16}  error: {}: {e}", k + 1, r.file)?;
                 }
             }
+        }
+        if marked {
+            writeln!(
+                out,
+                "  *: S from the detector's output-error fit, which explains its verdict where this combination's one-step S does not; S range: both fits' 95 % regions"
+            )?;
         }
         let count = |x: Flag| t.flags.iter().filter(|f| **f == x).count();
         writeln!(

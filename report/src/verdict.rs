@@ -1,6 +1,6 @@
-//! The sentences on an estimate that the pages and the text output share: the verdict on a
-//! quantification ([`verdict`], [`verdict_line`]), the model's own parameters
-//! ([`own_params`]) and the two-decimal numbers.
+//! The sentences on an estimate that the pages share: what one model's quantification says
+//! ([`verdict`]), the model's own parameters ([`own_params`]) and the two-decimal numbers.
+//! The record's one verdict is [`monitoring::Answer`]'s.
 
 use grid_search::{Quantification, Severity, HARMFUL_S, MAINTENANCE_S, NEGLIGIBLE_S};
 use stiction_models::ModelEntry;
@@ -21,8 +21,10 @@ pub(crate) fn opt2(x: Option<f64>) -> String {
 
 /// One sentence on what a quantification says about the valve, with how far to trust it. The
 /// levels are [`grid_search::trust`]'s, the only place they are defined: "the valve sticks"
-/// only for S >= [`HARMFUL_S`] with no doubt; a slight S or a doubtful estimate says so.
-pub fn verdict(q: &Quantification, label: &str) -> String {
+/// only for S >= [`HARMFUL_S`] with no doubt; a slight S or a doubtful estimate says so. With
+/// OP's valve span unknown (`span_unknown`), S is in % of the OP range seen and is judged
+/// against none of those thresholds: the sentence gives S and asks for the span.
+pub fn verdict(q: &Quantification, label: &str, span_unknown: bool) -> String {
     let (_, val) = q.fits.rank(q.criterion);
     let fit = format!(
         "validation F_PV {:.1} % ({})",
@@ -44,6 +46,23 @@ pub fn verdict(q: &Quantification, label: &str) -> String {
         q.interval.j[1]
     );
     let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
+    if span_unknown {
+        let weak = if doubts.is_empty() {
+            String::new()
+        } else {
+            format!(", and the evidence is weak: {}", doubts.join("; "))
+        };
+        return format!(
+            "{label}: estimated S = {} (deadband + stickband; {:.0} % region {:.2}-{:.2}), J = {} (region {:.2}-{:.2}); {fit}. OP's valve span is unknown, so no threshold in % of valve span applies to S{weak}: state the span (--op-range LO,HI) to judge it.",
+            discrepancy::in_unit(q.s, true),
+            100.0 * q.interval.confidence,
+            q.interval.s[0],
+            q.interval.s[1],
+            discrepancy::in_unit(q.j, true),
+            q.interval.j[0],
+            q.interval.j[1]
+        );
+    }
     match v.severity {
         Severity::Negligible if doubts.is_empty() => format!(
             "{label}: no stiction found (S = {:.2} % of valve span, at most {NEGLIGIBLE_S} %); {fit}.",
@@ -72,31 +91,6 @@ pub fn verdict(q: &Quantification, label: &str) -> String {
             format!(
                 "{label}: the valve sticks, {region}; {fit}. Stiction of {HARMFUL_S} % or more degrades control.{maintenance}"
             )
-        }
-    }
-}
-
-/// The verdict in a few words, for the text output (`verdict: ...`).
-pub fn verdict_line(q: &Quantification) -> String {
-    let v = q.verdict();
-    if !v.doubts.is_empty() && v.severity != Severity::Negligible {
-        let doubts: Vec<String> = v.doubts.iter().map(grid_search::Doubt::short).collect();
-        return format!(
-            "S = {:.2} % is not to be trusted alone: {}",
-            q.s,
-            doubts.join("; ")
-        );
-    }
-    match v.severity {
-        Severity::Negligible => format!("no stiction found (S at most {NEGLIGIBLE_S} %)"),
-        Severity::Slight => {
-            format!("slight stiction (S between {NEGLIGIBLE_S} and {HARMFUL_S} %)")
-        }
-        Severity::Harmful if q.s >= MAINTENANCE_S => format!(
-            "the valve sticks (S of {HARMFUL_S} % or more degrades control; at or above the {MAINTENANCE_S} % maintenance threshold)"
-        ),
-        Severity::Harmful => {
-            format!("the valve sticks (S of {HARMFUL_S} % or more degrades control)")
         }
     }
 }

@@ -41,8 +41,19 @@ fn detect_page_has_the_verdict_the_test_table_and_two_checked_figures() {
     let d = sticky();
     let view = monitoring::detect_file(&d, None, monitoring::Integrating::No);
     let det = view.detected.detection().unwrap();
-    let page = detect_page(&d, det, &view.figures).unwrap();
+    let a = monitoring::analyse(&d, None, monitoring::Integrating::No);
+    let answer = monitoring::Answer::new(&a, &view.detected, None);
+    let page = detect_page(&d, det, &view.figures, &answer).unwrap();
     assert_eq!(page.title, "detect: loop sticky");
+    // the record's one answer, as the command computed it, is on the page
+    let line = format!("Answer: {}.", answer.line());
+    assert!(
+        page.sections[0]
+            .blocks
+            .iter()
+            .any(|b| matches!(b, Block::Paragraph(p) if *p == line)),
+        "no {line:?} on the page"
+    );
     let verdict = page.sections[0]
         .blocks
         .iter()

@@ -8,12 +8,11 @@ use std::time::Instant;
 
 use ::audit::{RegistrationSummary, Store, ValveHistory};
 use anyhow::anyhow;
-use monitoring::batch::{BatchOptions, Labels, DEFAULT_MIN_FIT};
-use monitoring::kind::file_name;
+use monitoring::batch::BatchOptions;
 use rayon::prelude::*;
 use report::fleet::{FleetRegistration, FleetValve};
 
-use super::batch::{Combos, RunFlags};
+use super::batch::{Fleet, FleetRun};
 use crate::{CmdResult, Streams};
 
 /// Arguments of `stiction audit`.
@@ -26,19 +25,8 @@ pub struct Args {
     /// The SQLite database (created when missing; registrations already in it are skipped).
     #[arg(long, value_name = "FILE")]
     db: PathBuf,
-    /// Only the registrations of this valve (file-name prefix before `_`).
-    #[arg(long, value_name = "TAG")]
-    valve: Option<String>,
     #[command(flatten)]
-    combos: Combos,
-    /// Labels (CSV `file,label`, label `stiction` / `no-stiction`) stored in each row.
-    #[arg(long, value_name = "FILE")]
-    labels: Option<PathBuf>,
-    /// Minimum validation F_PV (%) below which the evidence says "poor fit".
-    #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT, value_parser = super::numbers::fit_percent, allow_negative_numbers = true)]
-    min_fit: f64,
-    #[command(flatten)]
-    run: RunFlags,
+    fleet: Fleet,
     /// Write the fleet page to DIR/index.html (every valve once, ranked by what a repair would
     /// buy) and the page of each valve's latest registration to DIR/valves/TAG/index.html.
     #[arg(long, value_name = "DIR")]
@@ -51,15 +39,11 @@ pub struct Args {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    let opts = args.run.options(&args.combos, args.min_fit)?;
-    let labels = args.labels.as_deref().map(Labels::read).transpose()?;
-    let exclude: Vec<PathBuf> = (args.labels.iter().cloned())
-        .chain(std::iter::once(args.db.clone()))
-        .collect();
-    let mut files = args.run.files(&args.paths, &exclude, s)?;
-    if let Some(v) = &args.valve {
-        files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
-    }
+    let FleetRun {
+        opts,
+        labels,
+        files,
+    } = (args.fleet).take(&args.paths, std::slice::from_ref(&args.db), s)?;
     if !files.is_empty() || args.report.is_none() {
         let bar = crate::progress::Progress::new(s.progress, "audit");
         let run = ::audit::run(&files, &opts, labels.as_ref(), &args.db, Some(&bar.tick()));
@@ -74,7 +58,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         .into());
     }
     if let Some(dir) = &args.report {
-        let diagnose = args.diagnose.then(|| args.run.search_args());
+        let diagnose = args.diagnose.then(|| args.fleet.run.search_args());
         write_fleet(dir, &args.db, &opts, diagnose.as_ref(), s)?;
     }
     Ok(())
@@ -206,17 +190,22 @@ fn latest_page(
     let d = datasets::read_path(path, &opts.read).map_err(|e| e.to_string())?;
     let kind = opts.integrating.decide(valve, Some(&d));
     let integrating = kind.integrating;
-    let used = if integrating {
-        monitoring::registration::increments(&d)
-    } else {
-        d.clone()
+    let a = monitoring::Analysis {
+        kind,
+        searched: if integrating {
+            monitoring::registration::increments(&d)
+        } else {
+            d.clone()
+        },
+        span_unknown: datasets::units::span_unknown(&d.notes),
     };
-    let problem = run::problem(&used).map_err(|e| e.to_string())?;
+    let used = &a.searched;
+    let problem = run::problem(used).map_err(|e| e.to_string())?;
     // the tests judge the record as read; the page draws `used` (the increments of an
     // integrating loop), and the detection figures with it
     let det = monitoring::DetectionView {
         detected: monitoring::detect_decided(&d, kind),
-        figures: monitoring::detect::detection_figures(&used, integrating),
+        figures: monitoring::detect::detection_figures(used, integrating),
     };
     let (st, li) = (&latest.stiction_model, &latest.linear_model);
     let (page, causes) = match diagnose {
@@ -226,17 +215,16 @@ fn latest_page(
             let options = discrepancy::options_for(search, span, &[]).map_err(|e| e.to_string())?;
             let dg =
                 discrepancy::diagnose(problem, &baseline, &options).map_err(|e| e.to_string())?;
-            let repair = dg
-                .final_fit()
-                .unwrap_or(&dg.baseline_fit)
-                .repair(&d, integrating);
+            let fit = dg.final_fit().unwrap_or(&dg.baseline_fit);
+            let answer = monitoring::Answer::new(&a, &det.detected, Some(&fit.result));
+            let repair = fit.repair(&d, integrating);
             let causes = if dg.causes.is_empty() {
                 vec!["none (the baseline explains PV)".to_string()]
             } else {
                 dg.causes.clone()
             };
             (
-                report::pages::diagnose_page(&used, &dg, &det, &repair),
+                report::pages::diagnose_page(used, &dg, &det, &repair, &answer),
                 Some(causes),
             )
         }
@@ -247,8 +235,9 @@ fn latest_page(
                 .map_err(|e| e.to_string())?;
             let fitted = combination.run(problem, None).map_err(|e| e.to_string())?;
             let repair = fitted.repair(&d, integrating);
+            let answer = monitoring::Answer::new(&a, &det.detected, Some(&fitted.result));
             (
-                report::pages::quantify_page(&used, &fitted, &det, &repair),
+                report::pages::quantify_page(used, &fitted, &det, &repair, &answer),
                 None,
             )
         }

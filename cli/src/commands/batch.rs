@@ -21,36 +21,92 @@ pub struct Args {
     /// Output prefix: writes OUT.jsonl and OUT.csv (resumable). Without it, a table on stdout.
     #[arg(short = 'o', long, value_name = "OUT")]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    fleet: Fleet,
+}
+
+/// The registrations of a fleet run (`batch`, `audit`) and how each is read and searched.
+#[derive(Debug, clap::Args)]
+pub(crate) struct Fleet {
     /// Only the registrations of this valve (file-name prefix before `_`).
     #[arg(long, value_name = "TAG")]
     valve: Option<String>,
     #[command(flatten)]
     combos: Combos,
-    /// Labels (CSV `file,label`, label `stiction` / `no-stiction`): report ROC AUC of S and of
-    /// the detector's score.
+    /// Labels (CSV `file,label`, label `stiction` / `no-stiction`): `batch` reports the ROC
+    /// AUC of S and of the detector's score, `audit` stores each in its row.
     #[arg(long, value_name = "FILE")]
-    labels: Option<PathBuf>,
+    pub labels: Option<PathBuf>,
     /// Minimum validation F_PV (%) below which the evidence says "poor fit".
     #[arg(long, value_name = "PCT", default_value_t = DEFAULT_MIN_FIT, value_parser = super::numbers::fit_percent, allow_negative_numbers = true)]
     min_fit: f64,
     #[command(flatten)]
-    run: RunFlags,
+    pub run: RunFlags,
 }
 
-/// The combinations of a `batch` or `trend` run: stiction models × linear identifiers.
+/// What a fleet run takes: its options, the labels and the registration files.
+pub(crate) struct FleetRun {
+    pub opts: BatchOptions,
+    pub labels: Option<Labels>,
+    pub files: Vec<PathBuf>,
+}
+
+impl Fleet {
+    /// The options, the labels and the registration files among `paths` (of the valve asked
+    /// for), leaving out the labels' file and `exclude` (the run's own outputs).
+    pub(crate) fn take(
+        &self,
+        paths: &[PathBuf],
+        exclude: &[PathBuf],
+        s: &mut Streams<'_>,
+    ) -> Result<FleetRun, Failure> {
+        let opts = self.run.options(&self.combos, self.min_fit)?;
+        let labels = self.labels.as_deref().map(Labels::read).transpose()?;
+        let exclude: Vec<PathBuf> = self.labels.iter().chain(exclude).cloned().collect();
+        let mut files = self.run.files(paths, &exclude, s)?;
+        if let Some(v) = &self.valve {
+            files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
+        }
+        Ok(FleetRun {
+            opts,
+            labels,
+            files,
+        })
+    }
+}
+
+/// The combinations of a run: stiction models × linear identifiers (each command has its
+/// defaults: [`Combos::or`]).
 #[derive(Debug, clap::Args)]
 pub(crate) struct Combos {
-    /// Stiction models, comma-separated.
-    #[arg(
-        long,
-        value_name = "A,B",
-        value_delimiter = ',',
-        default_value = "kano"
-    )]
-    stiction: Vec<String>,
-    /// Linear identifiers, comma-separated.
-    #[arg(long, value_name = "X,Y", value_delimiter = ',', default_value = "arx")]
-    linear: Vec<String>,
+    /// Stiction models, comma-separated [default: kano; for compare kano,he].
+    #[arg(long, value_name = "A,B", value_delimiter = ',')]
+    pub stiction: Vec<String>,
+    /// Linear identifiers, comma-separated [default: arx; for compare
+    /// arx,armax,ss,earx,earmax].
+    #[arg(long, value_name = "X,Y", value_delimiter = ',')]
+    pub linear: Vec<String>,
+}
+
+/// The combinations of `batch`, `trend` and `audit` when none are named.
+pub(crate) const FLEET_COMBOS: (&[&str], &[&str]) = (&["kano"], &["arx"]);
+
+impl Combos {
+    /// These combinations, `defaults` (stiction models, linear identifiers) for a flag not
+    /// given.
+    pub(crate) fn or(&self, (stiction, linear): (&[&str], &[&str])) -> Combos {
+        let pick = |given: &[String], default: &[&str]| {
+            if given.is_empty() {
+                default.iter().map(ToString::to_string).collect()
+            } else {
+                given.to_vec()
+            }
+        };
+        Combos {
+            stiction: pick(&self.stiction, stiction),
+            linear: pick(&self.linear, linear),
+        }
+    }
 }
 
 /// How every registration of a `batch` or `trend` run is read and searched.
@@ -72,6 +128,7 @@ impl RunFlags {
 
     /// The options of a run over `c` (a model name or a setting is bad usage).
     pub(crate) fn options(&self, c: &Combos, min_fit: f64) -> Result<BatchOptions, Failure> {
+        let c = c.or(FLEET_COMBOS);
         for name in &c.stiction {
             find_model(name).map_err(usage)?;
         }
@@ -101,19 +158,16 @@ impl RunFlags {
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    let opts = args.run.options(&args.combos, args.min_fit)?;
-    let labels = args.labels.as_deref().map(Labels::read).transpose()?;
     let out = args.out.as_deref().map(batch::out_paths);
-    let exclude: Vec<PathBuf> = (args.labels.iter().cloned())
-        .chain(
-            out.iter()
-                .flat_map(|(jsonl, csv)| [jsonl.clone(), csv.clone()]),
-        )
+    let outputs: Vec<PathBuf> = out
+        .iter()
+        .flat_map(|(jsonl, csv)| [jsonl.clone(), csv.clone()])
         .collect();
-    let mut files = args.run.files(&args.paths, &exclude, s)?;
-    if let Some(v) = &args.valve {
-        files.retain(|f| datasets::parse_registration_name(&file_name(f)).valve == *v);
-    }
+    let FleetRun {
+        opts,
+        labels,
+        files,
+    } = args.fleet.take(&args.paths, &outputs, s)?;
     if files.is_empty() {
         return Err(monitoring::MonitoringError::NoFiles.into());
     }
@@ -129,7 +183,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         Some((_, csv)) => batch::write_csv(csv, &run.rows)?,
         None => s.text(report::text::batch_table(&run.rows))?,
     }
-    let first = (&args.combos.stiction[0], &args.combos.linear[0]);
+    let first = (&opts.stiction[0], &opts.linear[0]);
     let labelled = labels.map(|_| (first.0.as_str(), first.1.as_str()));
     s.text(report::text::batch_summary(
         files.len(),

@@ -8,7 +8,7 @@ use super::search_flags::KindFlags;
 use datasets::ReadOptions;
 
 use super::load::{load_with, DataFlags};
-use crate::reporting::{self, ReportFlags};
+use crate::reporting::{self, Output};
 use crate::{CmdResult, Failure, Streams};
 
 /// Arguments of `stiction detect`.
@@ -21,16 +21,13 @@ pub struct Args {
     #[command(flatten)]
     data: DataFlags,
     #[command(flatten)]
-    report: ReportFlags,
-    /// Print one JSON document.
-    #[arg(long)]
-    json: bool,
+    out: Output,
 }
 
 /// `stiction detect`.
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let refused = |f: Failure, s: &mut Streams<'_>| {
-        reporting::refused(Some(&args.file), f, &args.report, "detect", s)
+        reporting::refused(Some(&args.file), f, &args.out.report, "detect", s)
     };
     // A constant PV or OP is read (with a note): the detector answers it, `inconclusive` with
     // the reason, where identification refuses it.
@@ -50,10 +47,10 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
         }
     };
     let figures = &view.figures;
-    reporting::write(&args.report, s, || {
-        report::pages::detect_page(&d, &det, figures)
+    reporting::write(&args.out.report, s, || {
+        report::pages::detect_page(&d, &det, figures, &answer)
     })?;
-    if args.json {
+    if args.out.json {
         return s.json(&monitoring::document::detect(&d, &det, &answer));
     }
     s.text(report::text::detect(&d, &det, &answer)?)

@@ -4,10 +4,8 @@
 use anyhow::anyhow;
 use discrepancy::{diagnose_with_progress, DiagnoseError};
 
-use super::load::DataFlags;
-use super::quantify::LoopFlags;
-use super::search_flags::{KindFlags, SearchFlags};
-use crate::reporting::{self, ReportFlags};
+use super::quantify::{LoopFlags, ModelFlags};
+use crate::reporting::{self, Output};
 use crate::{usage, CmdResult, Streams};
 
 /// Arguments of `stiction diagnose`.
@@ -15,36 +13,25 @@ use crate::{usage, CmdResult, Streams};
 pub struct Args {
     #[command(flatten)]
     source: LoopFlags,
-    /// Stiction model of the baseline.
-    #[arg(long, value_name = "NAME", default_value = "kano")]
-    stiction: String,
-    /// Linear identifier of the baseline.
-    #[arg(long, value_name = "NAME", default_value = "arx")]
-    linear: String,
+    /// The baseline.
     #[command(flatten)]
-    search: SearchFlags,
-    #[command(flatten)]
-    kind: KindFlags,
-    #[command(flatten)]
-    data: DataFlags,
+    model: ModelFlags,
     /// Skip a cause (repeatable; for comparisons).
     #[arg(long, value_name = "CAUSE")]
     without: Vec<String>,
     #[command(flatten)]
-    report: ReportFlags,
-    /// Print one JSON document.
-    #[arg(long)]
-    json: bool,
+    out: Output,
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
-    let search = args.search.args();
-    let baseline = discrepancy::baseline(&search, &args.stiction, &args.linear).map_err(usage)?;
+    let m = &args.model;
+    let search = m.search.args();
+    let baseline = discrepancy::baseline(&search, &m.stiction, &m.linear).map_err(usage)?;
     let file = args.source.file.as_deref();
-    let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "diagnose", s);
-    let d = args.source.load(&args.data, s).map_err(|f| refused(f, s))?;
+    let refused =
+        |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.out.report, "diagnose", s);
     // an integrating loop is diagnosed on MV → ΔPV, as quantify, batch and trend fit it
-    let a = monitoring::analyse(&d, file, args.kind.integrating());
+    let (d, a) = args.source.analysed(&args.out, "diagnose", s)?;
     let problem = run::problem(&a.searched)?;
     let options = discrepancy::options_for(&search, run::span_of(&a.searched.op), &args.without)
         .map_err(usage)?;
@@ -67,20 +54,20 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     let fit = dg.final_fit().unwrap_or(&dg.baseline_fit);
     let answer = monitoring::Answer::new(&a, &det.detected, Some(&fit.result));
     let repair = fit.repair(&d, a.kind.integrating);
-    reporting::write(&args.report, s, || {
-        report::pages::diagnose_page(&d, &dg, &det, &repair)
+    reporting::write(&args.out.report, s, || {
+        report::pages::diagnose_page(&d, &dg, &det, &repair, &answer)
     })?;
-    if args.json {
+    if args.out.json {
         return s.json(&monitoring::document::diagnose(
             &d.source,
             &dg,
-            &args.search.init,
+            &m.search.init,
             &det.detected,
             &repair,
             &answer,
         ));
     }
-    let text = report::text::diagnose(&d, &dg)?;
+    let text = report::text::diagnose(&d, &dg, &answer)?;
     s.text(format!(
         "{text}{}\n{}\n{}\n",
         report::text::repair_line(&repair),

@@ -8,10 +8,11 @@ use datasets::LoopData;
 use run::Fitted;
 use stiction_models::find_model;
 
+use super::batch::Combos;
 use super::load::{load, DataFlags};
 use super::search_flags::{KindFlags, SearchFlags};
 use crate::progress::Progress;
-use crate::reporting::{self, ReportFlags};
+use crate::reporting::{self, Output};
 use crate::{usage, CmdResult, Failure, Streams};
 
 /// Which embedded example to use instead of a file.
@@ -22,7 +23,8 @@ pub(crate) enum Example {
     Paper,
 }
 
-/// The loop to analyse: a file or an embedded example.
+/// The loop to analyse: a file or an embedded example, how it is read and what kind of loop it
+/// is (`quantify`, `compare`, `diagnose`).
 #[derive(Debug, clap::Args)]
 pub(crate) struct LoopFlags {
     /// CSV or MAT file with PV and OP columns (`-` for standard input, CSV).
@@ -31,17 +33,50 @@ pub(crate) struct LoopFlags {
     /// Use an embedded example loop instead of a file.
     #[arg(long, value_enum)]
     example: Option<Example>,
+    #[command(flatten)]
+    kind: KindFlags,
+    #[command(flatten)]
+    data: DataFlags,
 }
 
 impl LoopFlags {
     /// Read the file (notes on stderr), or simulate the example.
-    pub(crate) fn load(&self, flags: &DataFlags, s: &mut Streams<'_>) -> Result<LoopData, Failure> {
+    fn load(&self, s: &mut Streams<'_>) -> Result<LoopData, Failure> {
         match (&self.file, self.example) {
             (_, Some(Example::Paper)) => Ok(run::paper_example()?),
-            (Some(f), None) => load(f, flags, true, 30, s),
+            (Some(f), None) => load(f, &self.data, true, 30, s),
             (None, None) => Err(usage(anyhow!("give a FILE or --example"))),
         }
     }
+
+    /// The loop read and analysed once ([`monitoring::analyse`]): the loop kind decided and the
+    /// record as searched. A record that cannot be read gets the refused page of `command`
+    /// with `--report`.
+    pub(crate) fn analysed(
+        &self,
+        out: &Output,
+        command: &str,
+        s: &mut Streams<'_>,
+    ) -> Result<(LoopData, monitoring::Analysis), Failure> {
+        let file = self.file.as_deref();
+        let d = (self.load(s)).map_err(|f| reporting::refused(file, f, &out.report, command, s))?;
+        let a = monitoring::analyse(&d, file, self.kind.integrating());
+        Ok((d, a))
+    }
+}
+
+/// One stiction × linear combination and its search (`quantify`; the baseline of
+/// `diagnose`).
+#[derive(Debug, clap::Args)]
+pub(crate) struct ModelFlags {
+    /// Registered stiction model searched over (see `stiction models`).
+    #[arg(long, value_name = "NAME", default_value = "kano")]
+    pub stiction: String,
+    /// Registered linear identifier.
+    #[arg(long, value_name = "NAME", default_value = "arx")]
+    pub linear: String,
+    #[command(flatten)]
+    pub search: SearchFlags,
 }
 
 /// Arguments of `stiction quantify`.
@@ -49,26 +84,13 @@ impl LoopFlags {
 pub struct QuantifyArgs {
     #[command(flatten)]
     source: LoopFlags,
-    /// Registered stiction model searched over (see `stiction models`).
-    #[arg(long, value_name = "NAME", default_value = "kano")]
-    stiction: String,
-    /// Registered linear identifier.
-    #[arg(long, value_name = "NAME", default_value = "arx")]
-    linear: String,
     #[command(flatten)]
-    search: SearchFlags,
-    #[command(flatten)]
-    kind: KindFlags,
-    #[command(flatten)]
-    data: DataFlags,
+    model: ModelFlags,
     /// Write the fit over the whole grid as CSV (for plotting).
     #[arg(long, value_name = "FILE")]
     surface: Option<PathBuf>,
     #[command(flatten)]
-    report: ReportFlags,
-    /// Print one JSON document.
-    #[arg(long)]
-    json: bool,
+    out: Output,
 }
 
 /// Arguments of `stiction compare`.
@@ -76,34 +98,17 @@ pub struct QuantifyArgs {
 pub struct CompareArgs {
     #[command(flatten)]
     source: LoopFlags,
-    /// Stiction models, comma-separated.
-    #[arg(
-        long,
-        value_name = "A,B",
-        value_delimiter = ',',
-        default_value = "kano,he"
-    )]
-    stiction: Vec<String>,
-    /// Linear identifiers, comma-separated.
-    #[arg(
-        long,
-        value_name = "X,Y",
-        value_delimiter = ',',
-        default_value = "arx,armax,ss,earx,earmax"
-    )]
-    linear: Vec<String>,
+    #[command(flatten)]
+    combos: Combos,
     #[command(flatten)]
     search: SearchFlags,
     #[command(flatten)]
-    kind: KindFlags,
-    #[command(flatten)]
-    data: DataFlags,
-    #[command(flatten)]
-    report: ReportFlags,
-    /// Print one JSON document.
-    #[arg(long)]
-    json: bool,
+    out: Output,
 }
+
+/// The combinations of `compare` when none are named.
+const COMPARE_COMBOS: (&[&str], &[&str]) =
+    (&["kano", "he"], &["arx", "armax", "ss", "earx", "earmax"]);
 
 /// Run one stiction × linear combination on `d`. The progress bar (on a terminal) appears once
 /// `since` is a second old and its label starts with `step` (e.g. `compare 3/10: `).
@@ -143,10 +148,11 @@ pub(crate) fn run_one(
 
 pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult {
     let file = args.source.file.as_deref();
-    let refused = |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.report, "quantify", s);
-    let d = args.source.load(&args.data, s).map_err(|f| refused(f, s))?;
-    let a = monitoring::analyse(&d, file, args.kind.integrating());
-    let combination = (args.stiction.as_str(), args.linear.as_str());
+    let refused =
+        |f, s: &mut Streams<'_>| reporting::refused(file, f, &args.out.report, "quantify", s);
+    let (d, a) = args.source.analysed(&args.out, "quantify", s)?;
+    let m = &args.model;
+    let combination = (m.stiction.as_str(), m.linear.as_str());
     // a surface written out carries both criteria's fits at every node
     let node_fits = if args.surface.is_some() {
         grid_search::NodeFits::Both
@@ -155,7 +161,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     };
     let r = run_one(
         combination,
-        &args.search,
+        &m.search,
         &a.searched,
         s,
         (Instant::now(), ""),
@@ -168,11 +174,11 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     let det = a.detect(&d);
     let answer = monitoring::Answer::new(&a, &det.detected, Some(&r.result));
     let repair = r.repair(&d, a.kind.integrating);
-    reporting::write(&args.report, s, || {
-        report::pages::quantify_page(&d, &r, &det, &repair)
+    reporting::write(&args.out.report, s, || {
+        report::pages::quantify_page(&d, &r, &det, &repair, &answer)
     })?;
-    if args.json {
-        let mut record = r.record(&args.search.init);
+    if args.out.json {
+        let mut record = r.record(&m.search.init);
         record.set_repair(repair);
         return s.json(&monitoring::document::quantify(
             &d.source,
@@ -181,7 +187,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
             &answer,
         )?);
     }
-    let text = report::text::quantify(&d.source, &r, args.search.init.label(), &answer)?;
+    let text = report::text::quantify(&d.source, &r, m.search.init.label(), &answer)?;
     s.text(format!(
         "{text}{}\n{}\n",
         report::text::repair_line(&repair),
@@ -213,24 +219,22 @@ fn once(names: Vec<String>, flag: &str, s: &mut Streams<'_>) -> Vec<String> {
     kept
 }
 
-pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
-    args.stiction = once(std::mem::take(&mut args.stiction), "--stiction", s);
-    args.linear = once(std::mem::take(&mut args.linear), "--linear", s);
+pub(crate) fn run_compare(args: CompareArgs, s: &mut Streams<'_>) -> CmdResult {
+    let combos = args.combos.or(COMPARE_COMBOS);
+    let stiction = once(combos.stiction, "--stiction", s);
+    let linear = once(combos.linear, "--linear", s);
     // Validate every name first: a typo is bad usage, not a row error.
-    for name in &args.stiction {
+    for name in &stiction {
         find_model(name).map_err(usage)?;
     }
-    for name in &args.linear {
+    for name in &linear {
         run::identifier_for(name, "", 0).map_err(usage)?;
     }
-    let file = args.source.file.as_deref();
-    let d = (args.source.load(&args.data, s))
-        .map_err(|f| reporting::refused(file, f, &args.report, "compare", s))?;
-    let a = monitoring::analyse(&d, file, args.kind.integrating());
-    let (started, total) = (Instant::now(), args.stiction.len() * args.linear.len());
+    let (d, a) = args.source.analysed(&args.out, "compare", s)?;
+    let (started, total) = (Instant::now(), stiction.len() * linear.len());
     let mut rows = Vec::new();
-    for st in &args.stiction {
-        for li in &args.linear {
+    for st in &stiction {
+        for li in &linear {
             let step = format!("compare {}/{total}: ", rows.len() + 1);
             let r = run_one(
                 (st, li),
@@ -248,10 +252,10 @@ pub(crate) fn run_compare(mut args: CompareArgs, s: &mut Streams<'_>) -> CmdResu
         .map(|(st, li, r)| (*st, *li, r.as_ref().map_err(Clone::clone)))
         .collect();
     let criterion = args.search.criterion.into();
-    reporting::write(&args.report, s, || {
-        report::pages::compare_page(&d, &view, criterion)
+    reporting::write(&args.out.report, s, || {
+        report::pages::compare_page(&d, &view, criterion, a.span_unknown)
     })?;
-    if args.json {
+    if args.out.json {
         let mut doc = run::CompareRecord::new(&d.source);
         for (st, li, r) in &view {
             doc.push(

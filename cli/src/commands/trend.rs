@@ -10,7 +10,7 @@ use monitoring::batch::DEFAULT_MIN_FIT;
 use monitoring::trend::{self, TrendOptions, DEFAULT_HORIZON, DEFAULT_THRESHOLD};
 
 use super::batch::{Combos, RunFlags};
-use crate::reporting::{self, ReportFlags};
+use crate::reporting::{self, Output};
 use crate::{usage, CmdResult, Streams};
 
 /// Arguments of `stiction trend`.
@@ -40,10 +40,7 @@ pub struct Args {
     #[arg(long)]
     no_diagnose: bool,
     #[command(flatten)]
-    report: ReportFlags,
-    /// Print one JSON document.
-    #[arg(long)]
-    json: bool,
+    out: Output,
 }
 
 pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
@@ -75,8 +72,8 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     );
     bar.finish();
     let vt = vt.map_err(usage)?;
-    reporting::write(&args.report, s, || report::pages::trend_page(&vt))?;
-    if args.json {
+    reporting::write(&args.out.report, s, || report::pages::trend_page(&vt))?;
+    if args.out.json {
         return s.json(&vt.record());
     }
     s.text(report::text::trend(&vt)?)

@@ -90,6 +90,13 @@ fn combination_section(
                     ),
                 ]),
                 (Some(f), _) => {
+                    // the S the registration reports: the one that explains the detector's
+                    // verdict (the combination's one-step S, or the detector's)
+                    let rep = r.reported(c).unwrap_or(monitoring::answer::Reported {
+                        s: f.s,
+                        range: f.s_range,
+                        from: monitoring::SFrom::OneStep,
+                    });
                     let status = match flag {
                         Flag::Used => TrendStatus::Used,
                         Flag::Weak | Flag::Error => TrendStatus::Weak,
@@ -97,15 +104,18 @@ fn combination_section(
                     };
                     points.push(TrendPoint {
                         day: day(k, r),
-                        s: f.s,
-                        interval: Some(f.s_range),
+                        s: rep.s,
+                        interval: Some(rep.range),
                         status,
                     });
                     rows.push(vec![
                         (k + 1).to_string(),
                         time,
-                        format!("{:.2}", f.s),
-                        format!("{:.2}-{:.2}", f.s_range[0], f.s_range[1]),
+                        match rep.from {
+                            monitoring::SFrom::OneStep => format!("{:.2}", rep.s),
+                            monitoring::SFrom::OutputError => format!("{:.2} (detector)", rep.s),
+                        },
+                        format!("{:.2}-{:.2}", rep.range[0], rep.range[1]),
                         format!("{:.2}", f.j),
                         format!("{:.1}", f.fit_val),
                         flag.label().into(),
