@@ -353,7 +353,12 @@ pub(crate) fn predict_many_with(
         &mut [f64],
     ) -> Result<(LinearFit, Result<(), IdError>), IdError>,
 ) -> Vec<Result<Identified, IdError>> {
-    let Batch { inputs, y, split, outs } = batch;
+    let Batch {
+        inputs,
+        y,
+        split,
+        outs,
+    } = batch;
     inputs
         .iter()
         .zip(outs.iter_mut())
