@@ -51,7 +51,7 @@ pub use compression::Compression;
 pub use consensus::{consensus, Consensus, Disagreement};
 pub use headline::{in_unit, Headline, Standing, RANGE_SEEN_UNIT};
 pub use residuals::{ResidualAnalysis, LOW_BAND, MAX_LAG};
-pub use stretches::{locate_change, StretchTest, Stretches, MIN_STRETCH};
+pub use stretches::{gain_z, locate_change, StretchTest, Stretches, MIN_STRETCH, STRETCH_Z};
 
 pub use framework::{
     cause_table, op_step, registry, Cause, CauseEntry, CauseRow, Context, Evidence, Extension,

@@ -30,6 +30,12 @@ const CHANGE_STEP: usize = 25;
 /// the other, and the location's error.
 const CHANGE_GUARD: usize = 100;
 
+/// The z a cause's gain on a stretch must pass besides its likelihood-ratio rule (an
+/// extension; `no-stiction`'s rule is about a loss and keeps its own): one-sided at the 1 %
+/// level with the Bonferroni correction for the two stretches a cause may hold on,
+/// `Φ⁻¹(1 − 0.01/2)`. See [`gain_z`].
+pub const STRETCH_Z: f64 = 2.576;
+
 /// Samples at the start of each segment left out of its prediction error (the regression's
 /// start-up: the one-step predictor needs past samples).
 const SEGMENT_SKIP: usize = 10;
@@ -49,7 +55,11 @@ pub struct StretchTest {
     pub lr: f64,
     /// The threshold it had to pass (the cause's own rule).
     pub threshold: f64,
-    /// Whether the cause gains significantly on this stretch.
+    /// The gain's z on the stretch's validation samples, the prediction errors' own
+    /// autocorrelation counted ([`gain_z`]); `NaN` when it cannot be computed.
+    pub z: f64,
+    /// Whether the cause gains significantly on this stretch: its likelihood ratio over its
+    /// threshold and, for an extension, `z` over [`STRETCH_Z`].
     pub holds: bool,
     /// Why the test could not be made (the stretch's baseline or the extension failed).
     pub error: Option<String>,
@@ -118,10 +128,11 @@ impl Stretches {
                     .map(|t| match &t.error {
                         Some(_) => format!("samples {}-{}: not fitted", t.from, t.to),
                         None => format!(
-                            "samples {}-{}: LR {:.0}{}",
+                            "samples {}-{}: LR {:.0}, z {:.1}{}",
                             t.from,
                             t.to,
                             t.lr,
+                            t.z,
                             if t.holds { ", holds" } else { "" }
                         ),
                     })
@@ -140,7 +151,7 @@ impl Stretches {
             per_cause.join(", ")
         };
         format!(
-            "The change of the process located at sample {}; the causes tested again on each stationary stretch alone (samples {}; the baseline refitted on the stretch, validated on its last third; a cause is named where it gains on a stretch): {causes}.",
+            "The change of the process located at sample {}; the causes tested again on each stationary stretch alone (samples {}; the baseline refitted on the stretch, validated on its last third; a cause is named where it gains on a stretch: its likelihood ratio over its threshold and the gain's z, its prediction errors' autocorrelation counted, over {STRETCH_Z}): {causes}.",
             self.change_at,
             spans.join(" and "),
         )
@@ -278,6 +289,7 @@ fn test_stretch(
                     to,
                     lr: f64::NAN,
                     threshold: f64::NAN,
+                    z: f64::NAN,
                     holds: false,
                     error: Some(error.clone()),
                 })
@@ -304,17 +316,66 @@ fn test_stretch(
                 return None;
             }
             let (f, _) = test_cause(&ctx, cause.as_ref(), entry.name, base.fit_val(), (q.s, q.j));
+            let z = f.fitted.as_ref().map_or(f64::NAN, |x| {
+                let from = q.split_index.max(x.result.split_index);
+                gain_z(data.pv, &q.pv_pred, &x.result.pv_pred, from)
+            });
             Some(StretchTest {
                 cause: entry.name,
                 from,
                 to,
                 lr: f.lr,
                 threshold: f.threshold,
-                holds: f.significant && f.error.is_none(),
+                z,
+                holds: f.significant
+                    && f.error.is_none()
+                    && (entry.role != Role::Extension || z > STRETCH_Z),
                 error: f.error,
             })
         })
         .collect()
+}
+
+/// The gain of `extended`'s one-step predictions over `reference`'s on the samples from
+/// `from` on, as a z: the mean of the loss differential `d_t = e_ref,t² − e_ext,t²` over its
+/// standard error, the standard error from the differential's own autocorrelation
+/// (Diebold–Mariano, Newey–West long-run variance with Bartlett weights up to lag
+/// `⌊4 (n/100)^(2/9)⌋`). `NaN` when fewer than 50 samples or the variance is not positive.
+///
+/// The likelihood ratio reads the gain as if the errors were white; the errors of a model
+/// that cannot describe the plant's coloured noise are not, and on a stretch of a few hundred
+/// validation samples a few bursts of that noise can carry the whole gain.
+pub fn gain_z(pv: &[f64], reference: &[f64], extended: &[f64], from: usize) -> f64 {
+    let d: Vec<f64> = (from..pv.len().min(reference.len()).min(extended.len()))
+        .map(|t| {
+            let (a, b) = (reference[t] - pv[t], extended[t] - pv[t]);
+            a * a - b * b
+        })
+        .filter(|v| v.is_finite())
+        .collect();
+    if d.len() < 50 {
+        return f64::NAN;
+    }
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let gamma = |k: usize| -> f64 {
+        d[k..]
+            .iter()
+            .zip(&d)
+            .map(|(x, y)| (x - mean) * (y - mean))
+            .sum::<f64>()
+            / n
+    };
+    let lags = (4.0 * (n / 100.0).powf(2.0 / 9.0)).floor() as usize;
+    let variance = gamma(0)
+        + (1..=lags)
+            .map(|k| 2.0 * (1.0 - k as f64 / (lags as f64 + 1.0)) * gamma(k))
+            .sum::<f64>();
+    if variance > 0.0 {
+        mean / (variance / n).sqrt()
+    } else {
+        f64::NAN
+    }
 }
 
 /// The open set tested on the model of each cause the first round found significant but the

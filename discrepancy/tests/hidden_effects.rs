@@ -80,6 +80,22 @@ fn diagnose_names_the_hidden_effect() {
     for i in 0..clean {
         loops.push((5000 + i, Effect::Clean));
     }
+    // STICTION_SUITE_ONLY=process-change,clean: only those situations (their names in kebab
+    // case), to iterate on one of them; the rates asserted are then those of the loops run
+    let only = std::env::var("STICTION_SUITE_ONLY").unwrap_or_default();
+    let kebab = |e: Effect| -> String {
+        let name = format!("{e:?}");
+        name.chars()
+            .enumerate()
+            .flat_map(|(i, ch)| {
+                (i > 0 && ch.is_uppercase())
+                    .then_some('-')
+                    .into_iter()
+                    .chain([ch.to_ascii_lowercase()])
+            })
+            .collect()
+    };
+    loops.retain(|(_, e)| only.is_empty() || only.split(',').any(|o| o == kebab(*e)));
     for (seed, effect) in loops {
         let c = case(seed, effect, samples);
         let d = c.diagnose(&disabled);
@@ -232,7 +248,7 @@ fn diagnose_names_the_hidden_effect() {
         );
     }
     assert!(
-        closer * 2 > compared,
+        closer * 2 > compared || compared == 0,
         "extended S closer in only {closer}/{compared}"
     );
 }
