@@ -30,10 +30,11 @@ const CHANGE_STEP: usize = 25;
 /// the other, and the location's error.
 const CHANGE_GUARD: usize = 100;
 
-/// The z a cause's gain on a stretch must pass besides its likelihood-ratio rule (an
-/// extension; `no-stiction`'s rule is about a loss and keeps its own): one-sided at the 1 %
-/// level with the Bonferroni correction for the two stretches a cause may hold on,
-/// `Φ⁻¹(1 − 0.01/2)`. See [`gain_z`].
+/// An extension whose gain's z ([`gain_z`]) on a stretch is below `−STRETCH_Z` fits that
+/// stretch significantly worse than the stretch's baseline, its prediction errors'
+/// autocorrelation counted: a property of the loop does not, so the cause holds on no stretch
+/// (`no-stiction`'s rule is about a loss and keeps its own). One-sided at the 1 % level with
+/// the Bonferroni correction for the two stretches, `Φ⁻¹(1 − 0.01/2)`.
 pub const STRETCH_Z: f64 = 2.576;
 
 /// Samples at the start of each segment left out of its prediction error (the regression's
@@ -58,8 +59,9 @@ pub struct StretchTest {
     /// The gain's z on the stretch's validation samples, the prediction errors' own
     /// autocorrelation counted ([`gain_z`]); `NaN` when it cannot be computed.
     pub z: f64,
-    /// Whether the cause gains significantly on this stretch: its likelihood ratio over its
-    /// threshold and, for an extension, `z` over [`STRETCH_Z`].
+    /// Whether the cause gains significantly on this stretch (its likelihood ratio over its
+    /// threshold) and, for an extension, fits no stretch significantly worse than that
+    /// stretch's baseline (`z` over `−`[`STRETCH_Z`] on every stretch).
     pub holds: bool,
     /// Why the test could not be made (the stretch's baseline or the extension failed).
     pub error: Option<String>,
@@ -151,7 +153,7 @@ impl Stretches {
             per_cause.join(", ")
         };
         format!(
-            "The change of the process located at sample {}; the causes tested again on each stationary stretch alone (samples {}; the baseline refitted on the stretch, validated on its last third; a cause is named where it gains on a stretch: its likelihood ratio over its threshold and the gain's z, its prediction errors' autocorrelation counted, over {STRETCH_Z}): {causes}.",
+            "The change of the process located at sample {}; the causes tested again on each stationary stretch alone (samples {}; the baseline refitted on the stretch, validated on its last third; a cause is named where it gains on a stretch, unless it fits another significantly worse than the stretch's baseline, the gain's z with the prediction errors' autocorrelation counted under -{STRETCH_Z}): {causes}.",
             self.change_at,
             spans.join(" and "),
         )
@@ -234,13 +236,24 @@ pub(crate) fn retest(
         .into_iter()
         .filter(|s| s[1] - s[0] >= MIN_STRETCH)
         .collect();
-    let tests: Vec<StretchTest> = stretches
+    let mut tests: Vec<StretchTest> = stretches
         .par_iter()
         .map(|s| test_stretch(problem, span, baseline, options, *s))
         .collect::<Vec<_>>()
         .into_iter()
         .flatten()
         .collect();
+    // an extension that fits a stretch significantly worse than its baseline is no property
+    // of the loop: it holds nowhere (a gain on the other stretch alone came from that
+    // stretch's noise or process; docs/decisions/2026-11-27-stretches.md)
+    let against: Vec<&'static str> = tests
+        .iter()
+        .filter(|t| crate::framework::role_of(t.cause) == Role::Extension && t.z < -STRETCH_Z)
+        .map(|t| t.cause)
+        .collect();
+    for t in &mut tests {
+        t.holds &= !against.contains(&t.cause);
+    }
     Some(Stretches {
         change_at: at,
         stretches,
@@ -327,9 +340,7 @@ fn test_stretch(
                 lr: f.lr,
                 threshold: f.threshold,
                 z,
-                holds: f.significant
-                    && f.error.is_none()
-                    && (entry.role != Role::Extension || z > STRETCH_Z),
+                holds: f.significant && f.error.is_none(),
                 error: f.error,
             })
         })
