@@ -7,7 +7,9 @@
 //! after the change; a stretch shorter than [`MIN_STRETCH`] samples is not tested), and every
 //! cause is tested again on each stretch alone: the baseline refitted on that stretch, the
 //! cause's extension on it, the same likelihood-ratio test with the validation split inside
-//! the stretch ([`retest`]). A cause is named only where it gains on a stretch.
+//! the stretch ([`retest`]). A cause is named only where it gains on a stretch, and an
+//! extension that fits a stretch significantly worse than that stretch's baseline, its
+//! prediction errors' autocorrelation counted ([`gain_z`], [`STRETCH_Z`]), holds on none.
 
 use grid_search::Problem;
 use rayon::prelude::*;

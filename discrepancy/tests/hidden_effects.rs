@@ -7,7 +7,8 @@
 //! can co-occur: disturbance + dead time, disturbance + asymmetric valve, dead time +
 //! asymmetric valve, and characteristic + dead time, printed but not asserted) and 10 clean
 //! loops, 3000 samples each. `STICTION_SUITE_SIZE=N` runs N loops per effect and
-//! max(N, 10) clean ones (`cargo xtask suite` uses 24). `STICTION_SUITE_DISABLE=cause` disables a detector
+//! max(N, 10) clean ones (`cargo xtask suite` uses 24). `STICTION_SUITE_ONLY=process-change,clean`
+//! runs only the situations named. `STICTION_SUITE_DISABLE=cause` disables a detector
 //! (the check that the suite fails without it, recorded in docs/DIAGNOSE.md).
 //!
 //! Acceptance (all sizes): right cause in >= 90 % of effect loops, `none` in >= 90 % of clean
