@@ -5,6 +5,7 @@
 use std::time::Instant;
 
 use grid_search::NodeFit;
+use rayon::prelude::*;
 use stiction_models::{find_model, MAX_SHAPE};
 
 use crate::eval::{Admit, Evaluator, LocalFit, PatternSearch};
@@ -97,6 +98,23 @@ fn curvature_z(ctx: &Context<'_>) -> (f64, usize) {
     best
 }
 
+/// The dead times next to the current model's when the diagnosis estimated it (a
+/// `time-delay` extension: its scan is kept), within `0..=max_delay`; none otherwise (a dead
+/// time the user gave is kept).
+fn estimated_neighbours(ctx: &Context<'_>) -> Vec<usize> {
+    let d = ctx.baseline.delay;
+    if ctx.baseline.delay_scan.is_none() {
+        return Vec::new();
+    }
+    [
+        d.checked_sub(1),
+        Some(d + 1).filter(|&k| k <= ctx.options.max_delay),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
 impl Cause for ValveCharacteristic {
     fn name(&self) -> &'static str {
         "valve-characteristic"
@@ -132,9 +150,11 @@ impl Cause for ValveCharacteristic {
         let admit_ref = move |p: &[f64]| admit(p) && p[2].abs() <= negligible + 1e-9;
         // the shape moves by 1 per coarse step of S, by fine/coarse at the finest
         let scales = vec![1.0, 1.0, 1.0 / coarse];
-        let evaluator =
-            Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
-        let search = |directions: Vec<Vec<f64>>, from: &[f64], budget: usize, admit: &Admit| {
+        let search_with = |evaluator: &Evaluator<'_>,
+                           directions: Vec<Vec<f64>>,
+                           from: &[f64],
+                           budget: usize,
+                           admit: &Admit| {
             PatternSearch {
                 entry,
                 options: &ctx.options.search,
@@ -146,7 +166,12 @@ impl Cause for ValveCharacteristic {
                 scales: scales.clone(),
                 admit: Some(admit),
             }
-            .run(&evaluator, from)
+            .run(evaluator, from)
+        };
+        let evaluator =
+            Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
+        let search = |directions: Vec<Vec<f64>>, from: &[f64], budget: usize, admit: &Admit| {
+            search_with(&evaluator, directions, from, budget, admit)
         };
         let crit = ctx.options.search.criterion;
         let best_of = |nodes: &[NodeFit]| {
@@ -199,25 +224,86 @@ impl Cause for ValveCharacteristic {
             free.extend(search(dirs.clone(), st, 200, &admit)?);
         }
         free.extend(lattice);
-        let (free_best, _) = best_of(&free).unwrap_or((lin_best.clone(), lin_fit));
+        let (free_best, free_fit) = best_of(&free).unwrap_or((lin_best.clone(), lin_fit));
         // Fair reference: the reference search again from the optimum's linear projection.
-        let lin2 = search(dirs, &[free_best[0], free_best[1], 0.0], 150, &admit_ref)?;
+        let lin2 = search(
+            dirs.clone(),
+            &[free_best[0], free_best[1], 0.0],
+            150,
+            &admit_ref,
+        )?;
         drop(evaluator);
         let mut nodes = lin;
         nodes.extend(free);
         nodes.extend(lin2);
         // every node visited with a negligible characteristic counts for the reference
-        let ref_fit = nodes
-            .iter()
-            .filter(|n| admit_ref(&n.params))
-            .map(|n| n.score(crit))
-            .fold(lin_fit, f64::max)
-            .max(ctx.baseline.fit_val());
+        let negligible_best = |nodes: &[NodeFit], from: f64| {
+            nodes
+                .iter()
+                .filter(|n| admit_ref(&n.params))
+                .map(|n| n.score(crit))
+                .fold(from, f64::max)
+        };
+        let mut ref_fit = negligible_best(&nodes, lin_fit).max(ctx.baseline.fit_val());
+        let mut delay = ctx.baseline.delay;
+        // A dead time the model estimated (`time-delay`) was chosen with a linear
+        // characteristic: the pair's model searches it again with the curvature free, as one
+        // model. At dead time `d`: searches from the best valve so far and from its linear
+        // projection (the nested reference there: a negligible characteristic at any dead
+        // time searched counts, so the test stays one extra parameter, the shape).
+        let at_delay = |d: usize, from: &[f64]| -> Result<Vec<NodeFit>, DiagnoseError> {
+            let id = ctx.combination(entry, linear, d).identifier(d)?;
+            let ev = Evaluator::new(entry, id.as_ref(), ctx.problem, &ctx.options.search)?;
+            let mut v = search_with(&ev, dirs.clone(), from, 200, &admit)?;
+            let projection = [from[0], from[1], 0.0];
+            v.extend(search_with(
+                &ev,
+                dirs.clone(),
+                &projection,
+                150,
+                &admit_ref,
+            )?);
+            Ok(v)
+        };
+        let mut best_fit = free_fit;
+        let mut best_valve = free_best;
+        // the dead times next to the estimated one, then further while the best is at an end
+        let mut want = estimated_neighbours(ctx);
+        let mut tried = vec![delay];
+        while !want.is_empty() {
+            tried.extend(&want);
+            let from = best_valve.clone();
+            let found: Vec<(usize, Result<Vec<NodeFit>, DiagnoseError>)> =
+                std::mem::take(&mut want)
+                    .into_par_iter()
+                    .map(|d| (d, at_delay(d, &from)))
+                    .collect();
+            // a dead time that cannot be fitted (no stable node) is not a candidate
+            for (d, found) in found {
+                let Ok(found) = found else { continue };
+                ref_fit = negligible_best(&found, ref_fit);
+                if let Some((valve, fit)) = best_of(&found).filter(|b| b.1 > best_fit) {
+                    (best_fit, best_valve, delay, nodes) = (fit, valve, d, found);
+                }
+            }
+            let (lo, hi) = (tried.iter().min(), tried.iter().max());
+            if Some(&delay) == hi && delay < ctx.options.max_delay {
+                want.push(delay + 1);
+            } else if Some(&delay) == lo && delay > 0 {
+                want.push(delay - 1);
+            }
+            want.retain(|d| !tried.contains(d));
+        }
+        let identifier = if delay == ctx.baseline.delay {
+            identifier
+        } else {
+            ctx.combination(entry, linear, delay).identifier(delay)?
+        };
         LocalFit {
             entry,
             linear,
             identifier,
-            delay: ctx.baseline.delay,
+            delay,
             started,
         }
         .extension(ctx, nodes, "the baseline's estimate (S, J, a = 0)", ref_fit, "best valve with a negligible characteristic (gain change <= 10 % over OP's range) of the same search")

@@ -249,8 +249,9 @@ impl Diagnoser<'_> {
             return None;
         }
         // located on the baseline (its linear part is fitted once per candidate sample)
-        let mut check = stretches::retest(problem, self.span, self.baseline, base, options)?;
         let chain = sel.causes.clone();
+        let mut check =
+            stretches::retest(problem, self.span, self.baseline, base, options, &chain)?;
         check.chosen_on_record = chain.clone();
         let prefix = chain.iter().take_while(|c| check.holds(c)).count();
         // a cause is named where it gains on a stretch; a cause the whole record did not

@@ -67,6 +67,10 @@ pub struct StretchTest {
     pub holds: bool,
     /// Why the test could not be made (the stretch's baseline or the extension failed).
     pub error: Option<String>,
+    /// The causes of the forward selection the extension was built on (their extensions on
+    /// the stretch, in its order); empty: on the stretch's baseline.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub on: Vec<&'static str>,
 }
 
 /// The causes tested again on the stationary stretches of a record whose process changed.
@@ -132,9 +136,14 @@ impl Stretches {
                     .map(|t| match &t.error {
                         Some(_) => format!("samples {}-{}: not fitted", t.from, t.to),
                         None => format!(
-                            "samples {}-{}: LR {:.0}, z {:.1}{}",
+                            "samples {}-{}{}: LR {:.0}, z {:.1}{}",
                             t.from,
                             t.to,
+                            if t.on.is_empty() {
+                                String::new()
+                            } else {
+                                format!(" on top of {}", t.on.join(" and "))
+                            },
                             t.lr,
                             t.z,
                             if t.holds { ", holds" } else { "" }
@@ -231,6 +240,7 @@ pub(crate) fn retest(
     baseline: &Baseline,
     model: &Fitted,
     options: &DiagnoseOptions,
+    chain: &[&'static str],
 ) -> Option<Stretches> {
     let n = problem.op.len();
     let at = locate_change(problem, model)?;
@@ -240,7 +250,7 @@ pub(crate) fn retest(
         .collect();
     let mut tests: Vec<StretchTest> = stretches
         .par_iter()
-        .map(|s| test_stretch(problem, span, baseline, options, *s))
+        .map(|s| test_stretch(problem, span, baseline, options, *s, chain))
         .collect::<Vec<_>>()
         .into_iter()
         .flatten()
@@ -271,6 +281,7 @@ fn test_stretch(
     baseline: &Baseline,
     options: &DiagnoseOptions,
     [from, to]: [usize; 2],
+    chain: &[&'static str],
 ) -> Vec<StretchTest> {
     let data = Problem {
         op: &problem.op[from..to],
@@ -307,6 +318,7 @@ fn test_stretch(
                     z: f64::NAN,
                     holds: false,
                     error: Some(error.clone()),
+                    on: Vec::new(),
                 })
                 .collect();
         }
@@ -323,7 +335,7 @@ fn test_stretch(
         options,
         own_cycle: &own_cycle,
     };
-    entries
+    let found: Vec<Finding> = entries
         .into_par_iter()
         .filter_map(|entry| {
             let cause = (entry.build)();
@@ -331,22 +343,106 @@ fn test_stretch(
                 return None;
             }
             let (f, _) = test_cause(&ctx, cause.as_ref(), entry.name, base.fit_val(), (q.s, q.j));
-            let z = f.fitted.as_ref().map_or(f64::NAN, |x| {
-                let from = q.split_index.max(x.result.split_index);
-                gain_z(data.pv, &q.pv_pred, &x.result.pv_pred, from)
-            });
-            Some(StretchTest {
-                cause: entry.name,
-                from,
-                to,
-                lr: f.lr,
-                threshold: f.threshold,
-                z,
-                holds: f.significant && f.error.is_none(),
-                error: f.error,
-            })
+            Some(f)
         })
-        .collect()
+        .collect();
+    // the gain's z of a finding's extension over the model it extends (`reference`, its
+    // one-step predictions validated from `split`)
+    let test = |f: &Finding, on: &[&'static str], reference: &[f64], split: usize| StretchTest {
+        cause: f.cause,
+        from,
+        to,
+        lr: f.lr,
+        threshold: f.threshold,
+        z: f.fitted.as_ref().map_or(f64::NAN, |x| {
+            gain_z(
+                data.pv,
+                reference,
+                &x.result.pv_pred,
+                split.max(x.result.split_index),
+            )
+        }),
+        holds: f.significant && f.error.is_none(),
+        error: f.error.clone(),
+        on: on.to_vec(),
+    };
+    let mut tests: Vec<StretchTest> = found
+        .iter()
+        .map(|f| test(f, &[], &q.pv_pred, q.split_index))
+        .collect();
+    let alone: Vec<&'static str> = found
+        .iter()
+        .filter(|f| f.significant)
+        .map(|f| f.cause)
+        .collect();
+    // A cause the forward selection added on top of others is tested on top of them on the
+    // stretch too, while they hold there: the test it passed on the record (a characteristic
+    // on a loop detuned for it and a dead time gains little on a model without the dead time).
+    let Some(mut model) = chain.first().and_then(|c| {
+        found
+            .into_iter()
+            // a model of transformed data is not extended on the record itself
+            .find(|f| f.cause == *c && f.significant && f.data.is_none())
+            .and_then(|f| f.fitted)
+    }) else {
+        return tests;
+    };
+    for k in 1..chain.len() {
+        let Some(f) = on_top(data, span, baseline, options, &model, chain[k]) else {
+            break;
+        };
+        let holds = f.significant && f.error.is_none();
+        if !alone.contains(&chain[k]) {
+            tests.push(test(
+                &f,
+                &chain[..k],
+                &model.result.pv_pred,
+                model.result.split_index,
+            ));
+        }
+        match f.fitted.filter(|_| holds) {
+            Some(next) => model = next,
+            None => break,
+        }
+    }
+    tests
+}
+
+/// `cause` tested on the stretch `data` on top of `model` (an extension fitted on it), by
+/// its own rule against that model; `None` when it does not apply there.
+fn on_top(
+    data: Problem<'_>,
+    span: f64,
+    baseline: &Baseline,
+    options: &DiagnoseOptions,
+    model: &Fitted,
+    cause: &'static str,
+) -> Option<Finding> {
+    let entry = registry().into_iter().find(|e| e.name == cause)?;
+    let mut spec = diagnosis_combination(
+        baseline,
+        options,
+        model.stiction,
+        linear_id::find_identifier(model.linear).ok()?,
+        model.delay,
+    );
+    spec.orders = crate::orders_without_delay(model.identifier.as_ref());
+    let q = &model.result;
+    let residuals = ResidualAnalysis::new(data.pv, &q.pv_pred, &q.pv_sim, &q.mv_est, q.split_index);
+    let own_cycle = causes::OwnCycle::default();
+    let ctx = Context {
+        problem: data,
+        span,
+        baseline_spec: &spec,
+        baseline: model,
+        residuals: &residuals,
+        options,
+        own_cycle: &own_cycle,
+    };
+    let built = (entry.build)();
+    built
+        .applies(&ctx)
+        .then(|| test_cause(&ctx, built.as_ref(), cause, model.fit_val(), (q.s, q.j)).0)
 }
 
 /// The gain of `extended`'s one-step predictions over `reference`'s on the samples from
