@@ -115,6 +115,104 @@ fn estimated_neighbours(ctx: &Context<'_>) -> Vec<usize> {
     .collect()
 }
 
+/// The directions of the searches over (S, J, a): the shape, S, J, and S with J.
+const DIRECTIONS: [[f64; 3]; 4] = [
+    [0.0, 0.0, 1.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [1.0, 1.0, 0.0],
+];
+
+/// The extension's pattern searches of `kano-char`: steps from `coarse` halved to `fine`,
+/// the shape's steps scaled by `scales`.
+struct Searcher<'c, 'a> {
+    ctx: &'c Context<'a>,
+    entry: &'static stiction_models::ModelEntry,
+    coarse: f64,
+    fine: f64,
+    scales: Vec<f64>,
+}
+
+impl Searcher<'_, '_> {
+    /// A search with `evaluator` from `from` along `directions`, at most `budget` nodes,
+    /// those `admit` lets in.
+    fn run(
+        &self,
+        evaluator: &Evaluator<'_>,
+        directions: Vec<Vec<f64>>,
+        from: &[f64],
+        budget: usize,
+        admit: &Admit,
+    ) -> Result<Vec<NodeFit>, DiagnoseError> {
+        PatternSearch {
+            entry: self.entry,
+            options: &self.ctx.options.search,
+            span: self.ctx.span,
+            coarse: self.coarse,
+            fine: self.fine,
+            directions,
+            budget,
+            scales: self.scales.clone(),
+            admit: Some(admit),
+        }
+        .run(evaluator, from)
+    }
+}
+
+/// The pair's model searched at a dead time from a valve: every node visited.
+type AtDelay<'f> = dyn Fn(usize, &[f64]) -> Result<Vec<NodeFit>, DiagnoseError> + Sync + 'f;
+/// A search's best valve and its fit.
+type BestOf<'f> = dyn Fn(&[NodeFit]) -> Option<(Vec<f64>, f64)> + 'f;
+
+/// The best of the pair's model searched so far: its valve, fit, dead time and nodes, and
+/// the nested reference's fit.
+struct Best {
+    valve: Vec<f64>,
+    fit: f64,
+    delay: usize,
+    nodes: Vec<NodeFit>,
+    ref_fit: f64,
+}
+
+/// The pair's model over the dead time: the dead times next to the estimated one
+/// ([`estimated_neighbours`]), then further while the best is at an end, each searched by
+/// `at_delay` from the best valve so far; `best_of` gives a search's best valve and fit,
+/// `negligible` the reference's best fit over a search's nodes and a fit so far.
+fn over_delays(
+    ctx: &Context<'_>,
+    mut best: Best,
+    at_delay: &AtDelay<'_>,
+    best_of: &BestOf<'_>,
+    negligible: &(dyn Fn(&[NodeFit], f64) -> f64 + '_),
+) -> Best {
+    let mut want = estimated_neighbours(ctx);
+    let mut tried = vec![best.delay];
+    while !want.is_empty() {
+        tried.extend(&want);
+        let from = best.valve.clone();
+        let found: Vec<(usize, Result<Vec<NodeFit>, DiagnoseError>)> = std::mem::take(&mut want)
+            .into_par_iter()
+            .map(|d| (d, at_delay(d, &from)))
+            .collect();
+        // a dead time that cannot be fitted (no stable node) is not a candidate
+        for (d, found) in found {
+            let Ok(found) = found else { continue };
+            best.ref_fit = negligible(&found, best.ref_fit);
+            if let Some((valve, fit)) = best_of(&found).filter(|b| b.1 > best.fit) {
+                (best.fit, best.valve, best.delay, best.nodes) = (fit, valve, d, found);
+            }
+        }
+        let (lo, hi) = (tried.iter().min(), tried.iter().max());
+        if Some(&best.delay) == hi && best.delay < ctx.options.max_delay {
+            want.push(best.delay + 1);
+        } else if Some(&best.delay) == lo && best.delay > 0 {
+            want.push(best.delay - 1);
+        }
+        want.retain(|d| !tried.contains(d));
+    }
+    best
+}
+
 impl Cause for ValveCharacteristic {
     fn name(&self) -> &'static str {
         "valve-characteristic"
@@ -150,23 +248,15 @@ impl Cause for ValveCharacteristic {
         let admit_ref = move |p: &[f64]| admit(p) && p[2].abs() <= negligible + 1e-9;
         // the shape moves by 1 per coarse step of S, by fine/coarse at the finest
         let scales = vec![1.0, 1.0, 1.0 / coarse];
-        let search_with = |evaluator: &Evaluator<'_>,
-                           directions: Vec<Vec<f64>>,
-                           from: &[f64],
-                           budget: usize,
-                           admit: &Admit| {
-            PatternSearch {
-                entry,
-                options: &ctx.options.search,
-                span,
-                coarse,
-                fine,
-                directions,
-                budget,
-                scales: scales.clone(),
-                admit: Some(admit),
-            }
-            .run(evaluator, from)
+        let searcher = Searcher {
+            ctx,
+            entry,
+            coarse,
+            fine,
+            scales,
+        };
+        let search_with = |evaluator: &Evaluator<'_>, d, from: &[f64], budget, admit: &Admit| {
+            searcher.run(evaluator, d, from, budget, admit)
         };
         let evaluator =
             Evaluator::new(entry, identifier.as_ref(), ctx.problem, &ctx.options.search)?;
@@ -180,12 +270,7 @@ impl Cause for ValveCharacteristic {
                 .max_by(|a, b| a.score(crit).total_cmp(&b.score(crit)))
                 .map(|n| (n.params.clone(), n.score(crit)))
         };
-        let dirs = vec![
-            vec![0.0, 0.0, 1.0],
-            vec![1.0, 0.0, 0.0],
-            vec![0.0, 1.0, 0.0],
-            vec![1.0, 1.0, 0.0],
-        ];
+        let dirs: Vec<Vec<f64>> = DIRECTIONS.iter().map(|d| d.to_vec()).collect();
         let start = vec![snap(q.s), snap(q.j.min(q.s)), 0.0];
         // The reference: the best valve with a negligible characteristic near the baseline's
         // estimate.
@@ -244,8 +329,8 @@ impl Cause for ValveCharacteristic {
                 .map(|n| n.score(crit))
                 .fold(from, f64::max)
         };
-        let mut ref_fit = negligible_best(&nodes, lin_fit).max(ctx.baseline.fit_val());
-        let mut delay = ctx.baseline.delay;
+        let ref_fit = negligible_best(&nodes, lin_fit).max(ctx.baseline.fit_val());
+        let delay = ctx.baseline.delay;
         // A dead time the model estimated (`time-delay`) was chosen with a linear
         // characteristic: the pair's model searches it again with the curvature free, as one
         // model. At dead time `d`: searches from the best valve so far and from its linear
@@ -265,35 +350,20 @@ impl Cause for ValveCharacteristic {
             )?);
             Ok(v)
         };
-        let mut best_fit = free_fit;
-        let mut best_valve = free_best;
-        // the dead times next to the estimated one, then further while the best is at an end
-        let mut want = estimated_neighbours(ctx);
-        let mut tried = vec![delay];
-        while !want.is_empty() {
-            tried.extend(&want);
-            let from = best_valve.clone();
-            let found: Vec<(usize, Result<Vec<NodeFit>, DiagnoseError>)> =
-                std::mem::take(&mut want)
-                    .into_par_iter()
-                    .map(|d| (d, at_delay(d, &from)))
-                    .collect();
-            // a dead time that cannot be fitted (no stable node) is not a candidate
-            for (d, found) in found {
-                let Ok(found) = found else { continue };
-                ref_fit = negligible_best(&found, ref_fit);
-                if let Some((valve, fit)) = best_of(&found).filter(|b| b.1 > best_fit) {
-                    (best_fit, best_valve, delay, nodes) = (fit, valve, d, found);
-                }
-            }
-            let (lo, hi) = (tried.iter().min(), tried.iter().max());
-            if Some(&delay) == hi && delay < ctx.options.max_delay {
-                want.push(delay + 1);
-            } else if Some(&delay) == lo && delay > 0 {
-                want.push(delay - 1);
-            }
-            want.retain(|d| !tried.contains(d));
-        }
+        let found = over_delays(
+            ctx,
+            Best {
+                valve: free_best,
+                fit: free_fit,
+                delay,
+                nodes,
+                ref_fit,
+            },
+            &at_delay,
+            &best_of,
+            &negligible_best,
+        );
+        let (delay, nodes, ref_fit) = (found.delay, found.nodes, found.ref_fit);
         let identifier = if delay == ctx.baseline.delay {
             identifier
         } else {
