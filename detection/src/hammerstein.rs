@@ -140,6 +140,8 @@ const GOLDEN_STEPS: usize = 12;
 const VARIANTS: usize = 2 * (MAX_DELAY + 1);
 /// Shifts of the lagged input that the variants combine (`0..=MAX_DELAY + 1`).
 const SHIFTS: usize = MAX_DELAY + 2;
+// The pass of `oe_rss_fixed` holds the shifts in five named variables.
+const _: () = assert!(SHIFTS == 5);
 
 /// The output-error model's target: the output with the nuisance regressors (a constant, and
 /// sines and cosines at the given frequencies) projected out, rows from `start` on.
@@ -273,47 +275,52 @@ fn oe_rss_fixed<const L: usize, const NR: usize>(
     let n = tg.ry.len();
     let start = tg.start;
     let g: [f64; L] = p.map(|p| 1.0 - p);
-    // The lag at delay 1, and in the same pass: a[s] = Σ_{t ≥ start} x(t−s)·ry(t); over
-    // every τ in 1..n the squares, the neighbour products and the products with the
-    // nuisance regressors as written.
+    // The lag at delay 1, and with it a[s] = Σ_{t ≥ start} x(t−s)·ry(t) and, over every τ in
+    // 1..n, the squares and the neighbour products; then, over the stored lag, its products
+    // with the nuisance regressors as written. Two passes: one would hold more sums than the
+    // processor has vector registers, and spill them to the stack at every sample.
     let (x, u, ry, rows) = (&mut x[..n], &u[..n], &tg.ry[..n], &tg.rows[..n]);
     x[0] = u[0];
     x[1] = u[0];
     let mut a = [[0.0; L]; SHIFTS];
     let (mut sq, mut nb) = ([0.0; L], [0.0; L]);
-    let mut full = [[0.0; L]; NR];
-    // The last SHIFTS values of the lag, newest first, held in registers: the recursion and
-    // the products read them without a round trip through memory.
-    let mut last = [u[0]; SHIFTS];
+    // The last SHIFTS values of the lag, newest first, in named variables (registers): the
+    // recursion and the products read them without a round trip through memory.
+    let (mut l0, mut l1, mut l2, mut l3, mut l4) = (u[0], u[0], u[0], u[0], u[0]);
+    let mul_add = |acc: &mut [f64; L], x: &[f64; L], y: &[f64; L]| {
+        for l in 0..L {
+            acc[l] += x[l] * y[l];
+        }
+    };
+    // First pass: the recursion, the squares, the neighbour products and the target's
+    // products with the shifts (from `start` on). t = 1 holds the start-up value.
     for t in 1..n {
         if t >= 2 {
-            let ut = u[t - 1];
+            let ut = &u[t - 1];
             let mut v = [0.0; L];
             for l in 0..L {
-                v[l] = p[l] * last[0][l] + g[l] * ut[l];
+                v[l] = p[l] * l0[l] + g[l] * ut[l];
             }
             x[t] = v;
-            last.copy_within(0..SHIFTS - 1, 1);
-            last[0] = v;
+            (l4, l3, l2, l1, l0) = (l3, l2, l1, l0, v);
         }
-        let (v, w) = (last[0], last[1]);
-        for l in 0..L {
-            sq[l] += v[l] * v[l];
-            nb[l] += v[l] * w[l];
-        }
-        let row = &rows[t];
-        for (f, &rt) in full.iter_mut().zip(row) {
-            for l in 0..L {
-                f[l] += v[l] * rt;
-            }
-        }
+        mul_add(&mut sq, &l0, &l0);
+        mul_add(&mut nb, &l0, &l1);
         if t >= start {
-            let r = ry[t];
-            for (acc, xs) in a.iter_mut().zip(&last) {
-                for l in 0..L {
-                    acc[l] += xs[l] * r;
-                }
-            }
+            let r = [ry[t]; L];
+            mul_add(&mut a[0], &l0, &r);
+            mul_add(&mut a[1], &l1, &r);
+            mul_add(&mut a[2], &l2, &r);
+            mul_add(&mut a[3], &l3, &r);
+            mul_add(&mut a[4], &l4, &r);
+        }
+    }
+    // Second pass: the products with the nuisance regressors as written, over the lag just
+    // stored (the same values, in the same order per sum).
+    let mut full = [[0.0; L]; NR];
+    for (v, row) in x[1..].iter().zip(&rows[1..]) {
+        for (f, &rt) in full.iter_mut().zip(row) {
+            mul_add(f, v, &[rt; L]);
         }
     }
     let mut out = [[0.0; VARIANTS]; L];

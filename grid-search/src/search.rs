@@ -158,18 +158,20 @@ pub struct SearchOptions {
 }
 
 /// Which fits every grid node gets on the fast path. The best node is always refitted with
-/// both; only the surface of the other nodes differs.
+/// both (and F_MV when MV is measured); only the surface of the other nodes differs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum NodeFits {
     /// The criterion's fits only (default): under [`Criterion::Prediction`] the free-run
     /// simulation, an O(N) recursion the ranking does not read, is not run, and the surface's
-    /// `sim_id` / `sim_val` are NaN (the best node's are computed). Nothing a search reports
-    /// reads them: the ranking, the region, the fit without stiction and the doubts are the
-    /// criterion's or the best node's.
+    /// `sim_id` / `sim_val` are NaN (the best node's are computed); F_MV (an O(N) pass, when
+    /// MV is measured) is `None` but at the best node. Nothing a search reports reads them:
+    /// the ranking, the region, the fit without stiction and the doubts are the criterion's or
+    /// the best node's.
     #[default]
     Criterion,
-    /// Both criteria's fits at every node (for a surface written out, `quantify --surface`).
+    /// Both criteria's fits and F_MV at every node (for a surface written out,
+    /// `quantify --surface`).
     Both,
 }
 
@@ -716,6 +718,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
         split_index: ((n as f64) * options.split).floor() as usize,
         path,
         simulate: options.criterion == Criterion::Simulation || options.node_fits == NodeFits::Both,
+        node_mv: options.node_fits == NodeFits::Both,
         index: match path {
             NodePath::Fast => Some(OpIndex::new(op)?),
             NodePath::Sample => None,

@@ -182,6 +182,9 @@ fn same_but_the_free_run(
                     expected.sim_id = l.sim_id;
                     expected.sim_val = l.sim_val;
                 }
+                // F_MV only at the best node (its refit), not over the surface
+                prop_assert!(l.mv.is_none());
+                expected.mv = None;
                 prop_assert_eq!(format!("{expected:?}"), format!("{l:?}"));
             }
             (b, l) => prop_assert_eq!(b, l),

@@ -329,7 +329,9 @@ fn direct_power(r: &[f64], w: f64) -> f64 {
 }
 
 /// `|Σ r_t e^(iωt)|²` by Goertzel's recursion: [`direct_power`] to a relative ~1e-10 on the
-/// periodogram's grid, without a sine and cosine per sample.
+/// periodogram's grid, without a sine and cosine per sample. One frequency at a time: the
+/// reference of [`goertzel_powers`], which computes the grid.
+#[cfg(test)]
 fn goertzel_power(r: &[f64], w: f64) -> f64 {
     let c = 2.0 * w.cos();
     let (mut s1, mut s2) = (0.0f64, 0.0f64);
@@ -338,6 +340,33 @@ fn goertzel_power(r: &[f64], w: f64) -> f64 {
         (s2, s1) = (s1, s0);
     }
     (s1 * s1 + s2 * s2 - c * s1 * s2).max(0.0)
+}
+
+/// Goertzel's `|Σ r_t e^(iωt)|²` at every frequency of `ws`, eight side by side in one pass over `r`:
+/// each frequency's recursion is a chain of dependent operations that leaves the core's units
+/// idle, which the other lanes fill. Each lane performs the one-frequency recursion's
+/// operations in its order, so the powers are the same bits (test
+/// `goertzel_grid_peaks_where_the_direct_sums_do`).
+fn goertzel_powers(r: &[f64], ws: &[f64]) -> Vec<f64> {
+    const L: usize = 8;
+    let mut out = Vec::with_capacity(ws.len());
+    for chunk in ws.chunks(L) {
+        let mut c = [0.0; L];
+        for (cl, &w) in c.iter_mut().zip(chunk) {
+            *cl = 2.0 * w.cos();
+        }
+        let (mut s1, mut s2) = ([0.0f64; L], [0.0f64; L]);
+        for &v in r {
+            for l in 0..L {
+                let s0 = v + c[l] * s1[l] - s2[l];
+                (s2[l], s1[l]) = (s1[l], s0);
+            }
+        }
+        for l in 0..chunk.len() {
+            out.push((s1[l] * s1[l] + s2[l] * s2[l] - c[l] * s1[l] * s2[l]).max(0.0));
+        }
+    }
+    out
 }
 
 /// The dominant frequency (rad/sample) of `x` with its mean and linear trend removed, over
@@ -369,9 +398,8 @@ pub fn dominant_frequency(x: &[f64], min_period: f64, max_period: f64) -> Option
         // the grid's powers by Goertzel's recursion (two multiply-adds per sample instead of
         // a sine and a cosine: the grid was 7 % of a diagnosis); the same peak as the direct
         // sums, which the refinement below evaluates
-        let grid: Vec<f64> = (k0..=k1)
-            .map(|k| goertzel_power(&r, k as f64 * step))
-            .collect();
+        let ws: Vec<f64> = (k0..=k1).map(|k| k as f64 * step).collect();
+        let grid = goertzel_powers(&r, &ws);
         let i = (0..grid.len()).max_by(|&a, &b| grid[a].total_cmp(&grid[b]))?;
         if grid[i].is_nan() || grid[i] <= 0.0 {
             return None;
@@ -486,6 +514,13 @@ mod tests {
             let (direct, fast) = (grid(direct_power), grid(goertzel_power));
             for (d, g) in direct.iter().zip(&fast) {
                 assert!((d - g).abs() <= 1e-8 * d.abs().max(1e-300), "{d} vs {g}");
+            }
+            // the lanes (373 frequencies: a last chunk of five) are each frequency's bits
+            let ws: Vec<f64> = (2..=375).map(|k| k as f64 * step).collect();
+            let lanes = goertzel_powers(&x, &ws);
+            assert_eq!(lanes.len(), fast.len());
+            for (l, g) in lanes.iter().zip(&fast) {
+                assert_eq!(l.to_bits(), g.to_bits());
             }
             let peak = |v: &[f64]| (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b]));
             assert_eq!(peak(&direct), peak(&fast));

@@ -12,6 +12,9 @@ pub(crate) struct Ctx<'a, I: ?Sized> {
     pub(crate) path: NodePath,
     /// The fast path runs the free-run simulation at every node.
     pub(crate) simulate: bool,
+    /// The fast path computes F_MV at every node (when MV is measured); otherwise only the
+    /// refitted best node gets it ([`NodeFits`]).
+    pub(crate) node_mv: bool,
     /// OP indexed for event-driven valve runs (fast path).
     pub(crate) index: Option<OpIndex>,
     /// PV's prefix sums for ARX from normal equations (fast path, ARX only).
@@ -107,6 +110,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             (score(&sim, first..split), score(&sim, split..n - k0)),
             mv,
             run,
+            true,
         )?;
         let full = keep.then(|| Evaluated {
             linear,
@@ -327,18 +331,19 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
         } else {
             (f64::NAN, f64::NAN)
         };
-        self.fits(pred_fits, sim_fits, mv, run)
+        self.fits(pred_fits, sim_fits, mv, run, self.node_mv)
     }
 
     /// A node's [`Fits`] from the (identification, validation) F_PV of its one-step prediction
-    /// and of its free run; [`Skip::NonFinitePrediction`] when the prediction's validation
-    /// F_PV is not finite.
+    /// and of its free run, with F_MV when MV is measured and `with_mv`;
+    /// [`Skip::NonFinitePrediction`] when the prediction's validation F_PV is not finite.
     fn fits(
         &self,
         (pred_id, pred_val): (f64, f64),
         (sim_id, sim_val): (f64, f64),
         mv: &[f64],
         run: RunInfo,
+        with_mv: bool,
     ) -> Result<Fits, Skip> {
         if !pred_val.is_finite() {
             return Err(Skip::NonFinitePrediction);
@@ -352,6 +357,7 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             mv: self
                 .problem
                 .mv
+                .filter(|_| with_mv)
                 .map(|m| linear_id::fit_mv(&m[k0..], &mv[k0..])),
             valid_from: k0,
             init_fell_back: run.fell_back,
