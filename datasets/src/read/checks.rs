@@ -444,6 +444,16 @@ pub(crate) fn check_time(
         .filter(|&i| t[i].partial_cmp(&t[i - 1]) != Some(std::cmp::Ordering::Greater))
         .collect();
     if let Some(&i) = bad.first() {
+        if let Some((fixed, rows)) = stamps::on_grid(&t) {
+            let repeats = bad.len();
+            notes.push(Note::new(NoteKind::Stamps, format!(
+                "column {name}: {} time stamp(s) one sampling interval off the regular grid of their neighbours, the first at row {} ({repeats} repeating the previous stamp): stamps written at a coarser resolution than the sampling, not reordered rows; read in file order on the grid",
+                rows.len(),
+                lines[rows[0]]
+            )));
+            columns[ti].values = fixed.iter().map(|&v| Some(v)).collect();
+            return check_time(file, gaps, columns, lines, notes);
+        }
         return Err(DataError::TimeNotIncreasing {
             file: file.to_string(),
             row: lines[i],
