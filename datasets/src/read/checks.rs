@@ -445,12 +445,7 @@ pub(crate) fn check_time(
         .collect();
     if let Some(&i) = bad.first() {
         if let Some((fixed, rows)) = stamps::on_grid(&t) {
-            let repeats = bad.len();
-            notes.push(Note::new(NoteKind::Stamps, format!(
-                "column {name}: {} time stamp(s) one sampling interval off the regular grid of their neighbours, the first at row {} ({repeats} repeating the previous stamp): stamps written at a coarser resolution than the sampling, not reordered rows; read in file order on the grid",
-                rows.len(),
-                lines[rows[0]]
-            )));
+            notes.push(stamps::note(&name, rows.len(), lines[rows[0]], bad.len()));
             columns[ti].values = fixed.iter().map(|&v| Some(v)).collect();
             return check_time(file, gaps, columns, lines, notes);
         }

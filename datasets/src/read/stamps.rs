@@ -17,6 +17,8 @@
 //! or a missing sample (the gap policy). Any other repeated or backward stamp refuses the
 //! record.
 
+use crate::{Note, NoteKind};
+
 /// The stamps of `t` with every stamp glitch put back on the grid, and the glitched rows (in
 /// file order); `None` when a repeated or backward stamp is not such a glitch.
 pub(crate) fn on_grid(t: &[f64]) -> Option<(Vec<f64>, Vec<usize>)> {
@@ -84,6 +86,17 @@ pub(crate) fn on_grid(t: &[f64]) -> Option<(Vec<f64>, Vec<usize>)> {
         .windows(2)
         .all(|w| w[1] > w[0])
         .then_some((fixed, rows))
+}
+
+/// The reader's note on `glitches` stamps of the time column `name` put back on the grid, the
+/// first at line `first` (header = 1), `repeats` of them repeating the previous stamp.
+pub(crate) fn note(name: &str, glitches: usize, first: u64, repeats: usize) -> Note {
+    Note::new(
+        NoteKind::Stamps,
+        format!(
+            "column {name}: {glitches} time stamp(s) one sampling interval off the regular grid of their neighbours, the first at row {first} ({repeats} repeating the previous stamp): stamps written at a coarser resolution than the sampling, not reordered rows; read in file order on the grid"
+        ),
+    )
 }
 
 #[cfg(test)]
