@@ -159,7 +159,11 @@ fn a_flat_record_is_not_called_sticky_and_says_why() {
 fn coarse_stamps_and_a_frozen_pv_get_an_answer() {
     let mut csv = String::from("t,SP,PV,OP,MODE\n");
     for k in 0..751usize {
-        let t = if k % 30 == 0 { 10 * k } else { 10 * (k + 1) };
+        let t = if k.is_multiple_of(30) {
+            10 * k
+        } else {
+            10 * (k + 1)
+        };
         let op = 40.0 + 5.0 * (k as f64 / 40.0).sin() + ((k * 37) % 11) as f64 * 0.01;
         csv.push_str(&format!("{t},50,3.503246E-44,{op},1\n"));
     }

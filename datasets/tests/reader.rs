@@ -450,7 +450,7 @@ fn stamps_one_interval_off_the_grid_are_read_on_it_with_a_note() {
     };
     // every tenth stamp repeats the previous one, and so does the last row's
     let glitched = |k: usize| {
-        if k % 10 == 0 && k > 0 || k == 39 {
+        if (k.is_multiple_of(10) && k > 0) || k == 39 {
             10.0 * (k - 1) as f64
         } else {
             10.0 * k as f64

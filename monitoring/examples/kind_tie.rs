@@ -30,6 +30,9 @@ struct Case {
     verdicts: [Verdict; 3],
 }
 
+/// Which loops a table row counts.
+type Keep = fn(&Case) -> bool;
+
 const RULES: [&str; 3] = ["once", "agree", "not-opposite"];
 
 fn case(set: &'static str, spec: &PopulationSpec, i: usize) -> Option<Case> {
@@ -164,7 +167,7 @@ fn main() {
             of.len()
         );
         println!("kind              loops  rule           right of conclusive (n)  inconclusive");
-        let kinds: [(&str, fn(&Case) -> bool); 3] = [
+        let kinds: [(&str, Keep); 3] = [
             ("self-regulating", |c| !c.integrating),
             ("integrating", |c| c.integrating),
             ("all", |_| true),

@@ -126,7 +126,7 @@ mod tests {
     fn ends_one_interval_off_count_only_with_the_glitch_inside() {
         // every stamp but one in ten one interval late, the first and last rows too
         let mut t: Vec<f64> = (0..31)
-            .map(|k| 10.0 * (k + usize::from(k % 10 != 0)) as f64)
+            .map(|k: usize| 10.0 * (k + usize::from(!k.is_multiple_of(10))) as f64)
             .collect();
         t[30] = t[29];
         let (fixed, rows) = on_grid(&t).unwrap();
