@@ -115,9 +115,10 @@ fn a_flat_record_is_not_called_sticky_and_says_why() {
             "OP is flat",
         ),
         (
+            // PV flat under a moving OP: a stuck valve or a frozen transmitter
             "PV flat",
-            record(&|_| 50.0, &|k| 30.0 + wiggle(k)),
-            "PV is flat",
+            record(&|_| 50.0, &|k| 30.0 + (k % 50) as f64 * 0.2),
+            "frozen transmitter",
         ),
     ] {
         // Read with a note, judged `inconclusive` with the reason, exit 0.
@@ -148,6 +149,51 @@ fn a_flat_record_is_not_called_sticky_and_says_why() {
     let q = run(&["quantify", "-"], half.as_bytes());
     assert_eq!(q.code, 1);
     assert_eq!(q.stderr.lines().count(), 1, "{}", q.stderr);
+}
+
+/// A historian export whose stamps are written at a coarser resolution than its 10 s sampling
+/// (every thirtieth stamp repeats the previous one and the next step, 20 s, restores the grid;
+/// the first and last rows one step off), with PV frozen under a moving OP: read on the grid
+/// with a one-line note, answered `inconclusive` with the reason, exit 0.
+#[test]
+fn coarse_stamps_and_a_frozen_pv_get_an_answer() {
+    let mut csv = String::from("t,SP,PV,OP,MODE\n");
+    for k in 0..751usize {
+        let t = if k.is_multiple_of(30) {
+            10 * k
+        } else {
+            10 * (k + 1)
+        };
+        let op = 40.0 + 5.0 * (k as f64 / 40.0).sin() + ((k * 37) % 11) as f64 * 0.01;
+        csv.push_str(&format!("{t},50,3.503246E-44,{op},1\n"));
+    }
+    let o = run(&["detect", "-"], csv.as_bytes());
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    let notes: Vec<&str> = o
+        .stderr
+        .lines()
+        .filter(|l| l.contains("time stamp"))
+        .collect();
+    assert_eq!(
+        notes,
+        ["note: -: column t: 26 time stamp(s) one sampling interval off the regular grid of their neighbours, the first at row 2 (25 repeating the previous stamp): stamps written at a coarser resolution than the sampling, not reordered rows; read in file order on the grid"]
+    );
+    let first = o.stdout.lines().next().unwrap_or_default();
+    assert!(first.starts_with("-: inconclusive"), "{first}");
+    assert!(
+        first.contains("a valve stuck that long and a frozen transmitter look the same"),
+        "{first}"
+    );
+    // the same stamps with one repeat that does not restore the grid: refused, as before
+    let dup = csv.replacen("\n3020,", "\n3010,", 1);
+    let o = run(&["detect", "-"], dup.as_bytes());
+    assert_eq!(o.code, 1, "{}", o.stdout);
+    assert!(
+        o.stderr
+            .starts_with("error: -: row 32, column t: time does not increase"),
+        "{}",
+        o.stderr
+    );
 }
 
 /// A slow self-regulating plant, PI 0.3/0.1, Kano S = 4, J = 1, constant set point: a limit

@@ -26,6 +26,9 @@ pub enum NoteKind {
     RowsInserted,
     /// Irregular sampling treated as uniform.
     Jitter,
+    /// Time stamps one sampling interval off the regular grid (written at a coarser
+    /// resolution than the sampling), read in file order on the grid.
+    Stamps,
     /// Flat stretches (historian compression or a frozen value).
     Flat,
     /// A column made of straight sloped segments with kinks between them: a historian's

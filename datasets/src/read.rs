@@ -13,6 +13,7 @@ use crate::{DataError, LoopData, Note, NoteKind};
 
 mod cells;
 mod checks;
+mod stamps;
 
 use cells::*;
 use checks::*;
@@ -266,9 +267,21 @@ pub fn read_csv(
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
     let mut records = rdr.records();
+    // Where a record starts (after CRLF the csv crate's position points at the `\n`, and its
+    // line count is one short): the line (header = 1) is counted from the bytes.
+    let start = |byte: u64| {
+        let b = (byte as usize).min(text.len());
+        b + usize::from(text.as_bytes().get(b) == Some(&b'\n'))
+    };
+    let line_at = |byte: u64| {
+        1 + text.as_bytes()[..start(byte)]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count() as u64
+    };
     let csv_err = |file: &str, e: csv::Error| DataError::Csv {
         file: file.to_string(),
-        row: e.position().map_or(0, |p| p.line()),
+        row: e.position().map_or(0, |p| line_at(p.byte())),
         message: e.to_string(),
     };
     let header = match records.next() {
@@ -292,9 +305,18 @@ pub fn read_csv(
     let mut time_kind: Option<TimeKind> = None;
     let mut decimal_commas = 0usize;
     let mut unread_pv: Option<DataError> = None;
+    let (mut seen, mut newlines) = (0usize, 0u64);
     for record in records {
         let record = record.map_err(|e| csv_err(&file, e))?;
-        let row = record.position().map_or(0, |p| p.line());
+        let row = record.position().map_or(0, |p| {
+            let byte = start(p.byte()).max(seen);
+            newlines += text.as_bytes()[seen..byte]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count() as u64;
+            seen = byte;
+            1 + newlines
+        });
         if header.len() > 1 && record.len() == 1 && record[0].is_empty() {
             continue; // a blank line
         }

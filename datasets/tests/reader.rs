@@ -263,7 +263,7 @@ fn gaps_dropped_keeps_the_longest_clean_segment() {
 }
 
 /// The real plant registrations in `../shared/data/plant` (skipped when absent): every file
-/// reads (FIC10112 is known bad data: a clear error is fine, a panic is not).
+/// reads (FIC10112 is known bad data, its PV constant: a clear error is fine, a panic is not).
 #[test]
 fn plant_data_reads() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/plant");
@@ -423,6 +423,58 @@ fn repeated_time_stamps_are_refused() {
     assert_eq!(
         message(read(text)),
         "loop.csv: row 4, column t: time does not increase (10 s after 10 s from the first sample); 1 repeated or backward time stamp(s): duplicated rows or a clock jump in the export, refused"
+    );
+    // the same row with CRLF line ends (the csv crate's own line count was one short)
+    assert_eq!(
+        message(read(&text.replace('\n', "\r\n"))),
+        message(read(text))
+    );
+}
+
+/// Stamps written at a coarser resolution than the sampling: a stamp repeating the previous one
+/// whose next step restores the grid (`40, 40, 60` at 10 s) is read in file order on the grid,
+/// with a note naming the first row and the count; a backward jump, or a repeat the next step
+/// does not restore, is refused naming file, row and column.
+#[test]
+fn stamps_one_interval_off_the_grid_are_read_on_it_with_a_note() {
+    let rows = |t: &dyn Fn(usize) -> f64| {
+        let mut text = String::from("t,PV,OP\n");
+        for k in 0..40 {
+            let (pv, op) = (
+                50.0 + (0.7 * k as f64).sin(),
+                40.0 + 3.0 * (1.3 * k as f64).cos(),
+            );
+            text.push_str(&format!("{},{pv},{op}\n", t(k)));
+        }
+        text
+    };
+    // every tenth stamp repeats the previous one, and so does the last row's
+    let glitched = |k: usize| {
+        if (k.is_multiple_of(10) && k > 0) || k == 39 {
+            10.0 * (k - 1) as f64
+        } else {
+            10.0 * k as f64
+        }
+    };
+    let d = read(&rows(&glitched)).unwrap();
+    let grid: Vec<f64> = (0..40).map(|k| 10.0 * k as f64).collect();
+    assert_eq!(d.t.as_deref(), Some(grid.as_slice()));
+    assert_eq!(d.len(), 40);
+    assert_eq!(
+        d.notes,
+        vec!["column t: 4 time stamp(s) one sampling interval off the regular grid of their neighbours, the first at row 12 (4 repeating the previous stamp): stamps written at a coarser resolution than the sampling, not reordered rows; read in file order on the grid"]
+    );
+    // a clock that jumps back five seconds
+    let back = |k: usize| 10.0 * k as f64 - if k == 20 { 15.0 } else { 0.0 };
+    assert_eq!(
+        message(read(&rows(&back))),
+        "loop.csv: row 22, column t: time does not increase (185 s after 190 s from the first sample); 1 repeated or backward time stamp(s): duplicated rows or a clock jump in the export, refused"
+    );
+    // a duplicated row: the stamp repeats and the grid goes on from it
+    let dup = |k: usize| 10.0 * k.saturating_sub(usize::from(k >= 20)) as f64;
+    assert_eq!(
+        message(read(&rows(&dup))),
+        "loop.csv: row 22, column t: time does not increase (190 s after 190 s from the first sample); 1 repeated or backward time stamp(s): duplicated rows or a clock jump in the export, refused"
     );
 }
 

@@ -523,14 +523,13 @@ impl<'a> Registration<'a> {
                 why: "the valve was never asked to move, so stiction cannot show",
             });
         }
-        if flat(self.pv) {
-            return Err(DetectionError::Flat {
-                signal: "PV",
-                why: "the measurement does not move (a dead or frozen transmitter?)",
-            });
-        }
         moves_enough(self.op)?;
-        let (start, run) = signal::longest_run(self.pv);
+        // PV flat throughout under a moving OP: the frozen run is the whole record
+        let (start, run) = if flat(self.pv) {
+            (0, n)
+        } else {
+            signal::longest_run(self.pv)
+        };
         if 2 * run > n {
             let (lo, hi) = self.op[start..start + run]
                 .iter()

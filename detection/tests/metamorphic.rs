@@ -1,24 +1,20 @@
 //! The same verdict however the record was exported: the first half of the rows, the second
 //! half, every second row, the file renamed without its tag letters, PV and SP in other units
 //! (scaled and offset), OP as a fraction of travel. Each variant is written as CSV and read as
-//! `stiction detect` reads it (the reader's units detection included), the loop kind decided
-//! from the record as `--integrating auto` decides it (a level's tag letter `L` breaking a
-//! tie); a variant may be `inconclusive` on less data, never the opposite verdict. Run on a
-//! simulated population (seeds of its own, never fitted on) and on the shared plant
+//! `stiction detect` reads it (the reader's units detection included) and judged as
+//! `stiction detect --integrating auto` judges it (`monitoring::detect_file`: the loop kind
+//! from the record, a level's tag letter `L` breaking a tie, and then a verdict only when both
+//! kinds give it); a variant may be `inconclusive` on less data, never the opposite verdict.
+//! Run on a simulated population (seeds of its own, never fitted on) and on the shared plant
 //! registrations (`../shared/data/plant`, skipped with a printed reason when absent).
-//! A renamed record whose loop kind the data do not decide is given the other kind (the tag
-//! breaks the tie); a flip there is printed and counted apart, not failed: the kind is the
-//! caller's to decide (`monitoring::Integrating::decide`).
 #![allow(clippy::unwrap_used)]
-
-mod common;
-use common::detect_read;
 
 use std::path::Path;
 
 use datasets::simulate::population::{Family, PopulationSpec};
 use datasets::ReadOptions;
 use detection::Verdict;
+use monitoring::Integrating;
 
 /// One record as exported: time (s), SP, PV, OP (% of travel).
 struct Record {
@@ -77,7 +73,7 @@ fn variants(r: &Record) -> Vec<(&'static str, Record)> {
 }
 
 /// The verdict `stiction detect` gives the record written as CSV and read back.
-fn verdict(r: &Record) -> Result<(Verdict, String, bool), String> {
+fn verdict(r: &Record) -> Result<(Verdict, String), String> {
     let mut csv = String::from(if r.sp.is_some() {
         "t,SP,PV,OP\n"
     } else {
@@ -94,26 +90,23 @@ fn verdict(r: &Record) -> Result<(Verdict, String, bool), String> {
         ..ReadOptions::default()
     };
     let d = datasets::read_csv(csv.as_bytes(), &r.name, &opts).map_err(|e| e.to_string())?;
-    let det = detect_read(&d, &r.name);
-    // whether the record decided the loop kind (else the tag letter did)
-    let by_data = detection::kind::evidence(d.require_pv().unwrap(), &d.op)
-        .and_then(|e| e.integrating)
-        .is_some();
+    let view = monitoring::detect_file(&d, Some(Path::new(&r.name)), Integrating::Auto);
+    let det = view
+        .detected
+        .detection()
+        .ok_or_else(|| view.detected.reason())?;
     Ok((
         det.verdict,
         format!("score {:.2}: {}", det.score, det.reason),
-        by_data,
     ))
 }
 
 /// Flips (`stiction` ↔ `no-stiction`) and unread variants over `records`, printed: `(flips,
-/// flips of a renamed record whose kind the data did not decide, unread, runs)`. Renaming
-/// changes what the detector is given only through the tag letter that breaks a tie of the
-/// loop kind (`monitoring::Integrating::decide`); such a flip is counted apart.
-fn flips(records: &[Record]) -> (usize, usize, usize, usize) {
-    let (mut flipped, mut tie, mut unread, mut runs) = (0, 0, 0, 0);
+/// unread, runs)`.
+fn flips(records: &[Record]) -> (usize, usize, usize) {
+    let (mut flipped, mut unread, mut runs) = (0, 0, 0);
     for r in records {
-        let Ok((base, why, decided)) = verdict(r) else {
+        let Ok((base, why)) = verdict(r) else {
             continue;
         };
         for (what, v) in variants(r) {
@@ -123,19 +116,12 @@ fn flips(records: &[Record]) -> (usize, usize, usize, usize) {
                     unread += 1;
                     println!("{}, {what}: not read: {e}", r.name);
                 }
-                Ok((got, got_why, _)) => {
-                    let flip = matches!(
+                Ok((got, got_why)) => {
+                    if matches!(
                         (base, got),
                         (Verdict::Stiction, Verdict::NoStiction)
                             | (Verdict::NoStiction, Verdict::Stiction)
-                    );
-                    if flip && what.starts_with("renamed") && !decided {
-                        tie += 1;
-                        println!(
-                            "{}, {what} (loop kind a tie, decided by the tag): {base} ({why}) -> {got} ({got_why})",
-                            r.name
-                        );
-                    } else if flip {
+                    ) {
                         flipped += 1;
                         println!("{}, {what}: {base} ({why}) -> {got} ({got_why})", r.name);
                     }
@@ -143,10 +129,8 @@ fn flips(records: &[Record]) -> (usize, usize, usize, usize) {
             }
         }
     }
-    println!(
-        "{runs} variant runs: {flipped} flips, {tie} flips of a renamed record through the tag's tie-break, {unread} not read"
-    );
-    (flipped, tie, unread, runs)
+    println!("{runs} variant runs: {flipped} flips, {unread} not read");
+    (flipped, unread, runs)
 }
 
 #[test]
@@ -175,7 +159,7 @@ fn the_verdict_does_not_flip_with_the_export_on_simulated_loops() {
             }
         })
         .collect();
-    let (flipped, _tie, unread, runs) = flips(&records);
+    let (flipped, unread, runs) = flips(&records);
     assert_eq!(runs, 24 * 6);
     assert_eq!(unread, 0);
     assert_eq!(flipped, 0);
@@ -202,7 +186,7 @@ fn the_verdict_does_not_flip_with_the_export_on_the_plant_data() {
             op: d.op.clone(),
         });
     }
-    let (flipped, _tie, unread, runs) = flips(&records);
+    let (flipped, unread, runs) = flips(&records);
     assert_eq!(runs, records.len() * 6);
     assert_eq!(unread, 0);
     assert_eq!(flipped, 0);

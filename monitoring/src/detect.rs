@@ -105,15 +105,55 @@ pub fn detect_loop(d: &LoopData, integrating: bool) -> Detected {
 }
 
 /// [`detect_loop`] with the loop kind as [`Integrating::decide`] decided it; the detection
-/// carries the decision's note (what decided the kind).
+/// carries the decision's note (what decided the kind) and, when the record did not decide
+/// the kind, holds only under both kinds ([`hold_across_kinds`]).
 pub fn detect_decided(d: &LoopData, kind: KindDecision) -> Detected {
     match try_detect(d, kind.integrating) {
-        Ok(mut det) => {
-            det.integrating_by = Some(kind.note());
-            Detected::Ran(det)
-        }
+        Ok(det) => Detected::Ran(hold_across_kinds(d, kind, det)),
         Err(e) => Detected::Failed(e),
     }
+}
+
+/// The detection `det` of the record `d` under the kind `kind` decided, with the decision's
+/// note. When the record does not decide the kind ([`KindDecision::undecided`]: the tag's
+/// letter or the default picked it), a verdict that depends on the kind is not supported by
+/// the data: the detector runs again under the other kind, and a conclusive verdict stands
+/// only when that reading does not give the opposite one; else the verdict is `inconclusive`
+/// with the reason. (The other reading may be `inconclusive`, as a part of the record may be
+/// in [`detection::score::settle`]: requiring the same verdict under both kinds was measured
+/// on the training population and left out, `docs/decisions/2026-11-27-kind-tie.md`.) The
+/// score, the tests and the fits stay those of the kind decided. So renaming a file (which
+/// changes only the tag letter) never turns `stiction` into `no-stiction`.
+pub fn hold_across_kinds(d: &LoopData, kind: KindDecision, mut det: Detection) -> Detection {
+    det.integrating_by = Some(kind.note());
+    let opposite = match det.verdict {
+        Verdict::Stiction => Verdict::NoStiction,
+        Verdict::NoStiction => Verdict::Stiction,
+        Verdict::Inconclusive => return det,
+    };
+    if !kind.undecided() {
+        return det;
+    }
+    let other = try_detect(d, !kind.integrating).map_or(Verdict::Inconclusive, |o| o.verdict);
+    if other == opposite {
+        let name = |integrating: bool| {
+            if integrating {
+                "integrating"
+            } else {
+                "self-regulating"
+            }
+        };
+        det.reason = format!(
+            "the record does not decide whether the loop is integrating, and the two readings disagree: {} as {} ({}), {} as {}",
+            det.verdict.as_str(),
+            name(kind.integrating),
+            det.reason,
+            other.as_str(),
+            name(!kind.integrating)
+        );
+        det.verdict = Verdict::Inconclusive;
+    }
+    det
 }
 
 /// What the detection figures draw, computed once on the registration the tests judged: the
@@ -136,12 +176,12 @@ pub struct DetectionView {
     pub figures: Result<DetectionFigures, String>,
 }
 
-/// [`detect_decided`] with the figures of the registration the tests judged.
+/// [`detect_decided`] with the figures of the registration the tests judged (those of the
+/// kind decided).
 pub fn detect_view(d: &LoopData, kind: KindDecision) -> DetectionView {
     match registration(d, kind.integrating) {
         Ok(reg) => {
-            let mut det = detection::detect(&reg);
-            det.integrating_by = Some(kind.note());
+            let det = hold_across_kinds(d, kind, detection::detect(&reg));
             DetectionView {
                 detected: Detected::Ran(det),
                 figures: Ok(figures_of(&reg)),

@@ -71,12 +71,20 @@ impl KindDecision {
                 if self.integrating { "rate" } else { "level" }
             ),
             KindSource::Tag => format!(
-                "{kind}: the record does not decide{ratio}; the tag's letter L decided"
+                "{kind}: the record does not decide{ratio}; the tag's letter L decided for S and the fits, and a verdict stands only when the other kind does not give the opposite"
             ),
             KindSource::Default => format!(
-                "{kind}: the record does not decide{ratio} and the tag is not a level's; the default"
+                "{kind}: the record does not decide{ratio} and the tag is not a level's; the default for S and the fits, and a verdict stands only when the other kind does not give the opposite"
             ),
         }
+    }
+
+    /// Whether the record left the kind undecided (the tag's letter or the default picked it
+    /// under `--integrating auto`): a verdict that depends on the kind is then not supported
+    /// by the data, so the detector's verdict must hold under both kinds
+    /// ([`crate::detect`]).
+    pub fn undecided(&self) -> bool {
+        matches!(self.by, KindSource::Tag | KindSource::Default)
     }
 }
 

@@ -444,6 +444,11 @@ pub(crate) fn check_time(
         .filter(|&i| t[i].partial_cmp(&t[i - 1]) != Some(std::cmp::Ordering::Greater))
         .collect();
     if let Some(&i) = bad.first() {
+        if let Some((fixed, rows)) = stamps::on_grid(&t) {
+            notes.push(stamps::note(&name, rows.len(), lines[rows[0]], bad.len()));
+            columns[ti].values = fixed.iter().map(|&v| Some(v)).collect();
+            return check_time(file, gaps, columns, lines, notes);
+        }
         return Err(DataError::TimeNotIncreasing {
             file: file.to_string(),
             row: lines[i],
