@@ -1,7 +1,8 @@
 //! OP in unknown units (6000-9000, not integers, not 0-1 or 0-100): the valve span is unknown,
 //! so every output prints S in % of the OP range seen, never with a bare `%`, and judges it
 //! against no threshold in % of valve span. One test per output; each failed on the code that
-//! printed `S = 48.10 %` and `schedule valve maintenance` for such a record.
+//! printed `S = 48.10 %` and `schedule valve maintenance` for such a record, and the report
+//! pages' checks of their figures on the code that labelled them in % of valve span.
 #![allow(clippy::unwrap_used)]
 
 mod common;
@@ -66,8 +67,30 @@ fn without_figures(html: &str) -> String {
     out
 }
 
-/// The text of the `index.html` of `stiction ARGS --report DIR` on the record (figures left
-/// out).
+/// The figures of `html` (inline SVGs and captions) give OP, MV, S and J in % of the OP range
+/// seen, never in % of valve span.
+fn figures_in_range_seen(what: &str, html: &str) {
+    let figures: Vec<&str> = html
+        .split("<figure")
+        .skip(1)
+        .map(|f| f.split("</figure>").next().unwrap_or(""))
+        .collect();
+    assert!(!figures.is_empty(), "{what}: no figure");
+    let all = figures.concat();
+    assert!(
+        all.contains("(% of the OP range seen)"),
+        "{what}: no figure labelled {UNIT:?}"
+    );
+    if let Some(i) = all.find("valve span") {
+        let from = all[..i].char_indices().rev().nth(80).map_or(0, |(j, _)| j);
+        panic!(
+            "{what}: a figure in % of valve span: ...{}",
+            &all[from..i + 10]
+        );
+    }
+}
+
+/// The `index.html` of `stiction ARGS --report DIR` on the record.
 fn page(name: &str, args: &[&str]) -> String {
     let dir = temp_dir(&format!("units-{name}"));
     let out = dir.join("report");
@@ -76,7 +99,7 @@ fn page(name: &str, args: &[&str]) -> String {
     run_ok(&all, record().as_bytes());
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
-    without_figures(&html)
+    html
 }
 
 /// The lines of `text` that start with `prefix` (after indentation).
@@ -105,7 +128,8 @@ fn quantify_text_and_json() {
 #[test]
 fn quantify_report_page() {
     let html = page("quantify", &["quantify", "-", "--step", "0.5"]);
-    no_percent_threshold("quantify --report", &html);
+    no_percent_threshold("quantify --report", &without_figures(&html));
+    figures_in_range_seen("quantify --report", &html);
 }
 
 #[test]
@@ -114,7 +138,8 @@ fn compare_report_page() {
         "compare",
         &["compare", "-", "--step", "0.5", "--linear", "arx"],
     );
-    no_percent_threshold("compare --report", &html);
+    no_percent_threshold("compare --report", &without_figures(&html));
+    figures_in_range_seen("compare --report", &html);
 }
 
 #[test]
@@ -134,6 +159,8 @@ fn diagnose_action_answer_and_json() {
 #[test]
 fn diagnose_report_page() {
     let html = page("diagnose", &["diagnose", "-", "--step", "0.5"]);
+    figures_in_range_seen("diagnose --report", &html);
+    let html = without_figures(&html);
     // the page's first section: the action and the answer (the step-by-step summary after
     // it is the diagnosis' own account)
     let verdict = html.split("How the diagnosis reached this").next().unwrap();
@@ -146,5 +173,6 @@ fn detect_text_and_report_page() {
     let o = run_ok(&["detect", "-"], record().as_bytes());
     no_percent_threshold("detect", &lines_with(&o.stdout, "answer:"));
     let html = page("detect", &["detect", "-"]);
-    no_percent_threshold("detect --report", &html);
+    no_percent_threshold("detect --report", &without_figures(&html));
+    figures_in_range_seen("detect --report", &html);
 }

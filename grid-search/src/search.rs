@@ -733,6 +733,7 @@ fn prepare<'a, I: LinearIdentifier + ?Sized>(
             val.iter().map(|v| (v - mean) * (v - mean)).sum()
         },
         gram_count: [AtomicUsize::new(0), AtomicUsize::new(0)],
+        output: std::sync::OnceLock::new(),
     };
     Ok(Prepared {
         ctx,

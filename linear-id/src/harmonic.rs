@@ -99,27 +99,32 @@ impl Harx {
 
 thread_local! {
     /// The notch's transient `(ρ^k cos ωk, ρ^k sin ωk)` for `k = 0, 1, ...` at the frequency
-    /// of the last HARX solved on this thread: a grid search solves thousands of regressions
-    /// at one ω, and one sine, cosine and power per row were most of each (a disturbance +
-    /// dead-time diagnosis: 14 % of its CPU time).
+    /// of the last HARX solved by QR on this thread (a function of ω alone, no data): a grid
+    /// search solves thousands of regressions at one ω, and one sine, cosine and power per
+    /// row were most of each (a disturbance + dead-time diagnosis: 14 % of its CPU time). The
+    /// batches take it from the prepared output instead (`harmonic_sums.rs`).
     static TRANSIENT: std::cell::RefCell<(u64, Vec<(f64, f64)>)> =
         const { std::cell::RefCell::new((0, Vec::new())) };
 }
 
-/// Run `f` on the transient pairs `k = 0..len` at frequency `omega` (pole radius `rho`), each
-/// computed as `(ρ.powf(k) · cos ωk, ρ.powf(k) · sin ωk)`, cached per thread.
+/// The notch's transient pair `(ρ^k cos ωk, ρ^k sin ωk)` at frequency `omega` (pole radius
+/// `rho`), computed as `(ρ.powf(k) · cos ωk, ρ.powf(k) · sin ωk)`.
+pub(crate) fn transient_pair(omega: f64, rho: f64, k: usize) -> (f64, f64) {
+    let k = k as f64;
+    let decay = rho.powf(k);
+    let (sn, cs) = (omega * k).sin_cos();
+    (decay * cs, decay * sn)
+}
+
+/// Run `f` on the transient pairs `k = 0..len` at frequency `omega` (pole radius `rho`,
+/// [`transient_pair`]), cached per thread.
 pub(crate) fn with_transient<R>(
     omega: f64,
     rho: f64,
     len: usize,
     f: impl FnOnce(&[(f64, f64)]) -> R,
 ) -> R {
-    let pair = |k: usize| {
-        let k = k as f64;
-        let decay = rho.powf(k);
-        let (sn, cs) = (omega * k).sin_cos();
-        (decay * cs, decay * sn)
-    };
+    let pair = |k: usize| transient_pair(omega, rho, k);
     TRANSIENT.with(|cell| match cell.try_borrow_mut() {
         Ok(mut cache) => {
             let (key, pairs) = &mut *cache;
@@ -211,6 +216,15 @@ crate::linear_identifier! {
             // strictly more equations than the regression's n + m + 3 unknowns (intercept and
             // the notch's transient pair)
             self.n.max(self.m + self.delay) + self.n + self.m + 4
+        }
+        /// The notch's step response and transient over the record, and the output's side of
+        /// the normal equations per identification window as batches ask for it
+        /// (`harmonic_sums.rs`).
+        fn prepare(&self, y: &[f64]) -> Result<crate::PreparedOutput, IdError> {
+            Ok(crate::PreparedOutput::with_cache(
+                y,
+                Box::new(crate::harmonic_sums::HarxOutput::new(self, y)),
+            ))
         }
         crate::declare::identify_from_bare!(fit_bare, many |this, batch| {
             crate::harmonic_sums::identify_predict_many(this, batch)

@@ -9,8 +9,10 @@
 //! change from one input to the next; the n output columns, the intercept, the transient pair
 //! and the target are the same for every input whose window starts at the same sample. So:
 //!
-//! 1. per window (cached per thread, keyed by the identifier and the window's output samples
-//!    compared exactly): the filtered output and the products of its columns;
+//! 1. per output record, once ([`crate::LinearIdentifier::prepare`], [`HarxOutput`]): the
+//!    notch's step response and transient pair; per window (built when a batch first asks for
+//!    it, then kept with the prepared output): the output's checks, the filtered output and the
+//!    products of its columns;
 //! 2. per input: its filtered columns' products with every column (m (n + m + 4) dot
 //!    products), the unit-diagonal Gram matrix's Cholesky factor, and one step of iterative
 //!    refinement from the residual over the rows (the normal equations square the condition
@@ -20,9 +22,9 @@
 //! The one-step prediction over the record follows from the same filtered signals: HARX's
 //! predictor (`LinearFit::predict_core`) filters the input and output again, centred by the
 //! fit's operating point `(u_op, y_op)` instead of the window means, and
-//! `L (y - y_op) = L (y - ym) - (y_op - ym) L 1`: the output's filtered record and the notch's
-//! step response `L 1` are kept with the window, the input's is filtered once over the record
-//! (its window part is the regression's), and the prediction is one pass.
+//! `L (y - y_op) = L (y - ym) - (y_op - ym) L 1`: the output's filtered record is kept with the
+//! window and the notch's step response `L 1` with the record, the input's is filtered once
+//! over the record (its window part is the regression's), and the prediction is one pass.
 //!
 //! As in `arx_sums.rs`, the solve is only trusted when every pivot of the scaled Cholesky
 //! factor is at least [`crate::GRAM_PIVOT_TOL`] (a QR pivot of 1e-2, eight decades above the QR's own
@@ -34,11 +36,12 @@
 // Dense small-matrix code reads best with index loops.
 #![allow(clippy::needless_range_loop)]
 
-use std::cell::RefCell;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use crate::arx_sums::{cholesky_in_place, cholesky_solve, MAX_COLS};
-use crate::error::check_data;
-use crate::harmonic::{notch_filter, pole_radius, with_transient};
+use crate::error::{check_shared, OutputChecks};
+use crate::harmonic::{notch_filter, pole_radius, transient_pair};
 use crate::la::{dot, sum};
 use crate::{mean, Harx, IdError, Identified, LinearFit, LinearIdentifier, Structure};
 
@@ -47,34 +50,46 @@ use crate::{mean, Harx, IdError, Identified, LinearFit, LinearIdentifier, Struct
 /// `n+m+2` the transient pair, `n+m+3` the target.
 type Gram = [[f64; MAX_COLS + 1]; MAX_COLS + 1];
 
-/// Windows kept per thread (a search's nodes start at a few samples, where their valves'
-/// initial states washed out).
-const CACHED_WINDOWS: usize = 8;
+/// What HARX's [`LinearIdentifier::prepare`] computes from the output record alone (the
+/// cache of its [`crate::PreparedOutput`]): the notch's step response and transient over the
+/// record, and per identification window the output's block, built when a batch first asks
+/// for that window and kept for the whole search (its nodes start at the few samples where
+/// their valves' initial states washed out).
+pub(crate) struct HarxOutput {
+    /// The orders and frequency (bits) it was prepared for.
+    key: (usize, usize, usize, u64),
+    /// The last sample of the record that is not finite.
+    last_non_finite: Option<usize>,
+    /// The notch's step response `L 1` from a zero state, as long as the record (from any
+    /// window's first sample: the filter starts from a zero state there).
+    step: Vec<f64>,
+    /// The notch's transient pair `(ρ^k cos ωk, ρ^k sin ωk)` for `k = 0..len`, `k` counted from
+    /// the window's first sample.
+    tc: Vec<f64>,
+    ts: Vec<f64>,
+    /// The output's blocks by window `(first sample, length)`.
+    windows: Mutex<HashMap<(usize, usize), Arc<OutputBlock>>>,
+}
+
+/// The output's side of one identification window.
+struct OutputBlock {
+    /// The checks of the window's output (`check_shared` with each input).
+    checks: OutputChecks,
+    /// The output's side of the normal equations, when the window can take the sums path.
+    sums: Option<WindowSums>,
+}
 
 /// The output's side of the normal equations on one identification window.
-struct OutputBlock {
-    /// The identifier's orders and frequency (bits) the block was built for.
-    key: (usize, usize, usize, u64),
-    /// The output from the window's first sample to the record's end.
-    y: Vec<f64>,
-    /// The identification window's length (`y[..window]`).
+struct WindowSums {
+    /// The identification window's length.
     window: usize,
     /// The output's window mean.
     ym: f64,
     /// `L (y - ym)` over the record from the window's first sample.
     yf: Vec<f64>,
-    /// The notch's step response `L 1` from a zero state, as long.
-    step: Vec<f64>,
-    /// The transient pair over the rows.
-    tc: Vec<f64>,
-    ts: Vec<f64>,
     /// The products among the output's columns (every entry whose both indices are outside
     /// `n..n+m`).
     g: Gram,
-}
-
-thread_local! {
-    static BLOCKS: RefCell<Vec<std::rc::Rc<OutputBlock>>> = const { RefCell::new(Vec::new()) };
 }
 
 /// One column over the rows.
@@ -92,118 +107,125 @@ fn product(a: Col<'_>, b: Col<'_>, rows: usize) -> f64 {
     }
 }
 
-impl OutputBlock {
-    /// Column `p` over the rows (`uf`: the filtered input, for `n..n+m`).
-    fn col<'a>(&'a self, h: &Harx, uf: &'a [f64], p: usize) -> Col<'a> {
+fn key_of(h: &Harx) -> (usize, usize, usize, u64) {
+    let (n, m, delay) = h.orders_tuple();
+    (n, m, delay, h.omega().to_bits())
+}
+
+impl HarxOutput {
+    /// The record-wide part for `h` and the output record `y`.
+    pub(crate) fn new(h: &Harx, y: &[f64]) -> HarxOutput {
+        let (omega, rho) = (h.omega(), pole_radius(h.omega()));
+        let (tc, ts) = (0..y.len()).map(|k| transient_pair(omega, rho, k)).unzip();
+        HarxOutput {
+            key: key_of(h),
+            last_non_finite: y.iter().rposition(|v| !v.is_finite()),
+            step: notch_filter(&vec![1.0; y.len()], 0.0, omega),
+            tc,
+            ts,
+            windows: Mutex::new(HashMap::new()),
+        }
+    }
+
+    /// The block of the window `y[..window]`, `y` the record from the window's first sample
+    /// `start`: from the map, or built (and kept).
+    fn block(&self, h: &Harx, start: usize, y: &[f64], window: usize) -> Arc<OutputBlock> {
+        let key = (start, window);
+        let map = || self.windows.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(b) = map().get(&key) {
+            return b.clone();
+        }
+        // built outside the lock; a block built twice at once is the same bits
+        let b = Arc::new(self.build(h, start, y, window));
+        map().entry(key).or_insert(b).clone()
+    }
+
+    fn build(&self, h: &Harx, start: usize, y: &[f64], window: usize) -> OutputBlock {
+        let (n, m, _) = h.orders_tuple();
+        let checks = OutputChecks::of(&y[..window]);
+        // the sums path needs orders within the Gram's size, a window long enough and a
+        // finite record from the window on (the prediction runs over all of it); a window
+        // whose output the checks refuse never gets to use it
+        let usable = n + m + 3 <= MAX_COLS
+            && window >= h.min_samples()
+            && self.last_non_finite.is_none_or(|i| i < start);
+        OutputBlock {
+            sums: usable.then(|| self.window_sums(h, y, window)),
+            checks,
+        }
+    }
+
+    /// Column `p` over the rows of `sums`'s window (`uf`: the filtered input, for `n..n+m`).
+    fn col<'a>(&'a self, sums: &'a WindowSums, h: &Harx, uf: &'a [f64], p: usize) -> Col<'a> {
         let (n, m, delay) = h.orders_tuple();
         let n0 = n.max(m + delay);
-        let len = self.window;
+        let len = sums.window;
         if p < n {
-            Col::Data(&self.yf[n0 - p - 1..len - p - 1])
+            Col::Data(&sums.yf[n0 - p - 1..len - p - 1])
         } else if p < n + m {
             let lag = delay + p - n + 1;
             Col::Data(&uf[n0 - lag..len - lag])
         } else if p == n + m {
             Col::Ones
         } else if p == n + m + 1 {
-            Col::Data(&self.tc)
+            Col::Data(&self.tc[n0..len])
         } else if p == n + m + 2 {
-            Col::Data(&self.ts)
+            Col::Data(&self.ts[n0..len])
         } else {
-            Col::Data(&self.yf[n0..len])
+            Col::Data(&sums.yf[n0..len])
         }
     }
 
-    /// The block of the output `y` (from the window's first sample to the record's end) and
-    /// the window `y[..window]`.
-    fn build(h: &Harx, y: &[f64], window: usize) -> OutputBlock {
+    /// The output's side of the normal equations of the output `y` (from the window's first
+    /// sample to the record's end) and the window `y[..window]`.
+    fn window_sums(&self, h: &Harx, y: &[f64], window: usize) -> WindowSums {
         let (n, m, delay) = h.orders_tuple();
         let n0 = n.max(m + delay);
         let ym = mean(&y[..window]);
-        let yf = notch_filter(y, ym, h.omega());
-        let step = notch_filter(&vec![1.0; y.len()], 0.0, h.omega());
-        let rows = window - n0;
-        let (tc, ts) = with_transient(h.omega(), pole_radius(h.omega()), window, |tr| {
-            tr[n0..].iter().copied().unzip()
-        });
-        let mut block = OutputBlock {
-            key: key_of(h),
-            y: y.to_vec(),
+        let mut sums = WindowSums {
             window,
             ym,
-            yf,
-            step,
-            tc,
-            ts,
+            yf: notch_filter(y, ym, h.omega()),
             g: [[0.0; MAX_COLS + 1]; MAX_COLS + 1],
         };
+        let rows = window - n0;
         let d = n + m + 3;
         let outside: Vec<usize> = (0..n).chain(n + m..=d).collect();
-        let mut g = block.g;
+        let mut g = sums.g;
         for (i, &p) in outside.iter().enumerate() {
             for &q in &outside[i..] {
-                let v = product(block.col(h, &[], p), block.col(h, &[], q), rows);
+                let v = product(self.col(&sums, h, &[], p), self.col(&sums, h, &[], q), rows);
                 g[p][q] = v;
                 g[q][p] = v;
             }
         }
-        block.g = g;
-        block
+        sums.g = g;
+        sums
     }
 }
 
-fn key_of(h: &Harx) -> (usize, usize, usize, u64) {
-    let (n, m, delay) = h.orders_tuple();
-    (n, m, delay, h.omega().to_bits())
-}
-
-/// The output block of `y` and `window` for `h`, from the thread's cache or built (and
-/// cached).
-fn output_block(h: &Harx, y: &[f64], window: usize) -> std::rc::Rc<OutputBlock> {
-    BLOCKS.with(|cell| {
-        let mut blocks = cell.borrow_mut();
-        let key = key_of(h);
-        let same = |b: &OutputBlock| {
-            b.key == key
-                && b.window == window
-                && b.y.len() == y.len()
-                && b.y.iter().zip(y).all(|(a, c)| a.to_bits() == c.to_bits())
-        };
-        if let Some(i) = blocks.iter().position(|b| same(b)) {
-            let b = blocks.remove(i);
-            blocks.push(b.clone());
-            return b;
-        }
-        let b = std::rc::Rc::new(OutputBlock::build(h, y, window));
-        if blocks.len() >= CACHED_WINDOWS {
-            blocks.remove(0);
-        }
-        blocks.push(b.clone());
-        b
-    })
-}
-
-/// The fit of `h` on the window `(u[..window], y[..window])` (checked by `check_data`) from
-/// the normal equations, and its one-step prediction of `y` (all of it) in `out`; `None` when
-/// the solve is not trusted or the prediction not finite (module documentation).
+/// The fit of `h` on the window `(u[..window], y[..window])` (checked by `check_shared`) from
+/// the normal equations, the output's side from `sums` (of `prepared`), and its one-step
+/// prediction of `y` (all of it) in `out`; `None` when the solve is not trusted or the
+/// prediction not finite (module documentation).
 fn fit_from_sums(
     h: &Harx,
+    (prepared, sums): (&HarxOutput, &WindowSums),
     (u, y): (&[f64], &[f64]),
     window: usize,
     out: &mut [f64],
 ) -> Option<LinearFit> {
     let (n, m, delay) = h.orders_tuple();
     let d = n + m + 3;
-    if d > MAX_COLS || !(crate::la::all_finite(u) && crate::la::all_finite(y)) {
+    if !crate::la::all_finite(u) {
         return None;
     }
     let n0 = n.max(m + delay);
-    let block = output_block(h, y, window);
     let rows = window - n0;
     let um = mean(&u[..window]);
     let uf = notch_filter(u, um, h.omega());
-    let col = |p: usize| block.col(h, &uf, p);
-    let mut g = block.g;
+    let col = |p: usize| prepared.col(sums, h, &uf, p);
+    let mut g = sums.g;
     for p in n..n + m {
         for q in 0..=d {
             let v = product(col(p), col(q), rows);
@@ -268,30 +290,30 @@ fn fit_from_sums(
         c: vec![1.0],
         delay,
     };
-    let fit = h.folded(structure, x[n + m], (um, block.ym));
+    let fit = h.folded(structure, x[n + m], (um, sums.ym));
     let (u_op, y_op) = fit.means();
     predict(
         &x[..n + m],
         (n, delay),
         (&uf, u_op - um),
-        &block,
-        (y_op - block.ym, out),
+        (y, &sums.yf, &prepared.step),
+        (y_op - sums.ym, out),
     )?;
     Some(fit)
 }
 
 /// The one-step prediction `out = y - e`, `e(t) = A(q) L(y - y_op)(t) - B(q) L(u - u_op)(t)`
 /// (lags before the first sample 0), from `L(u - um)`, `L(y - ym)` and the step response
-/// (module documentation); `x` holds `a_1..a_n, b_1..b_m`, `du = u_op - um`, `dy = y_op - ym`.
-/// `None` when a prediction is not finite.
+/// (module documentation) of `y`, `L (y - ym)` and `L 1` from the window's first sample; `x`
+/// holds `a_1..a_n, b_1..b_m`, `du = u_op - um`, `dy = y_op - ym`. `None` when a prediction is
+/// not finite.
 fn predict(
     x: &[f64],
     (n, delay): (usize, usize),
     (uf, du): (&[f64], f64),
-    block: &OutputBlock,
+    (y, yf, step): (&[f64], &[f64], &[f64]),
     (dy, out): (f64, &mut [f64]),
 ) -> Option<()> {
-    let (y, yf, step) = (&block.y, &block.yf, &block.step);
     let yc = |k: usize| yf[k] - dy * step[k];
     let uc = |k: usize| uf[k] - du * step[k];
     for (t, o) in out.iter_mut().enumerate() {
@@ -313,15 +335,30 @@ fn predict(
 /// [`crate::LinearIdentifier::identify_predict_many`] of HARX: each input's fit on its
 /// identification window from the normal equations (module documentation), or by the QR where
 /// they are not trusted, then its one-step prediction over the record and the diagnostics from
-/// that prediction's identification window, as `crate::predict_many_from_bare`.
+/// that prediction's identification window, as `crate::predict_many_from_bare`. The output's
+/// side comes from the batch's prepared output ([`HarxOutput`]); an output prepared otherwise
+/// (e.g. [`crate::PreparedOutput::plain`], or for other orders) gets its own for this batch.
 pub(crate) fn identify_predict_many(
     h: &Harx,
     batch: crate::Batch<'_>,
 ) -> Vec<Result<Identified, IdError>> {
-    crate::predict_many_with(batch, |(u, y), window, out| {
+    let own;
+    let prepared = match batch.output.cache::<HarxOutput>() {
+        Some(p) if p.key == key_of(h) => p,
+        _ => {
+            own = HarxOutput::new(h, batch.output.y());
+            &own
+        }
+    };
+    crate::predict_many_with(batch, |start, (u, y), window, out| {
+        let block = prepared.block(h, start, y, window);
         let (uw, yw) = (&u[..window], &y[..window]);
-        check_data(uw, yw, h.min_samples())?;
-        Ok(match fit_from_sums(h, (u, y), window, out) {
+        check_shared(uw, &block.checks, h.min_samples())?;
+        let from_sums = block
+            .sums
+            .as_ref()
+            .and_then(|sums| fit_from_sums(h, (prepared, sums), (u, y), window, out));
+        Ok(match from_sums {
             Some(fit) => (fit, Ok(())),
             None => {
                 let fit = h.fit_bare(uw, yw)?;

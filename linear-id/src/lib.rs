@@ -130,9 +130,13 @@
 //!
 //! # Grid-search reuse
 //!
-//! [`LinearIdentifier::prepare`] / [`LinearIdentifier::identify_prepared`] precompute what
-//! depends only on PV (ARX: the centered output); ARX's regression buffer is thread-local, so
-//! repeated identifications do not allocate it again.
+//! [`LinearIdentifier::prepare`] computes what depends only on PV once per search, for
+//! [`LinearIdentifier::identify_prepared`] (ARX: the centered output) and for the batches of
+//! [`LinearIdentifier::identify_predict_many`] ([`Batch::output`]; HARX: the notch's step
+//! response and transient, and per identification window the filtered output and the
+//! products of its regression columns). Thread-local state holds scratch buffers only (the
+//! least-squares buffer, the SIMD lanes' buffers) and HARX's table of the notch's transient
+//! at the last frequency solved (a function of ω alone).
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -211,7 +215,9 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
     fn identify(&self, u: &[f64], y: &[f64]) -> Result<LinearFit, IdError>;
 
     /// Precompute what depends only on `y`, for repeated identification with different
-    /// inputs and the same output (one call per grid search).
+    /// inputs and the same output (one call per grid search): for
+    /// [`LinearIdentifier::identify_prepared`] and the batches of
+    /// [`LinearIdentifier::identify_predict_many`].
     fn prepare(&self, y: &[f64]) -> Result<PreparedOutput, IdError> {
         Ok(PreparedOutput::plain(y))
     }
@@ -226,8 +232,8 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
         self.identify(u, prepared.y())
     }
 
-    /// For each input `(start, u)` of the batch (`u` as long as `y`):
-    /// [`LinearIdentifier::identify`] on `(u[start..split], y[start..split])`, then
+    /// For each input `(start, u)` of the batch (`u` as long as `y`, the output record
+    /// `batch.output.y()`): [`LinearIdentifier::identify`] on `(u[start..split], y[start..split])`, then
     /// [`LinearFit::predict_one_step_into`] over `(u[start..], y[start..])` into the matching
     /// buffer of `outs` (resized to `y.len() - start`), whatever the fit's stability (`split`
     /// and `start` are clamped to the length). Grid searches call it with the nodes that share
@@ -237,7 +243,7 @@ pub trait LinearIdentifier: Send + Sync + fmt::Debug {
     /// and PARSIM-K take the fit's diagnostics from the prediction's identification window
     /// instead of predicting that window twice.
     fn identify_predict_many(&self, batch: Batch<'_>) -> Vec<Result<Identified, IdError>> {
-        let (inputs, y, split, outs) = (batch.inputs, batch.y, batch.split, batch.outs);
+        let (inputs, y, split, outs) = (batch.inputs, batch.output.y(), batch.split, batch.outs);
         inputs
             .iter()
             .zip(outs.iter_mut())
@@ -296,13 +302,16 @@ pub struct Identified {
 }
 
 /// The inputs of [`LinearIdentifier::identify_predict_many`]: the MV records `(start, u)` that
-/// share one output record `y`, and a prediction buffer for each.
+/// share one output record, and a prediction buffer for each.
 #[derive(Debug)]
 pub struct Batch<'a> {
-    /// The inputs `(start, u)`, each `u` as long as `y`, fit from sample `start`.
+    /// The inputs `(start, u)`, each `u` as long as the output, fit from sample `start`.
     pub inputs: &'a [(usize, &'a [f64])],
-    /// The output record.
-    pub y: &'a [f64],
+    /// The output record (`output.y()`) with what the identifier's
+    /// [`LinearIdentifier::prepare`] computed from it once for all the batches of a search
+    /// (any other [`PreparedOutput`] of the same record, e.g. [`PreparedOutput::plain`], gives
+    /// the same results, computing that part batch by batch).
+    pub output: &'a PreparedOutput,
     /// The end of the identification windows (clamped to `y.len()`).
     pub split: usize,
     /// One buffer per input, for its one-step prediction from its start.
@@ -334,20 +343,22 @@ pub(crate) fn predict_many_from_bare(
     batch: Batch<'_>,
     fit_bare: impl Fn(&[f64], &[f64]) -> Result<LinearFit, IdError>,
 ) -> Vec<Result<Identified, IdError>> {
-    predict_many_with(batch, |(u, y), window, out| {
+    predict_many_with(batch, |_, (u, y), window, out| {
         let fit = fit_bare(&u[..window], &y[..window])?;
         let predicted = fit.predict_one_step_into(u, y, out);
         Ok((fit, predicted))
     })
 }
 
-/// [`predict_many_from_bare`] with `fit_predict((u, y), window, out)` giving each input's fit
-/// on `(u[..window], y[..window])` and its one-step prediction of all of `y` in `out` (with
-/// the outcome [`LinearFit::predict_one_step_into`] gives).
+/// [`predict_many_from_bare`] with `fit_predict(start, (u, y), window, out)` giving each
+/// input's fit on `(u[..window], y[..window])` (`u` and `y` from the input's clamped `start`)
+/// and its one-step prediction of all of `y` in `out` (with the outcome
+/// [`LinearFit::predict_one_step_into`] gives).
 #[allow(clippy::type_complexity)]
 pub(crate) fn predict_many_with(
     batch: Batch<'_>,
     fit_predict: impl Fn(
+        usize,
         (&[f64], &[f64]),
         usize,
         &mut [f64],
@@ -355,10 +366,11 @@ pub(crate) fn predict_many_with(
 ) -> Vec<Result<Identified, IdError>> {
     let Batch {
         inputs,
-        y,
+        output,
         split,
         outs,
     } = batch;
+    let y = output.y();
     inputs
         .iter()
         .zip(outs.iter_mut())
@@ -367,7 +379,7 @@ pub(crate) fn predict_many_with(
             let start = input_start(start, u, y, split)?;
             out.resize(y.len() - start, 0.0);
             let (u, y) = (&u[start..], &y[start..]);
-            let (fit, predicted) = fit_predict((u, y), split - start, out)?;
+            let (fit, predicted) = fit_predict(start, (u, y), split - start, out)?;
             fit.diagnose_from_prediction((u, y), split - start, out, predicted)
         })
         .collect()

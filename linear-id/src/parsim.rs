@@ -823,7 +823,7 @@ crate::linear_identifier! {
             &self,
             batch: crate::Batch<'_>,
         ) -> Vec<Result<crate::Identified, IdError>> {
-            let (inputs, y, outs) = (batch.inputs, batch.y, batch.outs);
+            let (inputs, y, outs) = (batch.inputs, batch.output.y(), batch.outs);
             let split = batch.split.min(y.len());
             // the output's scaling and self-products, once per identification window
             let mut outputs: Vec<(usize, Output)> = Vec::new();

@@ -55,9 +55,10 @@ pub(crate) fn identify_predict_many_matches(id: &dyn crate::LinearIdentifier, n:
     let refs: Vec<(usize, &[f64])> = inputs.iter().map(|(s, u)| (*s, u.as_slice())).collect();
     let split = 600;
     let mut outs = vec![Vec::new(); n];
+    let output = id.prepare(&y).unwrap();
     let many = id.identify_predict_many(crate::Batch {
         inputs: &refs,
-        y: &y,
+        output: &output,
         split,
         outs: &mut outs,
     });

@@ -61,6 +61,7 @@ fn signals(c: &Case) -> LoopSignals<'_> {
         pv: &c.pv,
         op: &c.op,
         mv: None,
+        span_unknown: false,
     }
 }
 
@@ -74,7 +75,7 @@ fn quantify_report(c: &Case) -> Report {
         figures::phase_plots(&sig, &c.q, "kano × arx", "phase").unwrap(),
     ));
     sec.push(Block::Figure(
-        figures::fit_surface(&c.q, "paper", "kano × arx", "surface").unwrap(),
+        figures::fit_surface(&c.q, ("paper", false), "kano × arx", "surface").unwrap(),
     ));
     Report {
         title: "bench".into(),
@@ -110,7 +111,7 @@ fn figure_phase_plots() -> String {
 #[divan::bench]
 fn figure_fit_surface() -> String {
     let c = case();
-    figures::fit_surface(&c.q, "paper", "kano × arx", "surface")
+    figures::fit_surface(&c.q, ("paper", false), "kano × arx", "surface")
         .unwrap()
         .svg
 }

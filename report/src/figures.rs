@@ -33,10 +33,25 @@ pub struct LoopSignals<'a> {
     pub sp: Option<&'a [f64]>,
     /// Process variable.
     pub pv: &'a [f64],
-    /// Controller output, % of span.
+    /// Controller output, in [`op_unit`]`(span_unknown)`.
     pub op: &'a [f64],
     /// Measured valve position, when logged.
     pub mv: Option<&'a [f64]>,
+    /// OP's valve span is unknown: the reader rescaled OP to % of the range seen, and OP, MV,
+    /// S and J are in % of the OP range seen (the record's answer's `span_unknown`, as the
+    /// text output says it).
+    pub span_unknown: bool,
+}
+
+/// The unit of OP, MV, S and J on the figures: `% of valve span`, or `% of the OP range seen`
+/// when OP's valve span is unknown (`span_unknown`; the unit of S in the text output and the
+/// JSON's `S_unit`).
+pub fn op_unit(span_unknown: bool) -> &'static str {
+    if span_unknown {
+        discrepancy::RANGE_SEEN_UNIT
+    } else {
+        monitoring::answer::SPAN_UNIT
+    }
 }
 
 /// The time axis of a loop: values and description with unit.
@@ -167,7 +182,7 @@ pub fn time_trends(
     }
     pv_panel.rules.push(split_rule(&axis, q.split_index));
     let mut op_panel = Panel {
-        y_label: "OP, MV (% of valve span)".into(),
+        y_label: format!("OP, MV ({})", op_unit(sig.span_unknown)),
         caption: "controller output and valve position".into(),
         ..Panel::default()
     };
@@ -271,8 +286,9 @@ pub fn phase_plots(
             palette::RED,
         )
     });
+    let unit = op_unit(sig.span_unknown);
     let mv_panel = Panel {
-        y_label: "MV (% of valve span)".into(),
+        y_label: format!("MV ({unit})"),
         caption: "MV(OP)".into(),
         series: mv_series,
         ..Panel::default()
@@ -281,7 +297,7 @@ pub fn phase_plots(
         name,
         &LineChart {
             title: title("Phase plots", sig, model),
-            x_label: "OP (% of valve span)".into(),
+            x_label: format!("OP ({unit})"),
             panels: vec![pv_panel, mv_panel],
             side_by_side: true,
             size: (1200, 520),
@@ -290,7 +306,7 @@ pub fn phase_plots(
             "Left: PV against OP, measured and simulated by the model. Right: the estimated valve \
              position against OP and the fitted model's signature for a slow sweep (red): the \
              horizontal stretches are the valve stuck (deadband + stickband S = {:.2}), the \
-             vertical jumps the slip J = {:.2}, in % of valve span.",
+             vertical jumps the slip J = {:.2}, in {unit}.",
             q.s, q.j
         ),
     )
@@ -301,10 +317,11 @@ fn on_lattice(v: f64, step: f64) -> bool {
     (r - r.round()).abs() < 1e-6
 }
 
-/// The fit surface over (S, J) as a heat map with the optimum and its region.
+/// The fit surface over (S, J) as a heat map with the optimum and its region; S and J in
+/// [`op_unit`]`(span_unknown)`.
 pub fn fit_surface(
     q: &Quantification,
-    loop_name: &str,
+    (loop_name, span_unknown): (&str, bool),
     model: &str,
     name: &str,
 ) -> Result<Figure, ReportError> {
@@ -418,8 +435,8 @@ pub fn fit_surface(
     let pad = coarse;
     let svg = render_heatmap(&HeatMap {
         title: format!("Fit surface: loop {loop_name}, {model}"),
-        x_label: "S (% of valve span)".into(),
-        y_label: "J (% of valve span)".into(),
+        x_label: format!("S ({})", op_unit(span_unknown)),
+        y_label: format!("J ({})", op_unit(span_unknown)),
         value_label: format!("validation F_PV, {} (%)", criterion_words(c)),
         cells,
         range: (lo, best),

@@ -37,8 +37,9 @@ pub fn loop_name(d: &LoopData) -> String {
         .map_or_else(|| src.to_string(), |s| s.to_string_lossy().into_owned())
 }
 
-/// The signals of `d` for the figures (`None` without PV).
-pub fn signals<'a>(d: &'a LoopData, name: &'a str) -> Option<LoopSignals<'a>> {
+/// The signals of `d` for the figures (`None` without PV), OP's valve span unknown or not
+/// (`span_unknown`, the record's answer's).
+pub fn signals<'a>(d: &'a LoopData, name: &'a str, span_unknown: bool) -> Option<LoopSignals<'a>> {
     Some(LoopSignals {
         name,
         t: d.t.as_deref(),
@@ -46,6 +47,7 @@ pub fn signals<'a>(d: &'a LoopData, name: &'a str) -> Option<LoopSignals<'a>> {
         pv: d.pv.as_deref()?,
         op: &d.op,
         mv: d.mv.as_deref(),
+        span_unknown,
     })
 }
 
@@ -57,11 +59,7 @@ pub fn combo(r: &Fitted) -> String {
 /// The numbers of one run as name/value pairs; S and J in % of valve span, or in % of the OP
 /// range seen when OP's valve span is unknown (`span_unknown`).
 pub fn facts(r: &Fitted, span_unknown: bool) -> Block {
-    let unit = if span_unknown {
-        discrepancy::RANGE_SEEN_UNIT
-    } else {
-        "% of valve span"
-    };
+    let unit = figures::op_unit(span_unknown);
     let q = &r.result;
     let (fid, fval) = q.fits.rank(q.criterion);
     let (oid, oval) = q.fits.rank(q.criterion.other());
@@ -150,7 +148,12 @@ pub fn run_figures(
     Ok(vec![
         figures::time_trends(sig, q, &model, &format!("{prefix}trends"))?,
         figures::phase_plots(sig, q, &model, &format!("{prefix}phase"))?,
-        figures::fit_surface(q, sig.name, &model, &format!("{prefix}surface"))?,
+        figures::fit_surface(
+            q,
+            (sig.name, sig.span_unknown),
+            &model,
+            &format!("{prefix}surface"),
+        )?,
     ])
 }
 
@@ -185,7 +188,7 @@ pub fn quantify_page(
         result.push(Block::Note(w.clone()));
     }
     let mut figs = Section::new("Figures");
-    if let Some(sig) = signals(d, &name) {
+    if let Some(sig) = signals(d, &name, span_unknown) {
         for f in run_figures(&sig, r, "", "")? {
             figs.push(Block::Figure(f));
         }
@@ -194,7 +197,7 @@ pub fn quantify_page(
         title: format!("quantify: loop {name}, {}", combo(r)),
         subtitle: format!("{} · {} samples · stiction quantify", d.source, d.len()),
         summary: vec![format!("Verdict: {}.", answer.line())],
-        sections: vec![result, figs, detection_section(d, det)?],
+        sections: vec![result, figs, detection_section(d, det, span_unknown)?],
     })
 }
 
@@ -288,7 +291,7 @@ pub fn compare_page(
         rows: table,
     });
     let mut sections = vec![overview];
-    let sig = signals(d, &name);
+    let sig = signals(d, &name, span_unknown);
     for r in &ok {
         let view = r;
         let mut sec = Section::new(combo(view));
@@ -395,7 +398,7 @@ pub fn diagnose_page(
     });
     let mut sections = vec![first];
     let mut later = vec![findings];
-    let sig = signals(d, &name);
+    let sig = signals(d, &name, span_unknown);
     // The model to use, figures first: the final model (or the baseline when no cause holds).
     let use_fit = final_fit.unwrap_or(base);
     let use_label = combo(use_fit);
@@ -452,7 +455,7 @@ pub fn diagnose_page(
     if let Some(sig) = &sig {
         later.push(residuals_section(sig, dg, &base_label)?);
     }
-    later.push(detection_section(d, det)?);
+    later.push(detection_section(d, det, span_unknown)?);
     // The verdict and the model to use first; then how it was reached.
     sections.extend(later);
     Ok(Report {
@@ -585,8 +588,13 @@ fn residuals_section(
 
 /// The detection tests' section of the `quantify` and `diagnose` pages: the detector's line
 /// (verdict, score, reason, as the text output ends), then what [`detection_blocks`] shows, or
-/// why the detector could not run.
-pub fn detection_section(d: &LoopData, view: &DetectionView) -> Result<Section, ReportError> {
+/// why the detector could not run; OP in % of the range seen when its valve span is unknown
+/// (`span_unknown`).
+pub fn detection_section(
+    d: &LoopData,
+    view: &DetectionView,
+    span_unknown: bool,
+) -> Result<Section, ReportError> {
     let mut sec = Section::new("Detection: is it the valve?");
     let line = crate::text::detection_line(&view.detected);
     let mut chars = line.chars();
@@ -599,7 +607,9 @@ pub fn detection_section(d: &LoopData, view: &DetectionView) -> Result<Section, 
          fitted above."
     )));
     match &view.detected {
-        Detected::Ran(x) => sec.blocks.extend(detection_blocks(d, x, &view.figures)?),
+        Detected::Ran(x) => sec
+            .blocks
+            .extend(detection_blocks(d, x, &view.figures, span_unknown)?),
         Detected::Failed(_) => {
             sec.push(Block::Note(
                 "No test ran, so there is nothing to draw.".into(),
@@ -613,11 +623,13 @@ pub fn detection_section(d: &LoopData, view: &DetectionView) -> Result<Section, 
 /// tests (name, statistic, verdict, evidence), the PV-OP plot with the fitted ellipse and the
 /// OP-PV cross-correlation (figures `detection-pv-op` and `detection-xcorr`), drawn from what
 /// the detector computed on the registration the tests judged (`figures`,
-/// [`monitoring::detect_view`]).
+/// [`monitoring::detect_view`]); OP in % of the range seen when its valve span is unknown
+/// (`span_unknown`).
 pub fn detection_blocks(
     d: &LoopData,
     det: &Detection,
     figures: &Result<DetectionFigures, String>,
+    span_unknown: bool,
 ) -> Result<Vec<Block>, ReportError> {
     let mut blocks = Vec::new();
     let ts = run::sample_time(d);
@@ -654,7 +666,7 @@ pub fn detection_blocks(
             .collect(),
     });
     let name = loop_name(d);
-    let Some(sig) = signals(d, &name) else {
+    let Some(sig) = signals(d, &name, span_unknown) else {
         return Ok(blocks);
     };
     let drawn = match figures {
@@ -706,7 +718,7 @@ pub fn detect_page(
     )));
     first.push(Block::Paragraph(format!("Answer: {}.", answer.line())));
     let mut tests = Section::new("The tests");
-    tests.blocks = detection_blocks(d, det, figures)?;
+    tests.blocks = detection_blocks(d, det, figures, answer.span_unknown())?;
     Ok(Report {
         title: format!("detect: loop {name}"),
         subtitle: format!("{} · {} samples · stiction detect", d.source, d.len()),

@@ -99,7 +99,7 @@ fn a_record_the_detector_cannot_take_gets_its_reason_and_no_figure() {
     d.sp.as_mut().unwrap().pop();
     let view = monitoring::detect_file(&d, None, monitoring::Integrating::No);
     assert!(view.detected.detection().is_none());
-    let sec = detection_section(&d, &view).unwrap();
+    let sec = detection_section(&d, &view, false).unwrap();
     assert!(sec.blocks.iter().all(|b| !matches!(b, Block::Figure(_))));
     let Block::Paragraph(first) = &sec.blocks[0] else {
         panic!("{:?}", sec.blocks[0]);
@@ -116,7 +116,7 @@ fn a_flat_op_has_the_table_and_the_pv_op_plot_but_no_cross_correlation() {
     let mut d = sticky();
     d.op = vec![30.0; d.op.len()];
     let view = monitoring::detect_file(&d, None, monitoring::Integrating::No);
-    let sec = detection_section(&d, &view).unwrap();
+    let sec = detection_section(&d, &view, false).unwrap();
     let names: Vec<&str> = sec
         .blocks
         .iter()

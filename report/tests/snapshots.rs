@@ -90,6 +90,7 @@ fn signals(p: &Paper) -> LoopSignals<'_> {
         pv: &p.pv,
         op: &p.op,
         mv: Some(&p.mv),
+        span_unknown: false,
     }
 }
 
@@ -119,7 +120,7 @@ fn phase_plots() {
 #[test]
 fn fit_surface() {
     let p = paper();
-    let fig = figures::fit_surface(&p.arx, LOOP, ARX, "surface").unwrap();
+    let fig = figures::fit_surface(&p.arx, (LOOP, false), ARX, "surface").unwrap();
     let st = checked(&fig, LOOP);
     assert!(
         st.panels[0].series.iter().any(|s| s.color == "cells"),
@@ -282,6 +283,7 @@ fn sticky_signals(l: &Sticky) -> LoopSignals<'_> {
         pv: &l.pv,
         op: &l.op,
         mv: None,
+        span_unknown: false,
     }
 }
 

@@ -19,6 +19,9 @@ pub(crate) struct Ctx<'a, I: ?Sized> {
     pub(crate) index: Option<OpIndex>,
     /// PV's prefix sums for ARX from normal equations (fast path, ARX only).
     pub(crate) arx_sums: Option<linear_id::ArxOutputSums>,
+    /// PV as the identifier prepared it for its batches ([`LinearIdentifier::prepare`]),
+    /// once, when the first batch asks.
+    pub(crate) output: std::sync::OnceLock<linear_id::PreparedOutput>,
     /// Sum of squares of PV about its mean over the validation window.
     pub(crate) val_ss: f64,
     /// Nodes whose ARX came from sums / fell back to the QR (fast path).
@@ -233,9 +236,16 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             .collect();
         scratch.outs.resize_with(pending.len(), Vec::new);
         let outs = &mut scratch.outs[..pending.len()];
+        // what PV alone gives (PV was checked finite): an identifier that cannot prepare it
+        // gets the plain record, the same results without the saved work
+        let output = self.output.get_or_init(|| {
+            self.identifier
+                .prepare(pv)
+                .unwrap_or_else(|_| linear_id::PreparedOutput::plain(pv))
+        });
         let identified = self.identifier.identify_predict_many(linear_id::Batch {
             inputs: &inputs,
-            y: pv,
+            output,
             split: ni,
             outs,
         });

@@ -23,14 +23,38 @@ fn rel(a: f64, b: f64) -> f64 {
 /// The batch of `h` on `inputs` against `identify` + `predict_one_step_into` input by input:
 /// the same errors; coefficients, operating point, diagnostics and predictions within `tol`.
 fn batch_matches_qr(h: &Harx, inputs: &[(usize, Vec<f64>)], y: &[f64], split: usize, tol: f64) {
+    batch_on_matches_qr(h, &h.prepare(y).unwrap(), inputs, split, tol);
+}
+
+/// The batch of `h` on `inputs`, the output `output` (its record `y`).
+fn batch(
+    h: &Harx,
+    output: &crate::PreparedOutput,
+    inputs: &[(usize, Vec<f64>)],
+    split: usize,
+) -> (Vec<Result<Identified, IdError>>, Vec<Vec<f64>>) {
     let refs: Vec<(usize, &[f64])> = inputs.iter().map(|(s, u)| (*s, u.as_slice())).collect();
     let mut outs = vec![Vec::new(); refs.len()];
     let many = h.identify_predict_many(crate::Batch {
         inputs: &refs,
-        y,
+        output,
         split,
         outs: &mut outs,
     });
+    (many, outs)
+}
+
+/// [`batch_matches_qr`] with the output as given.
+fn batch_on_matches_qr(
+    h: &Harx,
+    output: &crate::PreparedOutput,
+    inputs: &[(usize, Vec<f64>)],
+    split: usize,
+    tol: f64,
+) {
+    let y = output.y();
+    let refs: Vec<(usize, &[f64])> = inputs.iter().map(|(s, u)| (*s, u.as_slice())).collect();
+    let (many, outs) = batch(h, output, inputs, split);
     for (i, got) in many.into_iter().enumerate() {
         let (start, u) = refs[i];
         let start = start.min(split);
@@ -71,7 +95,11 @@ fn batch_matches_qr(h: &Harx, inputs: &[(usize, Vec<f64>)], y: &[f64], split: us
 /// [`fit_from_sums`] of the input `u` from `start`, the window ending at `split`.
 fn sums_fit(h: &Harx, u: &[f64], y: &[f64], start: usize, split: usize) -> Option<LinearFit> {
     let mut out = vec![0.0; y.len() - start];
-    fit_from_sums(h, (&u[start..], &y[start..]), split - start, &mut out)
+    let prepared = HarxOutput::new(h, y);
+    let (y, window) = (&y[start..], split - start);
+    let block = prepared.block(h, start, y, window);
+    let sums = block.sums.as_ref()?;
+    fit_from_sums(h, (&prepared, sums), (&u[start..], y), window, &mut out)
 }
 
 /// Inputs derived from `u0`, one per start (scaled and perturbed differently).
@@ -109,22 +137,61 @@ proptest! {
     }
 }
 
-/// The same windows asked again (from the thread's cache) and windows of another output of
-/// the same length (not mistaken for the cached ones) each give the QR's results.
+/// Every field of a batch's results and its predictions (NaN compares equal; a float's
+/// shortest round-trip text is its value).
+fn shown((many, outs): (Vec<Result<Identified, IdError>>, Vec<Vec<f64>>)) -> String {
+    let bits: Vec<Vec<u64>> = outs
+        .iter()
+        .map(|o| o.iter().map(|v| v.to_bits()).collect())
+        .collect();
+    format!("{many:?} {bits:?}")
+}
+
+/// The same windows asked again from one prepared output, by several batches, give the bits
+/// of a fresh output; an output prepared otherwise (plain, or for another frequency or
+/// orders) gives them too (each batch then works on its own); and each gives the QR's results.
 #[test]
-fn cached_windows_belong_to_their_output() {
+fn prepared_windows_belong_to_their_output() {
     let h = Harx::params().omega(0.08).check().unwrap();
     let (u0, y1) = loop_with_sine(900, 5, 0.2, 0.08);
     let (_, y2) = loop_with_sine(900, 6, 0.2, 0.08);
     let ins = inputs(&u0, &[0, 40, 0, 3]);
-    for y in [&y1, &y2, &y1] {
-        batch_matches_qr(&h, &ins, y, 600, 1e-9);
+    for y in [&y1, &y2] {
+        let prepared = h.prepare(y).unwrap();
+        let fresh = shown(batch(&h, &h.prepare(y).unwrap(), &ins, 600));
+        for _ in 0..2 {
+            assert_eq!(shown(batch(&h, &prepared, &ins, 600)), fresh);
+        }
+        let other = Harx::params().omega(0.09).check().unwrap();
+        let wider = Harx::params().n(3).omega(0.08).check().unwrap();
+        for output in [
+            crate::PreparedOutput::plain(y),
+            other.prepare(y).unwrap(),
+            wider.prepare(y).unwrap(),
+            crate::Arx::params().check().unwrap().prepare(y).unwrap(),
+        ] {
+            assert_eq!(shown(batch(&h, &output, &ins, 600)), fresh);
+        }
+        batch_on_matches_qr(&h, &prepared, &ins, 600, 1e-9);
     }
     let mut y3 = y1.clone();
     y3[100] += 1e-12;
     let a = sums_fit(&h, &ins[0].1, &y1, 0, 600).unwrap();
     let b = sums_fit(&h, &ins[0].1, &y3, 0, 600).unwrap();
     assert_ne!(format!("{a:?}"), format!("{b:?}"));
+}
+
+/// A record not finite after a window's start (the prediction runs over it) takes the QR path
+/// for that window and gives its results; windows starting after it take the sums.
+#[test]
+fn a_record_not_finite_takes_the_qr_path_before_it() {
+    let h = Harx::params().omega(0.1).check().unwrap();
+    let (u0, mut y) = loop_with_sine(900, 3, 0.3, 0.1);
+    y[120] = f64::NAN;
+    let ins = inputs(&u0, &[0, 130]);
+    assert!(sums_fit(&h, &ins[0].1, &y, 0, 600).is_none());
+    assert!(sums_fit(&h, &ins[1].1, &y, 130, 600).is_some());
+    batch_matches_qr(&h, &ins, &y, 600, 1e-9);
 }
 
 /// Orders the sums do not handle (n + m > 9), a constant input, and a window too short: the

@@ -39,7 +39,7 @@ impl Recursive {
         &self,
         batch: crate::Batch<'_>,
     ) -> Vec<Result<Identified, IdError>> {
-        let (inputs, y, outs) = (batch.inputs, batch.y, batch.outs);
+        let (inputs, y, outs) = (batch.inputs, batch.output.y(), batch.outs);
         let split = batch.split.min(y.len());
         let mut results: Vec<Option<Result<Identified, IdError>>> =
             (0..inputs.len()).map(|_| None).collect();

@@ -63,7 +63,10 @@ pub fn pv_op_plot(
             series.push(Series {
                 mark: Mark::Line(3),
                 ..Series::line(
-                    format!("apparent stiction {:.2} %", e.apparent_stiction),
+                    format!(
+                        "apparent stiction {}",
+                        discrepancy::in_unit(e.apparent_stiction, sig.span_unknown)
+                    ),
                     e.chord.to_vec(),
                     palette::RED,
                 )
@@ -73,13 +76,13 @@ pub fn pv_op_plot(
                  fundamental harmonic of OP and of PV at the oscillation's period ({}), fitted by \
                  least squares to the detrended signals (it explains {:.0} % of the variance of \
                  the one it fits worse) and drawn around the record's mean. Its width along OP \
-                 through the centre (red) is Choudhury's apparent stiction, {:.2} % of valve \
-                 span: how far apart OP is at the two moments of a cycle PV crosses its mean. OP \
+                 through the centre (red) is Choudhury's apparent stiction, {:.2} {}: how far apart OP is at the two moments of a cycle PV crosses its mean. OP \
                  and PV in phase draw a line; a width alone is a phase lag, which the test takes for stiction only when \
                  the control error is also nonlinear (NGI and NLI in the table).",
                 period(e.period),
                 100.0 * e.fit.explained.max(0.0),
-                e.apparent_stiction
+                e.apparent_stiction,
+                super::op_unit(sig.span_unknown)
             )
         }
         None => "PV against OP. The loop has no regular oscillation, so the bicoherence test \
@@ -98,7 +101,7 @@ pub fn pv_op_plot(
     };
     let svg = render_lines(&LineChart {
         title: title("PV-OP plot", sig, DETECTION_TESTS),
-        x_label: "OP (% of valve span)".into(),
+        x_label: format!("OP ({})", super::op_unit(sig.span_unknown)),
         panels: vec![panel],
         side_by_side: false,
         size: (760, 560),
