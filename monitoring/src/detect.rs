@@ -136,20 +136,13 @@ pub fn hold_across_kinds(d: &LoopData, kind: KindDecision, mut det: Detection) -
     }
     let other = try_detect(d, !kind.integrating).map_or(Verdict::Inconclusive, |o| o.verdict);
     if other == opposite {
-        let name = |integrating: bool| {
-            if integrating {
-                "integrating"
-            } else {
-                "self-regulating"
-            }
-        };
         det.reason = format!(
             "the record does not decide whether the loop is integrating, and the two readings disagree: {} as {} ({}), {} as {}",
             det.verdict.as_str(),
-            name(kind.integrating),
+            crate::kind::kind_name(kind.integrating),
             det.reason,
             other.as_str(),
-            name(!kind.integrating)
+            crate::kind::kind_name(!kind.integrating)
         );
         det.verdict = Verdict::Inconclusive;
     }

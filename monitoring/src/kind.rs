@@ -53,14 +53,19 @@ pub struct KindDecision {
     pub log_ratio: Option<f64>,
 }
 
+/// The loop kind's name as every note prints it.
+pub fn kind_name(integrating: bool) -> &'static str {
+    if integrating {
+        "integrating"
+    } else {
+        "self-regulating"
+    }
+}
+
 impl KindDecision {
     /// One line for people: the kind and what decided it.
     pub fn note(&self) -> String {
-        let kind = if self.integrating {
-            "integrating"
-        } else {
-            "self-regulating"
-        };
+        let kind = kind_name(self.integrating);
         let ratio = self.log_ratio.map_or(String::new(), |r| {
             format!(", ln(RSS self-regulating / RSS integrating) = {r:.2}")
         });
