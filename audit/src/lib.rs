@@ -59,6 +59,15 @@
 //!
 //! Numbers that could not be computed are NULL. Indexes on `valve` and `start_time`.
 //!
+//! Version 2 adds the registration's one answer (`monitoring::batch::OkRow`): `S`, `S_lo`,
+//! `S_hi` are the S that explains the detector's verdict and its range (both fits' 95 %
+//! regions), `S_from` (TEXT: `one-step` or `output-error`) the fit it comes from, `S_unit`
+//! (TEXT: `% of valve span` or `% of the OP range seen`), `S_one_step`, `S_one_step_lo`,
+//! `S_one_step_hi` (REAL) the combination's one-step-prediction fit, and `detect_reason`
+//! (TEXT) the detector's reason. The migration marks the rows of version 1 as what they are:
+//! `S_from` `one-step` and `S_one_step*` copied from `S*` (their `S_unit` and `detect_reason`
+//! NULL); they are kept, not computed again.
+//!
 //! ```no_run
 //! use std::path::{Path, PathBuf};
 //! use monitoring::batch::BatchOptions;
@@ -129,6 +138,17 @@ pub const MIGRATIONS: &[&str] = &[
     );
     CREATE INDEX results_valve ON results (valve);
     CREATE INDEX results_start_time ON results (start_time);",
+    // 2: the registration's one answer. `S`, `S_lo`, `S_hi` become the S that explains the
+    // detector's verdict; the combination's one-step S moves beside it. Rows of version 1 hold
+    // the one-step S: they say so.
+    "ALTER TABLE results ADD COLUMN S_from TEXT;
+    ALTER TABLE results ADD COLUMN S_unit TEXT;
+    ALTER TABLE results ADD COLUMN S_one_step REAL;
+    ALTER TABLE results ADD COLUMN S_one_step_lo REAL;
+    ALTER TABLE results ADD COLUMN S_one_step_hi REAL;
+    ALTER TABLE results ADD COLUMN detect_reason TEXT;
+    UPDATE results SET S_from = 'one-step', S_one_step = S, S_one_step_lo = S_lo,
+        S_one_step_hi = S_hi WHERE status = 'ok';",
 ];
 
 /// The schema version this code writes and reads.
@@ -293,6 +313,12 @@ impl Store {
                             c.repair_reason,
                             c.repair,
                             c.quantify,
+                            c.s_from,
+                            c.s_unit,
+                            c.s_one_step,
+                            c.s_one_step_lo,
+                            c.s_one_step_hi,
+                            c.detect_reason,
                         ])
                         .map_err(err)?;
                 }
@@ -339,7 +365,8 @@ impl Store {
             .prepare(
                 "SELECT valve, start_time, content_hash, file, path, stiction_model,
                         linear_model, status, S, S_lo, S_hi, fit_pv_val, detect_verdict,
-                        detect_score, reduction, why, error, repair_reason
+                        detect_score, reduction, why, error, repair_reason, S_from, S_unit,
+                        detect_reason
                  FROM results
                  ORDER BY valve, start_time = '', start_time, file, content_hash,
                           stiction_model, linear_model, settings",
@@ -369,6 +396,9 @@ impl Store {
                         causes: serde_json::from_str(&r.get::<_, String>(15)?).unwrap_or_default(),
                         error: r.get(16)?,
                         repair_reason: r.get(17)?,
+                        s_from: r.get(18)?,
+                        s_unit: r.get(19)?,
+                        detect_reason: r.get(20)?,
                         combinations: 1,
                     },
                 ))
@@ -446,16 +476,25 @@ pub struct RegistrationSummary {
     pub linear_model: String,
     /// Whether the chosen row has an estimate.
     pub ok: bool,
-    /// S, % of valve span.
+    /// S reported: the S that explains the detector's verdict (from schema version 2; a
+    /// version-1 row's one-step S), in `s_unit`.
     pub s: Option<f64>,
-    /// S's likelihood-ratio range.
+    /// Its range (both fits' 95 % regions; a version-1 row's likelihood-ratio region).
     pub s_range: Option<[f64; 2]>,
+    /// Which fit S comes from: `one-step` or `output-error` (`None` for an `error` row).
+    pub s_from: Option<String>,
+    /// The unit of S: `% of valve span`, or `% of the OP range seen` when OP's valve span is
+    /// unknown (`None` in a version-1 row).
+    pub s_unit: Option<String>,
     /// Validation F_PV, %.
     pub fit_pv_val: Option<f64>,
     /// The detector's verdict (`''` when the file could not be read).
     pub detect_verdict: String,
     /// The detector's score.
     pub detect_score: Option<f64>,
+    /// The detector's reason, one sentence (`None` when the file could not be read, or in a
+    /// version-1 row).
+    pub detect_reason: Option<String>,
     /// What a repair would buy: the fraction of the control error's spread removed.
     pub reduction: Option<f64>,
     /// Evidence that something besides the valve moves PV (the `why` sentences).
@@ -659,10 +698,11 @@ const INSERT: &str = "INSERT OR IGNORE INTO results (
     status, S, S_lo, S_hi, J, J_lo, J_hi, fit_pv_val, fit_no_stiction, integrating, label,
     detect_score, detect_verdict, why, notes, error, reduction, error_std_now,
     error_std_repaired, reversals_per_hour_now, reversals_per_hour_repaired, repair_reason,
-    repair, quantify, audited_at
+    repair, quantify, S_from, S_unit, S_one_step, S_one_step_lo, S_one_step_hi, detect_reason,
+    audited_at
 ) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19,
-    ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30, ?31, ?32,
-    strftime('%Y-%m-%dT%H:%M:%SZ', 'now'))";
+    ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30, ?31, ?32, ?33, ?34, ?35, ?36, ?37,
+    ?38, strftime('%Y-%m-%dT%H:%M:%SZ', 'now'))";
 
 /// One row's cells, in the order of [`INSERT`].
 struct Cells<'a> {
@@ -698,6 +738,12 @@ struct Cells<'a> {
     repair_reason: Option<&'a str>,
     repair: Option<String>,
     quantify: Option<String>,
+    s_from: Option<&'static str>,
+    s_unit: Option<&'a str>,
+    s_one_step: Option<f64>,
+    s_one_step_lo: Option<f64>,
+    s_one_step_hi: Option<f64>,
+    detect_reason: Option<&'a str>,
 }
 
 impl<'a> Cells<'a> {
@@ -749,6 +795,15 @@ impl<'a> Cells<'a> {
             repair_reason: ok.and_then(|o| o.quantify.repair_reason.as_deref()),
             repair: repair.map(to_json),
             quantify: ok.map(|o| to_json(&o.quantify)),
+            s_from: ok.and_then(|o| o.s_from).map(|f| match f {
+                monitoring::SFrom::OneStep => "one-step",
+                monitoring::SFrom::OutputError => "output-error",
+            }),
+            s_unit: ok.map(|o| o.s_unit.as_str()).filter(|u| !u.is_empty()),
+            s_one_step: ok.and_then(|o| o.s_one_step).filter(|x| x.is_finite()),
+            s_one_step_lo: ok.and_then(|o| o.s_one_step_lo).filter(|x| x.is_finite()),
+            s_one_step_hi: ok.and_then(|o| o.s_one_step_hi).filter(|x| x.is_finite()),
+            detect_reason: Some(row.detect_reason.as_str()).filter(|r| !r.is_empty()),
         }
     }
 }

@@ -199,7 +199,7 @@ fn the_schema_version_is_set_and_a_newer_or_foreign_database_is_refused() {
         .query_row("PRAGMA user_version", [], |r| r.get(0))
         .unwrap();
     assert_eq!(version, SCHEMA_VERSION);
-    assert_eq!(SCHEMA_VERSION, 1);
+    assert_eq!(SCHEMA_VERSION, 2);
     let app: i64 = conn
         .query_row("PRAGMA application_id", [], |r| r.get(0))
         .unwrap();
@@ -215,7 +215,7 @@ fn the_schema_version_is_set_and_a_newer_or_foreign_database_is_refused() {
             e,
             AuditError::NewerSchema {
                 found: 7,
-                known: 1,
+                known: 2,
                 ..
             }
         ),
@@ -226,7 +226,7 @@ fn the_schema_version_is_set_and_a_newer_or_foreign_database_is_refused() {
     assert_eq!(
         line,
         format!(
-            "{}: audit database schema version 7 is newer than this program's (1): use a newer stiction",
+            "{}: audit database schema version 7 is newer than this program's (2): use a newer stiction",
             db.display()
         )
     );
@@ -310,5 +310,155 @@ fn the_plant_data_gives_one_row_per_registration() {
     assert_eq!(run.files, given.len());
     assert_eq!(run.total_rows, given.len());
     assert_eq!(Store::open(&db).unwrap().count().unwrap(), given.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A loop of the simulated population `wide(4242)` (never the plant data) written as a
+/// historian record: time, SP, PV and OP as logged, no MV.
+fn write_population_loop(
+    dir: &Path,
+    name: &str,
+    l: &datasets::simulate::population::PopulationLoop,
+) {
+    let sim = &l.sim;
+    let mut text = String::from("t,SP,PV,OP\n");
+    for k in 0..sim.pv.len() {
+        text.push_str(&format!(
+            "{},{},{},{}\n",
+            sim.t[k], sim.sp[k], sim.pv[k], sim.op[k]
+        ));
+    }
+    std::fs::write(dir.join(name), text).unwrap();
+}
+
+/// Whether `s` (% of valve span) agrees with the detector's `verdict`: a sticky valve more
+/// than the negligible band, a free one less than the maintenance threshold.
+fn agrees(verdict: &str, s: f64) -> bool {
+    match verdict {
+        "stiction" => s > grid_search::NEGLIGIBLE_S,
+        "no-stiction" => s < grid_search::MAINTENANCE_S,
+        _ => true,
+    }
+}
+
+/// The database holds each registration's one answer: where the combination's one-step S
+/// contradicts the detector's verdict (a `stiction` verdict with S <= 0.2 %, `no-stiction`
+/// with S >= 1.6 %), `S` is the detector's output-error S that agrees with it, and the
+/// one-step S stays beside it (`S_one_step`); elsewhere `S` is the one-step S. The loops are
+/// the short ones (at most 600 samples) of the first 90 of a simulated population; at least
+/// one of them must have a contradicting one-step S, or the test exercises nothing.
+#[test]
+fn the_rows_carry_the_s_that_explains_the_verdict() {
+    let dir = temp_dir("answer");
+    let spec = datasets::simulate::population::PopulationSpec::wide(4242);
+    let mut n = 0;
+    for i in 0..90 {
+        let l = spec.generate(i).unwrap();
+        if l.sim.pv.len() <= 600 {
+            write_population_loop(&dir, &format!("P{i}_20240101-0800.csv"), &l);
+            n += 1;
+        }
+    }
+    assert!(n >= 10, "{n} short loops");
+    let db = dir.join("audit.sqlite");
+    let opts = BatchOptions::default();
+    audit::run(&files(&dir), &opts, None, &db, None).unwrap();
+    let conn = sqlite(&db);
+    type Cells = (String, String, f64, f64, f64, String, f64, f64, f64, String);
+    let rows: Vec<Cells> = conn
+        .prepare(
+            "SELECT file, detect_verdict, S, S_lo, S_hi, S_from, S_one_step, S_one_step_lo,
+                    S_one_step_hi, S_unit FROM results WHERE status = 'ok'",
+        )
+        .unwrap()
+        .query_map([], |r| {
+            Ok((
+                r.get(0)?,
+                r.get(1)?,
+                r.get(2)?,
+                r.get(3)?,
+                r.get(4)?,
+                r.get(5)?,
+                r.get(6)?,
+                r.get(7)?,
+                r.get(8)?,
+                r.get(9)?,
+            ))
+        })
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    assert!(!rows.is_empty(), "no ok row of {n} loops");
+    let mut contradicted = 0;
+    for (file, verdict, s, lo, hi, from, one, one_lo, one_hi, unit) in &rows {
+        assert_eq!(unit, "% of valve span", "{file}");
+        assert!(lo <= s && s <= hi, "{file}: {s} [{lo}, {hi}]");
+        assert!(
+            *lo <= *one_lo && *one_hi <= *hi,
+            "{file}: the range holds the one-step region"
+        );
+        if agrees(verdict, *one) {
+            assert_eq!((from.as_str(), s), ("one-step", one), "{file}");
+        } else {
+            contradicted += 1;
+            assert_eq!(from, "output-error", "{file}: {verdict}, one-step S {one}");
+            assert!(agrees(verdict, *s), "{file}: {verdict} with S {s}");
+        }
+    }
+    assert!(
+        contradicted >= 1,
+        "no loop's one-step S contradicts its verdict: the test exercises nothing"
+    );
+    // The fleet's read model shows the same S.
+    let valves = Store::open(&db).unwrap().valves().unwrap();
+    for v in &valves {
+        for r in v.registrations.iter().filter(|r| r.ok) {
+            let row = rows.iter().find(|x| x.0 == r.file).unwrap();
+            assert_eq!(r.s, Some(row.2), "{}", r.file);
+            assert_eq!(r.s_from.as_deref(), Some(row.5.as_str()));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A database of schema version 1 (written before the registration's one answer) opens: it is
+/// migrated in place, its rows kept and marked as holding the one-step S.
+#[test]
+fn a_version_1_database_is_migrated_and_its_rows_kept() {
+    let dir = temp_dir("v1");
+    let db = dir.join("audit.sqlite");
+    let conn = sqlite(&db);
+    conn.execute_batch(audit::MIGRATIONS[0]).unwrap();
+    conn.pragma_update(None, "user_version", 1).unwrap();
+    conn.pragma_update(None, "application_id", audit::APPLICATION_ID)
+        .unwrap();
+    conn.execute(
+        "INSERT INTO results (content_hash, valve, start_time, file, path, settings,
+            stiction_model, linear_model, status, S, S_lo, S_hi, integrating, detect_verdict,
+            why, notes, audited_at)
+         VALUES ('h', 'V9', '2024-01-01 08:00', 'V9_20240101-0800.csv', 'x', '{}', 'kano',
+            'arx', 'ok', 0.1, 0.04, 0.1, 0, 'stiction', '[]', '[]', '2026-11-01T00:00:00Z')",
+        [],
+    )
+    .unwrap();
+    drop(conn);
+    let store = Store::open(&db).unwrap();
+    assert_eq!(store.count().unwrap(), 1);
+    let valves = store.valves().unwrap();
+    let r = &valves[0].registrations[0];
+    assert_eq!((r.s, r.s_from.as_deref()), (Some(0.1), Some("one-step")));
+    assert_eq!(
+        (r.s_unit.as_deref(), r.detect_reason.as_deref()),
+        (None, None)
+    );
+    drop(store);
+    let (version, one_step): (i64, f64) = sqlite(&db)
+        .query_row(
+            "SELECT (SELECT user_version FROM pragma_user_version), S_one_step FROM results",
+            [],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )
+        .unwrap();
+    assert_eq!((version, one_step), (SCHEMA_VERSION, 0.1));
     let _ = std::fs::remove_dir_all(&dir);
 }

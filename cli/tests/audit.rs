@@ -106,7 +106,10 @@ fn a_newer_database_is_bad_data_and_an_unknown_model_bad_usage() {
     assert_eq!(out.stderr.lines().count(), 1, "{}", out.stderr);
     assert!(out.stderr.starts_with("error: "), "{}", out.stderr);
     assert!(
-        out.stderr.contains("schema version 2 is newer"),
+        out.stderr.contains(&format!(
+            "schema version {} is newer",
+            audit::SCHEMA_VERSION + 1
+        )),
         "{}",
         out.stderr
     );
@@ -138,7 +141,8 @@ fn bump_schema_version(db: &Path) -> bool {
     if bytes.len() < 100 || &bytes[..16] != b"SQLite format 3\0" {
         return false;
     }
-    bytes[60..64].copy_from_slice(&2u32.to_be_bytes());
+    let newer = audit::SCHEMA_VERSION as u32 + 1;
+    bytes[60..64].copy_from_slice(&newer.to_be_bytes());
     std::fs::write(db, bytes).unwrap();
     true
 }

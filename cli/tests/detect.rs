@@ -157,16 +157,7 @@ fn a_flat_record_is_not_called_sticky_and_says_why() {
 /// with a one-line note, answered `inconclusive` with the reason, exit 0.
 #[test]
 fn coarse_stamps_and_a_frozen_pv_get_an_answer() {
-    let mut csv = String::from("t,SP,PV,OP,MODE\n");
-    for k in 0..751usize {
-        let t = if k.is_multiple_of(30) {
-            10 * k
-        } else {
-            10 * (k + 1)
-        };
-        let op = 40.0 + 5.0 * (k as f64 / 40.0).sin() + ((k * 37) % 11) as f64 * 0.01;
-        csv.push_str(&format!("{t},50,3.503246E-44,{op},1\n"));
-    }
+    let csv = common::frozen_pv_csv();
     let o = run(&["detect", "-"], csv.as_bytes());
     assert_eq!(o.code, 0, "{}", o.stderr);
     let notes: Vec<&str> = o

@@ -52,8 +52,10 @@ fn trend_follows_growing_stiction_and_keeps_the_bad_file_in_its_row() {
     let times: Vec<&str> = regs.iter().map(|r| r["time"].as_str().unwrap()).collect();
     assert_eq!(times[0], "2024-01-01 08:00");
     assert_eq!(times[5], "2024-06-15 08:00");
+    // PV constant under a moving OP: judged by the detector (inconclusive), nothing to fit
     let bad = &regs[5];
-    assert_eq!(bad["flag"], "error");
+    assert_eq!(bad["flag"], "inconclusive");
+    assert_eq!(bad["detection"]["verdict"], "inconclusive", "{bad}");
     let msg = bad["error"].as_str().unwrap();
     assert!(
         msg.contains("V1_20240615-0800.csv") && msg.contains("column PV: constant"),
@@ -180,13 +182,11 @@ fn batch_writes_rows_reports_failures_and_resumes() {
     let csv = std::fs::read_to_string(dir.join("out.csv")).unwrap();
     assert_eq!(csv.lines().count(), 7, "{csv}");
     assert!(csv.starts_with("file,valve,time,status,stiction_model,linear_model,S,S_lo,S_hi"));
-    // The detector's answer, then the repair estimate: the last four columns; none for the
-    // unreadable file.
+    // The detector's answer, the repair estimate, then the answer's S's provenance.
     assert!(
-        csv.lines()
-            .next()
-            .unwrap()
-            .ends_with(",error,detect_score,detect_verdict,reduction,repair_reason"),
+        csv.lines().next().unwrap().ends_with(
+            ",error,detect_score,detect_verdict,reduction,repair_reason,S_from,S_unit,S_one_step,S_one_step_lo,S_one_step_hi,detect_reason"
+        ),
         "{csv}"
     );
     let score = good["detect_score"].as_f64().unwrap();
@@ -196,10 +196,9 @@ fn batch_writes_rows_reports_failures_and_resumes() {
         ["stiction", "no-stiction", "inconclusive"].contains(&verdict),
         "{good}"
     );
-    assert!(
-        bad["detect_score"].is_null() && bad["detect_verdict"] == "",
-        "{bad}"
-    );
+    // the constant PV: the detector's answer, and the fit's reason as the row's error
+    assert_eq!(bad["detect_verdict"], "inconclusive", "{bad}");
+    assert_eq!(bad["stiction_model"], "kano", "{bad}");
 
     // Again: everything is already done.
     let out = run_ok(&args, b"");
@@ -471,5 +470,175 @@ fn trend_explains_a_disturbed_registration_with_the_diagnosis() {
             assert_eq!(row["flag"], "ok", "row {k}: {why:?}");
         }
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A PV frozen under a moving OP (the record `detect` answers `inconclusive`, a stuck valve or
+/// a frozen transmitter) is judged, not refused, by `batch`, `trend` and `audit`: each row has
+/// the detector's verdict and reason and says why there is no fit; the fleet page's verdict is
+/// `inconclusive` with the reason as its tooltip. A file the reader cannot read stays an
+/// error.
+#[test]
+fn a_frozen_pv_gets_the_detectors_answer_in_batch_trend_and_audit() {
+    let dir = temp_dir("frozen");
+    std::fs::write(dir.join("F8_20240102-0800.csv"), common::frozen_pv_csv()).unwrap();
+    std::fs::write(dir.join("F8_20240103-0800.csv"), "t,SP,PV,OP\n0,1,2,x\n").unwrap();
+    let path = dir.to_str().unwrap();
+    let out = dir.join("out");
+    run_ok(&["batch", path, "-o", out.to_str().unwrap()], b"");
+    let rows = jsonl(&dir.join("out.jsonl"));
+    let frozen = rows
+        .iter()
+        .find(|r| r["file"] == "F8_20240102-0800.csv")
+        .unwrap();
+    assert_eq!(frozen["status"], "error", "{frozen}");
+    assert_eq!(frozen["stiction_model"], "kano", "{frozen}");
+    assert_eq!(frozen["detect_verdict"], "inconclusive", "{frozen}");
+    assert!(frozen["detect_score"].is_number(), "{frozen}");
+    let reason = frozen["detect_reason"].as_str().unwrap();
+    assert!(reason.contains("frozen transmitter"), "{reason}");
+    let error = frozen["error"].as_str().unwrap();
+    assert!(
+        error.contains("column PV: constant") && !error.contains('\n'),
+        "{error}"
+    );
+    let broken = rows
+        .iter()
+        .find(|r| r["file"] == "F8_20240103-0800.csv")
+        .unwrap();
+    assert_eq!(
+        (&broken["status"], &broken["detect_verdict"]),
+        (&Value::from("error"), &Value::from("")),
+        "{broken}"
+    );
+
+    let doc: Value = serde_json::from_str(&run_ok(&["trend", path, "--json"], b"").stdout).unwrap();
+    let regs = doc["combinations"][0]["registrations"].as_array().unwrap();
+    assert_eq!(regs[0]["flag"], "inconclusive", "{}", regs[0]);
+    assert_eq!(regs[0]["detection"]["verdict"], "inconclusive");
+    assert_eq!(regs[1]["flag"], "error", "{}", regs[1]);
+    let text = run_ok(&["trend", path], b"").stdout;
+    assert!(
+        text.contains("inconclusive: the data cannot be judged: PV holds one value")
+            && text.contains("errors 1, inconclusive without a fit 1"),
+        "{text}"
+    );
+
+    // the fleet page: the latest registration of valve F9 is the frozen one
+    std::fs::rename(
+        dir.join("F8_20240103-0800.csv"),
+        dir.join("broken_20240101-0800.csv"),
+    )
+    .unwrap();
+    let db = dir.join("audit.sqlite");
+    let site = dir.join("site");
+    let audit = run_ok(
+        &[
+            "audit",
+            path,
+            "--db",
+            db.to_str().unwrap(),
+            "--report",
+            site.to_str().unwrap(),
+        ],
+        b"",
+    );
+    let line = audit
+        .stdout
+        .lines()
+        .find(|l| l.contains(" F8 "))
+        .unwrap_or_default();
+    assert!(line.contains("inconclusive (0."), "{}", audit.stdout);
+    let broken = audit
+        .stdout
+        .lines()
+        .find(|l| l.contains(" broken "))
+        .unwrap_or_default();
+    assert!(broken.contains(" error "), "{}", audit.stdout);
+    let html = std::fs::read_to_string(site.join("index.html")).unwrap();
+    assert!(
+        html.contains("<span class=\"badge b-inconclusive\" title=\"the data cannot be judged: PV holds one value"),
+        "{html}"
+    );
+    assert!(html.contains("no fit: "), "{html}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// OP logged in units the reader cannot place (here 1000 + 7.3 × % of span: not 0-1, 0-100
+/// or counts) is rescaled to % of the range each record shows, so S is in % of that range, a
+/// unit that differs between registrations whose OP ranges differ and that no threshold in %
+/// of valve span applies to: `trend` says so in its text, its figure's axis and its JSON
+/// (`S_unit`), draws no threshold, and leaves the verdict `undetermined` with the reason.
+#[test]
+fn trend_in_unknown_op_units_judges_no_percent_threshold() {
+    let dir = temp_dir("trend-units");
+    for (k, seed) in ["3", "4", "5"].iter().enumerate() {
+        let csv = common::simulate_kano_4_1(seed, "600");
+        let mut lines = csv.lines();
+        let header = lines.next().unwrap();
+        let op = header.split(',').position(|h| h == "OP").unwrap();
+        let mut out = format!("{header}\n");
+        for l in lines {
+            let cells: Vec<String> = l
+                .split(',')
+                .enumerate()
+                .map(|(i, c)| {
+                    if i == op {
+                        format!("{}", 1000.0 + 7.3 * c.parse::<f64>().unwrap())
+                    } else {
+                        c.to_string()
+                    }
+                })
+                .collect();
+            out.push_str(&cells.join(","));
+            out.push('\n');
+        }
+        std::fs::write(dir.join(format!("U1_2024010{}-0800.csv", k + 1)), out).unwrap();
+    }
+    let path = dir.to_str().unwrap();
+    // a threshold S in % of the OP range seen would otherwise reach
+    let doc: Value =
+        serde_json::from_str(&run_ok(&["trend", path, "--json", "--threshold", "0.5"], b"").stdout)
+            .unwrap();
+    assert!(doc["level"].as_f64().unwrap() >= 0.5, "{}", doc["level"]);
+    assert_eq!(doc["verdict"], "undetermined", "{}", doc["reason"]);
+    let reason = doc["reason"].as_str().unwrap();
+    assert!(
+        reason.starts_with("OP's valve span is unknown in 3 of the 3 usable registration(s)"),
+        "{reason}"
+    );
+    let regs = doc["combinations"][0]["registrations"].as_array().unwrap();
+    assert!(
+        regs.iter().all(|r| r["S_unit"] == "% of the OP range seen"),
+        "{regs:?}"
+    );
+    let site = dir.join("site");
+    let text = run_ok(
+        &[
+            "trend",
+            path,
+            "--threshold",
+            "0.5",
+            "--report",
+            site.to_str().unwrap(),
+        ],
+        b"",
+    )
+    .stdout;
+    assert!(
+        text.contains("note: OP's valve span is unknown in some registration(s)"),
+        "{text}"
+    );
+    let level = text
+        .lines()
+        .find(|l| l.contains("level (median S)"))
+        .unwrap();
+    assert!(!level.contains('%'), "{level}");
+    let svg = std::fs::read_to_string(site.join("kano-arx-s-trend.svg")).unwrap();
+    assert!(
+        svg.contains("S (% of the OP range seen, per registration)"),
+        "{svg}"
+    );
+    assert!(!svg.contains("maintenance threshold"), "{svg}");
     std::fs::remove_dir_all(&dir).ok();
 }

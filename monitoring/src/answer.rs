@@ -17,7 +17,7 @@ use std::path::Path;
 use datasets::LoopData;
 use detection::{Detection, Verdict};
 use grid_search::{Quantification, MAINTENANCE_S, NEGLIGIBLE_S};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::detect::{detect_view, DetectionView};
 use crate::kind::{file_name, Integrating, KindDecision};
@@ -64,7 +64,7 @@ impl Analysis {
 }
 
 /// Which fit an S comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SFrom {
     /// The paper's Hammerstein identification, ranked by one-step prediction (`quantify`).

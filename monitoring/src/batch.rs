@@ -44,6 +44,8 @@ use datasets::{format_epoch, ReadOptions};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::answer::{SFrom, RANGE_UNIT, SPAN_UNIT};
+use crate::detect::Detected;
 use crate::kind::Integrating;
 use crate::registration::{evaluate, unread, FitEvidence, Plan, Registration, RegistrationError};
 use crate::{roc, MonitoringError, Roc, TimeSource};
@@ -164,6 +166,10 @@ pub struct Row {
     /// could not be read or the row predates the detector.
     #[serde(default)]
     pub detect_verdict: String,
+    /// The detector's reason, one sentence; empty when the file could not be read or the row
+    /// predates it.
+    #[serde(default)]
+    pub detect_reason: String,
 }
 
 /// A row's result: `"status": "ok"` with the estimate, or `"status": "error"`.
@@ -178,21 +184,47 @@ pub enum Status {
 
 /// The estimate of a row with status `ok`. S, J and their ranges are rounded to the grid's
 /// resolution.
+///
+/// `S` is the registration's one answer ([`Registration::reported`], as `quantify` and
+/// `trend` report it): the S that explains the detector's verdict, from the combination's
+/// one-step-prediction fit when it agrees with the verdict, else from the detector's
+/// output-error fit (`S_from`); `S_lo`, `S_hi` the hull of both fits' 95 % regions. The
+/// combination's own one-step fit is kept beside it (`S_one_step`, `S_one_step_lo`,
+/// `S_one_step_hi`). Rows written before these keys have `S_from` absent: their `S` is the
+/// one-step S.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OkRow {
     /// Stiction model.
     pub stiction_model: String,
     /// Linear identifier.
     pub linear_model: String,
-    /// S, % of valve span.
+    /// S reported, in `S_unit`.
     #[serde(rename = "S", deserialize_with = "null_as_nan")]
     pub s: f64,
-    /// Lower end of the likelihood-ratio range of S.
+    /// Lower end of its range (both fits' 95 % regions).
     #[serde(rename = "S_lo", deserialize_with = "null_as_nan")]
     pub s_lo: f64,
     /// Upper end.
     #[serde(rename = "S_hi", deserialize_with = "null_as_nan")]
     pub s_hi: f64,
+    /// Which fit `S` comes from; `None` in a row written before it (`S` is then the one-step
+    /// S).
+    #[serde(rename = "S_from", default)]
+    pub s_from: Option<SFrom>,
+    /// The unit of S: `% of valve span`, or `% of the OP range seen` when OP's valve span is
+    /// unknown (then no threshold in % of valve span applies); empty in a row written before
+    /// it.
+    #[serde(rename = "S_unit", default)]
+    pub s_unit: String,
+    /// The combination's one-step-prediction S (`None` in a row written before it).
+    #[serde(rename = "S_one_step", default)]
+    pub s_one_step: Option<f64>,
+    /// Lower end of its likelihood-ratio region.
+    #[serde(rename = "S_one_step_lo", default)]
+    pub s_one_step_lo: Option<f64>,
+    /// Upper end.
+    #[serde(rename = "S_one_step_hi", default)]
+    pub s_one_step_hi: Option<f64>,
     /// J.
     #[serde(rename = "J", deserialize_with = "null_as_nan")]
     pub j: f64,
@@ -282,7 +314,7 @@ impl Row {
 }
 
 /// The columns of `OUT.csv`.
-pub const CSV_COLUMNS: [&str; 23] = [
+pub const CSV_COLUMNS: [&str; 29] = [
     "file",
     "valve",
     "time",
@@ -306,6 +338,12 @@ pub const CSV_COLUMNS: [&str; 23] = [
     "detect_verdict",
     "reduction",
     "repair_reason",
+    "S_from",
+    "S_unit",
+    "S_one_step",
+    "S_one_step_lo",
+    "S_one_step_hi",
+    "detect_reason",
 ];
 
 fn csv_cell(v: &serde_json::Value) -> String {
@@ -376,6 +414,15 @@ fn rows_of(reg: &Registration, settings: &str) -> Vec<Row> {
         detect_verdict: reg
             .detect_verdict()
             .map_or(String::new(), |v| v.as_str().to_string()),
+        detect_reason: reg
+            .detection
+            .as_ref()
+            .map_or(String::new(), Detected::reason),
+    };
+    let unit = if datasets::units::span_unknown(&reg.notes) {
+        RANGE_UNIT
+    } else {
+        SPAN_UNIT
     };
     match &reg.outcome {
         Err(e) => vec![row(Status::Error(ErrorRow {
@@ -385,16 +432,22 @@ fn rows_of(reg: &Registration, settings: &str) -> Vec<Row> {
         }))],
         Ok(combos) => combos
             .iter()
-            .map(|c| {
-                row(match &c.result {
-                    Ok(fit) => {
+            .enumerate()
+            .map(|(k, c)| {
+                row(match (&c.result, reg.reported(k)) {
+                    (Ok(fit), Some(rep)) => {
                         let g = |x: f64| on_grid(x, fit.step);
                         Status::Ok(Box::new(OkRow {
                             stiction_model: c.stiction.to_string(),
                             linear_model: c.linear.to_string(),
-                            s: g(fit.s),
-                            s_lo: g(fit.s_range[0]),
-                            s_hi: g(fit.s_range[1]),
+                            s: g(rep.s),
+                            s_lo: g(rep.range[0]),
+                            s_hi: g(rep.range[1]),
+                            s_from: Some(rep.from),
+                            s_unit: unit.to_string(),
+                            s_one_step: Some(g(fit.s)).filter(|x| x.is_finite()),
+                            s_one_step_lo: Some(g(fit.s_range[0])).filter(|x| x.is_finite()),
+                            s_one_step_hi: Some(g(fit.s_range[1])).filter(|x| x.is_finite()),
                             j: g(fit.j),
                             j_lo: g(fit.j_range[0]),
                             j_hi: g(fit.j_range[1]),
@@ -404,10 +457,13 @@ fn rows_of(reg: &Registration, settings: &str) -> Vec<Row> {
                             quantify: fit.record.clone(),
                         }))
                     }
-                    Err(e) => Status::Error(ErrorRow {
+                    (result, _) => Status::Error(ErrorRow {
                         stiction_model: Some(c.stiction.to_string()),
                         linear_model: Some(c.linear.to_string()),
-                        error: e.to_string(),
+                        error: result
+                            .as_ref()
+                            .err()
+                            .map_or_else(|| "no S reported".to_string(), ToString::to_string),
                     }),
                 })
             })
@@ -620,11 +676,15 @@ pub fn resume(
         r.ok()
             .is_some_and(|o| o.quantify.repair.is_none() && o.quantify.repair_reason.is_none())
     };
+    // Likewise an ok row whose S is the one-step S alone (written before the registration's
+    // one answer, `S_from`).
+    let unanswered = |r: &Row| r.ok().is_some_and(|o| o.s_from.is_none());
     kept.retain(|r| {
         r.settings == settings
             && row_key(r).is_some_and(|k| current.contains(&k))
             && !(r.is_ok() && r.detect_verdict.is_empty())
             && !unassessed(r)
+            && !unanswered(r)
     });
     let done: HashSet<String> = kept.iter().filter_map(row_key).collect();
     let todo: Vec<PathBuf> = files

@@ -212,6 +212,11 @@ pub enum RegistrationError {
         /// What failed.
         error: run::RunError,
     },
+    /// The record was read as the detector reads it, but it has nothing to fit (a PV or OP
+    /// constant, or flat over more than half of the rows): the detector answers it, the
+    /// combination gives no estimate. The reason is the reader's one line.
+    #[error("{0}")]
+    Unfit(String),
     /// The options are invalid (an unknown model, a bad order): nothing was run.
     #[error("{}", error_line(.0))]
     Options(MonitoringError),
@@ -358,6 +363,17 @@ impl Registration {
         self.detection.as_ref().map(Detected::verdict)
     }
 
+    /// Whether the record was read and answered by the detector but has nothing to fit (a
+    /// PV or OP constant or flat over most of it: [`RegistrationError::Unfit`]): the
+    /// registration is judged, with the detector's verdict and reason, not an error.
+    pub fn unfit(&self) -> bool {
+        self.outcome.as_ref().is_ok_and(|combos| {
+            combos
+                .iter()
+                .any(|o| matches!(o.result, Err(RegistrationError::Unfit(_))))
+        })
+    }
+
     /// The error of combination `c` (or of the whole registration), when there is one.
     pub fn error(&self, c: usize) -> Option<&RegistrationError> {
         match &self.outcome {
@@ -386,7 +402,10 @@ pub struct Plan<'a> {
 /// Read and search one registration with every combination of `plan`, and run the detection
 /// crate on the record as read ([`detect_loop`], kept in [`Registration::detection`]). Never fails and never
 /// panics: a problem is recorded in the registration — a panic too (the registration runs
-/// isolated, so one bad file cannot end a batch or a trend).
+/// isolated, so one bad file cannot end a batch or a trend). A PV or OP that identification
+/// refuses as constant or flat over most of the record is read as `detect` reads it: the
+/// detector answers it and each combination's result is [`RegistrationError::Unfit`] with the
+/// reader's reason ([`Registration::unfit`]).
 pub fn evaluate(path: &Path, plan: &Plan<'_>) -> Registration {
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         evaluate_unguarded(path, plan)
@@ -435,8 +454,25 @@ fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
     {
         panic!("test panic on {}", reg.file);
     }
-    let d = match datasets::read_path(path, plan.read) {
-        Ok(d) => d,
+    // A PV or OP constant, or flat over more than half of the rows, has nothing to fit, but
+    // it is evidence the detector answers (a stuck valve or a frozen transmitter, the valve
+    // never asked to move): read it as `detect` does, and let each combination say why there
+    // is no fit.
+    let (d, unfit) = match datasets::read_path(path, plan.read) {
+        Ok(d) => (d, None),
+        Err(e @ (DataError::Constant { .. } | DataError::Flat { .. })) => {
+            let lenient = ReadOptions {
+                accept_constant: true,
+                ..plan.read.clone()
+            };
+            match datasets::read_path(path, &lenient) {
+                Ok(d) => (d, Some(e.to_string())),
+                Err(e) => {
+                    reg.outcome = Err(e.into());
+                    return reg;
+                }
+            }
+        }
         Err(e) => {
             reg.outcome = Err(e.into());
             return reg;
@@ -452,6 +488,15 @@ fn evaluate_unguarded(path: &Path, plan: &Plan<'_>) -> Registration {
     let kind = plan.integrating.decide(&reg.valve, Some(&d));
     reg.integrating = kind.integrating;
     reg.detection = Some(detect_decided(&d, kind));
+    if let Some(why) = unfit {
+        let no_fit = |c: &Combination| ComboOutcome {
+            stiction: c.stiction.name,
+            linear: c.linear.name,
+            result: Err(RegistrationError::Unfit(why.clone())),
+        };
+        reg.outcome = Ok(plan.combinations.iter().map(no_fit).collect());
+        return reg;
+    }
     let used = if reg.integrating {
         increments(&d)
     } else {

@@ -33,6 +33,10 @@ pub enum Flag {
     Outlier,
     /// Could not be read or quantified.
     Error,
+    /// Read and judged by the detector (its verdict and reason), but with nothing to fit: a
+    /// PV or OP constant, or flat over more than half of the record
+    /// ([`Registration::unfit`]). Not used, and not an error.
+    Inconclusive,
 }
 
 impl Flag {
@@ -43,6 +47,7 @@ impl Flag {
             Flag::Weak => "weak",
             Flag::Outlier => "outlier",
             Flag::Error => "error",
+            Flag::Inconclusive => "inconclusive",
         }
     }
 }
@@ -420,10 +425,17 @@ pub fn follow(
                         .map(|(f, rep)| (rep.s, f.fit_val)),
                 })
                 .collect();
+            let mut trend = trend(&points, run.min_fit);
+            // a record the detector judged but nothing could fit is no error
+            for (flag, r) in trend.flags.iter_mut().zip(&regs) {
+                if *flag == Flag::Error && r.unfit() {
+                    *flag = Flag::Inconclusive;
+                }
+            }
             CombinationTrend {
                 stiction: comb.stiction.name,
                 linear: comb.linear.name,
-                trend: trend(&points, run.min_fit),
+                trend,
             }
         })
         .collect();
@@ -442,6 +454,7 @@ pub fn follow(
     let (verdict, reason) =
         maintenance(level, latest, slope_30d, options.threshold, options.horizon);
     let (verdict, reason) = with_detection(verdict, reason, &latest_detections(&regs, &trends));
+    let (verdict, reason) = in_units(verdict, reason, &regs, &trends);
     Ok(ValveTrend {
         valve: valve.to_string(),
         options: options.clone(),
@@ -525,6 +538,46 @@ fn diagnose_registrations(
     causes
 }
 
+/// Whether the registration's S is in % of the OP range it shows (OP's valve span unknown:
+/// `datasets::units::span_unknown`) rather than in % of valve span.
+pub fn span_unknown(r: &Registration) -> bool {
+    datasets::units::span_unknown(&r.notes)
+}
+
+/// The verdict `verdict` (with its `reason`) kept when every usable registration's S is in %
+/// of valve span; else `undetermined`: a usable registration whose OP's valve span is unknown
+/// has S in % of the OP range that record shows, a unit no threshold in % of valve span
+/// applies to and that differs between registrations whose OP ranges differ, so neither the
+/// level nor the trend can be judged against the threshold.
+pub fn in_units(
+    verdict: Maintenance,
+    reason: String,
+    regs: &[Registration],
+    trends: &[CombinationTrend],
+) -> (Maintenance, String) {
+    let used: Vec<&Registration> = regs
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| {
+            trends
+                .iter()
+                .any(|t| t.trend.flags.get(*k) == Some(&Flag::Used))
+        })
+        .map(|(_, r)| r)
+        .collect();
+    let unknown = used.iter().filter(|r| span_unknown(r)).count();
+    if unknown == 0 {
+        return (verdict, reason);
+    }
+    (
+        Maintenance::Undetermined,
+        format!(
+            "OP's valve span is unknown in {unknown} of the {} usable registration(s): their S is              in % of the OP range each record shows, which no threshold in % of valve span applies              to and which compares across registrations only where their OP ranges match; give              OP's span (--op-range LO,HI) to judge the valve",
+            used.len()
+        ),
+    )
+}
+
 /// `(file, detector verdict)` of the latest [`DETECT_WINDOW`] usable registrations (used in
 /// the trend of at least one combination), in time order.
 fn latest_detections(regs: &[Registration], trends: &[CombinationTrend]) -> Vec<(String, Verdict)> {
@@ -588,6 +641,10 @@ pub struct RegistrationRecord {
     /// detector's).
     #[serde(rename = "S_from", skip_serializing_if = "Option::is_none")]
     pub s_from: Option<crate::answer::SFrom>,
+    /// The unit of S: `% of valve span`, or `% of the OP range seen` when OP's valve span is
+    /// unknown (absent without a fit).
+    #[serde(rename = "S_unit", skip_serializing_if = "Option::is_none")]
+    pub s_unit: Option<&'static str>,
     /// The combination's one-step-prediction S, rounded to the grid.
     #[serde(rename = "S_one_step", skip_serializing_if = "Option::is_none")]
     pub s_one_step: Option<f64>,
@@ -674,7 +731,8 @@ impl ValveTrend {
              {h}-day projection of the Theil-Sen trend reaches {t} %, or the level >= {half} %; \
              healthy otherwise; no maintenance call (watch instead) when the stiction detector \
              calls the latest usable registrations (up to {w}) no-stiction, every one it can \
-             judge",
+             judge; undetermined when a usable registration's OP has no known valve span (its S \
+             is in % of the OP range seen)",
             t = self.options.threshold,
             h = self.options.horizon,
             half = self.options.threshold / 2.0,
@@ -714,6 +772,13 @@ impl ValveTrend {
                             s: rep.map(|p| g(p.s)),
                             s_range: rep.map(|p| p.range.map(g)),
                             s_from: rep.map(|p| p.from),
+                            s_unit: rep.map(|_| {
+                                if span_unknown(r) {
+                                    crate::answer::RANGE_UNIT
+                                } else {
+                                    crate::answer::SPAN_UNIT
+                                }
+                            }),
                             s_one_step: fit.map(|f| g(f.s)),
                             s_one_step_range: fit.map(|f| f.s_range.map(g)),
                             j: fit.map(|f| g(f.j)),

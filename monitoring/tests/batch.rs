@@ -158,17 +158,24 @@ fn rows_carry_the_detector_answer_and_old_rows_still_read() {
     }
     let header = batch::CSV_COLUMNS.join(",");
     assert!(
-        header.ends_with(",error,detect_score,detect_verdict,reduction,repair_reason"),
+        header.ends_with(
+            ",error,detect_score,detect_verdict,reduction,repair_reason,S_from,S_unit,S_one_step,S_one_step_lo,S_one_step_hi,detect_reason"
+        ),
         "{header}"
     );
     let cells = rows[0].csv_record();
-    assert_eq!(cells[cells.len() - 4], score.to_string());
-    assert_eq!(cells[cells.len() - 3], direct.verdict().as_str());
+    let cell = |name: &str| {
+        let k = batch::CSV_COLUMNS.iter().position(|c| *c == name).unwrap();
+        cells[k].clone()
+    };
+    assert_eq!(cell("detect_score"), score.to_string());
+    assert_eq!(cell("detect_verdict"), direct.verdict().as_str());
+    assert_eq!(cell("detect_reason"), direct.reason());
     // the repair columns: the reduction, or the reason there is none
     let q = &rows[0].ok().unwrap().quantify;
     match &q.repair {
-        Some(r) => assert_eq!(cells[cells.len() - 2], r.reduction.to_string()),
-        None => assert_eq!(Some(&cells[cells.len() - 1]), q.repair_reason.as_ref()),
+        Some(r) => assert_eq!(cell("reduction"), r.reduction.to_string()),
+        None => assert_eq!(Some(&cell("repair_reason")), q.repair_reason.as_ref()),
     }
     // A file that cannot be read: no score, no verdict.
     let missing = batch::run_file(&dir.join("V9_nope.csv"), &opts);
@@ -184,6 +191,35 @@ fn rows_carry_the_detector_answer_and_old_rows_still_read() {
         (None, "")
     );
     assert_eq!(back.status, rows[0].status);
+    // A line written before the registration's one answer (no `S_from`, `S_one_step*`,
+    // `S_unit`, `detect_reason`) still reads; a resumed run computes it again.
+    let mut old: serde_json::Value = serde_json::from_str(&rows[0].to_json_line()).unwrap();
+    let obj = old.as_object_mut().unwrap();
+    for key in [
+        "S_from",
+        "S_unit",
+        "S_one_step",
+        "S_one_step_lo",
+        "S_one_step_hi",
+        "detect_reason",
+    ] {
+        assert!(obj.remove(key).is_some(), "{key}");
+    }
+    let back: Row = serde_json::from_value(old.clone()).unwrap();
+    let ok = back.ok().unwrap();
+    assert_eq!(
+        (ok.s_from, ok.s_one_step, ok.s_unit.as_str()),
+        (None, None, "")
+    );
+    assert_eq!(back.detect_reason, "");
+    let jsonl = dir.join("old.jsonl");
+    std::fs::write(&jsonl, format!("{old}\n")).unwrap();
+    let resumed = batch::run(std::slice::from_ref(&good), &opts, None, Some(&jsonl), None).unwrap();
+    assert_eq!((resumed.computed, resumed.skipped), (1, 0));
+    assert!(resumed
+        .rows
+        .iter()
+        .all(|r| r.ok().is_some_and(|o| o.s_from.is_some())));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

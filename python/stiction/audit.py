@@ -24,7 +24,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 #: `PRAGMA application_id` of an audit database (the `audit` crate's APPLICATION_ID, "STIC").
 APPLICATION_ID = 0x53544943
 #: The newest schema version (`PRAGMA user_version`) this module reads.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 _QUERY = "SELECT * FROM results ORDER BY valve, start_time, stiction_model, linear_model"
 
@@ -35,7 +35,10 @@ def load(path: PathLike) -> pd.DataFrame:
     The file is opened read-only (an SQLite `mode=ro` URI): loading never changes it, and a
     run writing to it at the same time is not disturbed. `why`, `notes`, `repair` and
     `quantify` are JSON text (`json.loads` them when needed); numbers that could not be
-    computed are NaN.
+    computed are NaN. `S` is the registration's one answer, the S that explains the
+    detector's verdict (`S_from`: `one-step` or `output-error`; `S_one_step` the combination's
+    own fit beside it); a database of schema version 1 must be opened once by `stiction audit`
+    (which migrates it) before this module reads it.
 
     Raises FileNotFoundError when there is no such file, ValueError when the file is not a
     stiction audit database (not SQLite, another application's database) or was written by a

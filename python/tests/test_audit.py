@@ -15,10 +15,12 @@ COLUMNS = [
     "fit_no_stiction", "integrating", "label", "detect_score", "detect_verdict", "why", "notes",
     "error", "reduction", "error_std_now", "error_std_repaired", "reversals_per_hour_now",
     "reversals_per_hour_repaired", "repair_reason", "repair", "quantify", "audited_at",
+    "S_from", "S_unit", "S_one_step", "S_one_step_lo", "S_one_step_hi", "detect_reason",
 ]
 KEY = ["file", "stiction_model", "linear_model"]
 SAME = KEY + ["content_hash", "valve", "start_time", "settings", "status", "S", "S_lo", "S_hi",
-              "J", "J_lo", "J_hi", "detect_verdict", "why", "error"]
+              "J", "J_lo", "J_hi", "detect_verdict", "why", "error", "S_from", "S_one_step",
+              "detect_reason"]
 FLAGS = ("--step", "1", "--stiction", "kano,he")
 
 
@@ -76,8 +78,8 @@ def test_load_refuses_what_is_not_an_audit_database(audited, loops, tmp_path):
         audit.load(other)
     newer = tmp_path / "newer.sqlite"
     newer.write_bytes(audited.read_bytes())
-    execute(newer, "PRAGMA user_version = 2")
-    with pytest.raises(ValueError, match="schema version 2 is newer"):
+    execute(newer, "PRAGMA user_version = 3")
+    with pytest.raises(ValueError, match="schema version 3 is newer"):
         audit.load(newer)
     with pytest.raises(FileNotFoundError):
         audit.load(tmp_path / "missing.sqlite")

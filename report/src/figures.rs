@@ -703,7 +703,14 @@ pub struct TrendLine {
     pub slope: f64,
 }
 
-/// S over repeated registrations (the paper's Figs. 15, 19, 21).
+/// The y axis of [`s_trend`] when a registration's OP has no known valve span.
+pub const S_TREND_RANGE_SEEN: &str = "S (% of the OP range seen, per registration)";
+
+/// S over repeated registrations (the paper's Figs. 15, 19, 21). With `span_unknown` (a
+/// registration's OP has no known valve span, so its S is in % of the OP range that record
+/// shows) the axis says so ([`S_TREND_RANGE_SEEN`]) and no threshold in % of valve span is
+/// drawn.
+#[allow(clippy::too_many_arguments)]
 pub fn s_trend(
     valve: &str,
     model: &str,
@@ -711,6 +718,7 @@ pub fn s_trend(
     threshold: f64,
     line: Option<TrendLine>,
     dated: bool,
+    span_unknown: bool,
     name: &str,
 ) -> Result<Figure, ReportError> {
     let first = points.iter().map(|p| p.day).fold(f64::INFINITY, f64::min);
@@ -759,16 +767,24 @@ pub fn s_trend(
             palette::GREEN,
         ));
     }
+    let (y_label, rules) = if span_unknown {
+        (S_TREND_RANGE_SEEN.to_string(), Vec::new())
+    } else {
+        (
+            "S (% of valve span)".to_string(),
+            vec![Rule {
+                at: threshold,
+                name: format!("maintenance threshold {threshold:.2} %"),
+                color: palette::RED,
+                vertical: false,
+            }],
+        )
+    };
     let panel = Panel {
-        y_label: "S (% of valve span)".into(),
+        y_label,
         caption: String::new(),
         series,
-        rules: vec![Rule {
-            at: threshold,
-            name: format!("maintenance threshold {threshold:.2} %"),
-            color: palette::RED,
-            vertical: false,
-        }],
+        rules,
         y_range: None,
         x_range: None,
         x_label: String::new(),
@@ -787,10 +803,19 @@ pub fn s_trend(
             side_by_side: false,
             size: (960, 420),
         },
-        "Estimated stiction S of each registration with its likelihood-ratio range \
-         (bars). Filled: used in the trend; hollow: left out (weak validation fit, or \
-         outside the band around the median). The green line is the Theil-Sen trend \
-         of the used registrations.",
+        if span_unknown {
+            "Estimated stiction S of each registration with its likelihood-ratio range \
+             (bars), in % of the OP range each record shows (OP's valve span is unknown): \
+             registrations compare only where their OP ranges match, and no threshold in % of \
+             valve span applies. Filled: used in the trend; hollow: left out (weak validation \
+             fit, or outside the band around the median). The green line is the Theil-Sen \
+             trend of the used registrations."
+        } else {
+            "Estimated stiction S of each registration with its likelihood-ratio range \
+             (bars). Filled: used in the trend; hollow: left out (weak validation fit, or \
+             outside the band around the median). The green line is the Theil-Sen trend \
+             of the used registrations."
+        },
     )
 }
 

@@ -72,10 +72,16 @@ pub struct FleetValve {
     /// The latest detector verdict: `stiction`, `no-stiction`, `inconclusive`, or empty when
     /// unknown.
     pub verdict: String,
+    /// The detector's reason for the latest verdict (the verdict's tooltip).
+    pub verdict_reason: Option<String>,
     /// The latest detector score in [0, 1].
     pub score: Option<f64>,
-    /// The latest S (% of valve span).
+    /// The latest S reported: the S that explains the verdict, % of valve span (of the OP
+    /// range seen with `span_unknown`).
     pub s: Option<f64>,
+    /// OP's valve span is unknown in the latest registration: S is in % of the OP range that
+    /// record shows, printed without `%`.
+    pub span_unknown: bool,
     /// Lower end of the latest S's range.
     pub s_lo: Option<f64>,
     /// Upper end of the latest S's range.
@@ -165,9 +171,10 @@ pub fn ranking_text(valves: &[FleetValve], n: usize) -> String {
             _ if v.verdict.is_empty() => "-".into(),
             _ => v.verdict.clone(),
         };
+        let mark = if v.span_unknown { "*" } else { "" };
         let s_text = match (finite(v.s), finite(v.s_lo), finite(v.s_hi)) {
-            (Some(s), Some(lo), Some(hi)) => format!("{s:.2} [{lo:.2}, {hi:.2}]"),
-            (Some(s), _, _) => format!("{s:.2}"),
+            (Some(s), Some(lo), Some(hi)) => format!("{s:.2} [{lo:.2}, {hi:.2}]{mark}"),
+            (Some(s), _, _) => format!("{s:.2}{mark}"),
             _ => "-".into(),
         };
         let expected = if unit(v.reduction).is_some() {
@@ -193,8 +200,19 @@ pub fn ranking_text(valves: &[FleetValve], n: usize) -> String {
     if valves.len() > n {
         let _ = writeln!(out, "     ... {} more valves on the page", valves.len() - n);
     }
+    if ranked(valves)
+        .into_iter()
+        .take(n)
+        .any(|v| v.span_unknown && finite(v.s).is_some())
+    {
+        let _ = writeln!(out, "  {RANGE_SEEN_MARK}");
+    }
     out
 }
+
+/// What `*` after S means in the ranking.
+pub const RANGE_SEEN_MARK: &str =
+    "*: OP's valve span unknown: S in % of the OP range the record shows, not % of valve span";
 
 /// The plant area of a tag: its leading digits, else its leading letters, else `-`.
 pub fn area(tag: &str) -> String {
@@ -439,15 +457,25 @@ fn pct(x: f64) -> String {
     format!("{:.0} %", x * 100.0)
 }
 
-/// `2.45 % [2.30, 2.60]` (range only when both ends are known).
+/// `2.45 % [2.30, 2.60]` (range only when both ends are known); without `%` and with a
+/// tooltip when OP's valve span is unknown.
 fn s_text(v: &FleetValve) -> String {
+    let (unit, open, close) = if v.span_unknown {
+        (
+            "",
+            "<span title=\"% of the OP range the record shows (OP's valve span unknown), not % of valve span\">",
+            "*</span>",
+        )
+    } else {
+        (" %", "", "")
+    };
     match finite(v.s) {
         None => "-".to_string(),
         Some(s) => match (finite(v.s_lo), finite(v.s_hi)) {
             (Some(lo), Some(hi)) => {
-                format!("<span class=\"nw\">{s:.2} %</span> <span class=\"range\">[{lo:.2}, {hi:.2}]</span>")
+                format!("{open}<span class=\"nw\">{s:.2}{unit}</span> <span class=\"range\">[{lo:.2}, {hi:.2}]</span>{close}")
             }
-            _ => format!("{s:.2} %"),
+            _ => format!("{open}{s:.2}{unit}{close}"),
         },
     }
 }
@@ -456,11 +484,13 @@ fn s_text(v: &FleetValve) -> String {
 fn causes_html(v: &FleetValve) -> String {
     let mut h = String::new();
     if let Some(e) = &v.error {
-        let _ = write!(
-            h,
-            "<span class=\"err\">could not be analysed: {}</span>",
-            escape(e)
-        );
+        // a record the detector judged has a verdict; only its fit is missing
+        let what = if v.verdict.is_empty() {
+            "could not be analysed"
+        } else {
+            "no fit"
+        };
+        let _ = write!(h, "<span class=\"err\">{what}: {}</span>", escape(e));
     }
     let causes: Vec<&str> = v
         .causes
@@ -527,7 +557,7 @@ fn valve_row(h: &mut String, rank: usize, v: &FleetValve) {
          <td class=\"tag\" data-value=\"{tag}\">{tag}</td>\
          <td data-value=\"{ae}\">{ae}</td>\
          <td data-value=\"{de}\">{dh}</td>\
-         <td data-value=\"{ve}\"><span class=\"badge b-{badge}\">{ve}</span></td>\
+         <td data-value=\"{ve}\"><span class=\"badge b-{badge}\"{why}>{ve}</span></td>\
          <td class=\"n\" data-value=\"{}\">{}</td>\
          <td class=\"n\" data-value=\"{}\">{}</td>",
         priority(v),
@@ -545,6 +575,10 @@ fn valve_row(h: &mut String, rank: usize, v: &FleetValve) {
             .collect::<Vec<_>>()
             .join(" "),
         ve = escape(verdict),
+        why = v
+            .verdict_reason
+            .as_deref()
+            .map_or_else(String::new, |r| format!(" title=\"{}\"", escape(r))),
     );
     match unit(v.reduction) {
         Some(r) => {
@@ -645,7 +679,12 @@ pub fn fleet_page(title: &str, valves: &[FleetValve]) -> String {
         ("date", "latest", false, "date of the latest registration"),
         ("verdict", "verdict", false, "latest detector verdict"),
         ("score", "score", true, "latest detector score, 0-1"),
-        ("s", "S", true, "latest S (% of valve span) [its range]"),
+        (
+            "s",
+            "S",
+            true,
+            "latest S, the one that explains the verdict (% of valve span; * of the OP range seen) [both fits' 95 % regions]",
+        ),
         (
             "benefit",
             "benefit",
@@ -724,8 +763,10 @@ mod tests {
             valve: tag.into(),
             registrations: vec![reg("2024-01-10 08:00", s - 0.5), reg("2024-03-02 14:30", s)],
             verdict: verdict.into(),
+            verdict_reason: None,
             score: Some(score),
             s: Some(s),
+            span_unknown: false,
             s_lo: Some(s - 0.1),
             s_hi: Some(s + 0.1),
             causes: vec!["stick-slip".into()],

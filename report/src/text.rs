@@ -339,6 +339,11 @@ pub fn diagnose(d: &LoopData, dg: &Diagnosis, answer: &Answer) -> Result<String,
     Ok(text)
 }
 
+/// What `trend`'s text and page say when a registration's OP has no known valve span.
+pub const RANGE_SEEN_NOTE: &str = "OP's valve span is unknown in some registration(s): their S is \
+     in % of the OP range each record shows, not of valve span; registrations compare only where \
+     their OP ranges match, and no threshold in % of valve span applies (give --op-range LO,HI).";
+
 /// The text of `trend`: per combination the registrations with their flags and evidence (S:
 /// the S each reports, [`monitoring::registration::Registration::reported`], marked `*` when
 /// it is the detector's output-error fit's), the level and the slope; then the verdict and its
@@ -363,6 +368,7 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
             ""
         }
     )?;
+    let unknown = regs.iter().any(monitoring::trend::span_unknown);
     for (c, ct) in vt.combinations.iter().enumerate() {
         let t = &ct.trend;
         writeln!(out, "\n{} + {}", ct.stiction, ct.linear)?;
@@ -403,6 +409,17 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
                         flag.label()
                     )?;
                 }
+                (None, Some(e)) if *flag == Flag::Inconclusive => {
+                    let why = r
+                        .detection
+                        .as_ref()
+                        .map_or_else(String::new, |d| d.reason());
+                    writeln!(
+                        out,
+                        "{:>3}  {time:<16}  inconclusive: {why}; no fit: {e}",
+                        k + 1
+                    )?;
+                }
                 (None, e) => {
                     let e = e.map(ToString::to_string).unwrap_or_default();
                     writeln!(out, "{:>3}  {time:<16}  error: {}: {e}", k + 1, r.file)?;
@@ -418,16 +435,23 @@ pub fn trend(vt: &ValveTrend) -> Result<String, fmt::Error> {
         let count = |x: Flag| t.flags.iter().filter(|f| **f == x).count();
         writeln!(
             out,
-            "  usable {}, weak {}, outliers {}, errors {}{}",
+            "  usable {}, weak {}, outliers {}, errors {}{}{}",
             count(Flag::Used),
             count(Flag::Weak),
             count(Flag::Outlier),
             count(Flag::Error),
+            match count(Flag::Inconclusive) {
+                0 => String::new(),
+                n => format!(", inconclusive without a fit {n}"),
+            },
             t.band
                 .map(|b| format!("; outlier band S in [{:.2}, {:.2}]", b[0], b[1]))
                 .unwrap_or_default()
         )?;
-        writeln!(out, "  {}", level_line(t))?;
+        writeln!(out, "  {}", level_line(t, unknown))?;
+    }
+    if unknown {
+        writeln!(out, "\nnote: {RANGE_SEEN_NOTE}")?;
     }
     if let Some(c) = &vt.causes {
         let lines = causes_lines(c, &baseline_of(vt));
@@ -675,13 +699,17 @@ pub fn join(evidence: &[Evidence]) -> String {
 }
 
 /// `level (median S) ...; trend ...; latest usable S ...`.
-fn level_line(t: &Trend) -> String {
+/// The level, slope and latest S of a trend; without `%` when S is in % of the OP range seen
+/// (`span_unknown`).
+fn level_line(t: &Trend, span_unknown: bool) -> String {
+    let unit = if span_unknown { "" } else { " %" };
     format!(
         "level (median S) {}; trend {}; latest usable S {}",
-        t.level.map_or("-".into(), |v| format!("{v:.2} %")),
-        t.slope_30d
-            .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
-        t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
+        t.level.map_or("-".into(), |v| format!("{v:.2}{unit}")),
+        t.slope_30d.map_or("-".into(), |v| format!(
+            "{v:+.3}{unit} per 30 days (Theil-Sen)"
+        )),
+        t.latest.map_or("-".into(), |v| format!("{v:.2}{unit}")),
     )
 }
 

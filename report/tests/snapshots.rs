@@ -219,6 +219,7 @@ fn s_trend() {
         1.6,
         Some(line),
         true,
+        false,
         "kano-arx-s-trend",
     )
     .unwrap();

@@ -99,3 +99,21 @@ pub fn column(csv: &str, name: &str) -> Vec<f64> {
         })
         .collect()
 }
+
+/// A historian export of 751 rows at 10 s whose stamps are written at a coarser resolution
+/// than the sampling (every thirtieth stamp repeats the previous one and the next step, 20 s,
+/// restores the grid), with PV frozen at 3.503246e-44 under a moving OP (40 ± 5 %): a stuck
+/// valve or a frozen transmitter, which the data cannot tell apart.
+pub fn frozen_pv_csv() -> String {
+    let mut csv = String::from("t,SP,PV,OP,MODE\n");
+    for k in 0..751usize {
+        let t = if k.is_multiple_of(30) {
+            10 * k
+        } else {
+            10 * (k + 1)
+        };
+        let op = 40.0 + 5.0 * (k as f64 / 40.0).sin() + ((k * 37) % 11) as f64 * 0.01;
+        csv.push_str(&format!("{t},50,3.503246E-44,{op},1\n"));
+    }
+    csv
+}

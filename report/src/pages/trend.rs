@@ -3,7 +3,7 @@
 
 use datasets::format_epoch;
 use monitoring::registration::{Registration, RegistrationError};
-use monitoring::trend::{CombinationTrend, ValveTrend};
+use monitoring::trend::{span_unknown, CombinationTrend, ValveTrend};
 use monitoring::{median, Flag};
 
 use super::short_reason;
@@ -41,11 +41,18 @@ pub fn trend_page(vt: &ValveTrend) -> Result<Report, ReportError> {
     sections.insert(0, first);
     Ok(Report {
         title: format!("trend: valve {valve}"),
-        subtitle: format!(
-            "{} registration(s) · stiction trend · threshold {} % of valve span",
-            regs.len(),
-            threshold
-        ),
+        subtitle: if regs.iter().any(span_unknown) {
+            format!(
+                "{} registration(s) · stiction trend · S in % of the OP range seen where OP's valve span is unknown",
+                regs.len()
+            )
+        } else {
+            format!(
+                "{} registration(s) · stiction trend · threshold {} % of valve span",
+                regs.len(),
+                threshold
+            )
+        },
         summary: Vec::new(),
         sections,
     })
@@ -75,20 +82,7 @@ fn combination_section(
         for (k, (r, flag)) in regs.iter().zip(&t.flags).enumerate() {
             let time = r.start.map(format_epoch).unwrap_or_else(|| r.file.clone());
             match (r.fit(c), r.error(c)) {
-                (None, e) => rows.push(vec![
-                    (k + 1).to_string(),
-                    time,
-                    "-".into(),
-                    "-".into(),
-                    "-".into(),
-                    "-".into(),
-                    "error".into(),
-                    format!(
-                        "{}: {}",
-                        r.file,
-                        e.map(ToString::to_string).unwrap_or_default()
-                    ),
-                ]),
+                (None, e) => rows.push(no_fit_row(k, time, *flag, r, e)),
                 (Some(f), _) => {
                     // the S the registration reports: the one that explains the detector's
                     // verdict (the combination's one-step S, or the detector's)
@@ -99,7 +93,7 @@ fn combination_section(
                     });
                     let status = match flag {
                         Flag::Used => TrendStatus::Used,
-                        Flag::Weak | Flag::Error => TrendStatus::Weak,
+                        Flag::Weak | Flag::Error | Flag::Inconclusive => TrendStatus::Weak,
                         Flag::Outlier => TrendStatus::Outlier,
                     };
                     points.push(TrendPoint {
@@ -159,12 +153,20 @@ fn combination_section(
                 slope,
             })
         });
+        let unknown = regs.iter().any(span_unknown);
+        let unit = if unknown { "" } else { " %" };
         sec.push(Block::Paragraph(format!(
-            "Level (median S of the usable registrations) {}; trend {}; latest usable S {}.",
-            t.level.map_or("-".into(), |v| format!("{v:.2} %")),
-            t.slope_30d
-                .map_or("-".into(), |v| format!("{v:+.3} % per 30 days (Theil-Sen)")),
-            t.latest.map_or("-".into(), |v| format!("{v:.2} %")),
+            "Level (median S of the usable registrations) {}; trend {}; latest usable S {}.{}",
+            t.level.map_or("-".into(), |v| format!("{v:.2}{unit}")),
+            t.slope_30d.map_or("-".into(), |v| format!(
+                "{v:+.3}{unit} per 30 days (Theil-Sen)"
+            )),
+            t.latest.map_or("-".into(), |v| format!("{v:.2}{unit}")),
+            if unknown {
+                format!(" {}", crate::text::RANGE_SEEN_NOTE)
+            } else {
+                String::new()
+            }
         )));
         if !points.is_empty() {
             let fig = figures::s_trend(
@@ -174,6 +176,7 @@ fn combination_section(
                 threshold,
                 line,
                 dated,
+                unknown,
                 &format!("{}-{}-s-trend", ct.stiction, ct.linear),
             )?;
             sec.push(Block::Figure(fig));
@@ -195,6 +198,31 @@ fn combination_section(
         }
         Ok(sec)
     }
+}
+
+/// The table row of registration `k` without a fit: the detector's answer and why nothing
+/// could be fitted (flag `inconclusive`), or the error.
+fn no_fit_row(
+    k: usize,
+    time: String,
+    flag: Flag,
+    r: &Registration,
+    e: Option<&RegistrationError>,
+) -> Vec<String> {
+    let e = e.map(ToString::to_string).unwrap_or_default();
+    let why = if flag == Flag::Inconclusive {
+        let reason = r
+            .detection
+            .as_ref()
+            .map_or_else(String::new, |d| d.reason());
+        format!("detector: {reason}; no fit: {e}")
+    } else {
+        format!("{}: {e}", r.file)
+    };
+    let mut row = vec![(k + 1).to_string(), time];
+    row.extend(["-"; 4].map(String::from));
+    row.extend([flag.label().to_string(), why]);
+    row
 }
 
 /// What the registrations' diagnoses agree on, and the registrations that differ.

@@ -64,8 +64,10 @@ fn valve(
     FleetValve {
         valve: tag.to_string(),
         verdict: verdict.to_string(),
+        verdict_reason: None,
         score,
         s: last.s,
+        span_unknown: false,
         s_lo: last.s_lo,
         s_hi: last.s_hi,
         causes: causes.iter().map(|c| c.to_string()).collect(),
