@@ -555,16 +555,7 @@ pub fn in_units(
     regs: &[Registration],
     trends: &[CombinationTrend],
 ) -> (Maintenance, String) {
-    let used: Vec<&Registration> = regs
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| {
-            trends
-                .iter()
-                .any(|t| t.trend.flags.get(*k) == Some(&Flag::Used))
-        })
-        .map(|(_, r)| r)
-        .collect();
+    let used: Vec<&Registration> = usable(regs, trends).collect();
     let unknown = used.iter().filter(|r| span_unknown(r)).count();
     if unknown == 0 {
         return (verdict, reason);
@@ -572,7 +563,10 @@ pub fn in_units(
     (
         Maintenance::Undetermined,
         format!(
-            "OP's valve span is unknown in {unknown} of the {} usable registration(s): their S is              in % of the OP range each record shows, which no threshold in % of valve span applies              to and which compares across registrations only where their OP ranges match; give              OP's span (--op-range LO,HI) to judge the valve",
+            "OP's valve span is unknown in {unknown} of the {} usable registration(s): their S is \
+             in % of the OP range each record shows, which no threshold in % of valve span applies \
+             to and which compares across registrations only where their OP ranges match; give \
+             OP's span (--op-range LO,HI) to judge the valve",
             used.len()
         ),
     )
@@ -581,17 +575,23 @@ pub fn in_units(
 /// `(file, detector verdict)` of the latest [`DETECT_WINDOW`] usable registrations (used in
 /// the trend of at least one combination), in time order.
 fn latest_detections(regs: &[Registration], trends: &[CombinationTrend]) -> Vec<(String, Verdict)> {
-    let usable: Vec<(String, Verdict)> = regs
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| {
-            trends
-                .iter()
-                .any(|t| t.trend.flags.get(*k) == Some(&Flag::Used))
-        })
-        .filter_map(|(_, r)| Some((r.file.clone(), r.detect_verdict()?)))
+    let usable: Vec<(String, Verdict)> = usable(regs, trends)
+        .filter_map(|r| Some((r.file.clone(), r.detect_verdict()?)))
         .collect();
     usable[usable.len().saturating_sub(DETECT_WINDOW)..].to_vec()
+}
+
+/// The usable registrations: those used in the trend of at least one combination, in order.
+fn usable<'a>(
+    regs: &'a [Registration],
+    trends: &'a [CombinationTrend],
+) -> impl Iterator<Item = &'a Registration> {
+    regs.iter().enumerate().filter_map(move |(k, r)| {
+        trends
+            .iter()
+            .any(|t| t.trend.flags.get(k) == Some(&Flag::Used))
+            .then_some(r)
+    })
 }
 
 impl Registration {
