@@ -409,6 +409,24 @@ fn the_rows_carry_the_s_that_explains_the_verdict() {
         contradicted >= 1,
         "no loop's one-step S contradicts its verdict: the test exercises nothing"
     );
+    // A repair simulated with a valve that contradicts the verdict is not this valve's: no
+    // benefit is stored for it, and the reason says so.
+    for (file, verdict, .., one, _, _, _) in &rows {
+        let (reduction, reason): (Option<f64>, Option<String>) = conn
+            .query_row(
+                "SELECT reduction, repair_reason FROM results WHERE file = ?1 AND status = 'ok'",
+                [file],
+                |r| Ok((r.get(0)?, r.get(1)?)),
+            )
+            .unwrap();
+        if !agrees(verdict, *one) {
+            assert_eq!(reduction, None, "{file}: {verdict} with one-step S {one}");
+            assert!(
+                reason.as_deref().is_some_and(|r| r.contains("contradicts")),
+                "{file}: {reason:?}"
+            );
+        }
+    }
     // The fleet's read model shows the same S.
     let valves = Store::open(&db).unwrap().valves().unwrap();
     for v in &valves {

@@ -165,6 +165,22 @@ pub fn agrees_in(verdict: Verdict, e: Estimate, span_unknown: bool) -> bool {
     }
 }
 
+/// Why a repair estimated with the one-step fit's valve (`run::Fitted::repair`) does not go
+/// with the record's answer: the fit's S `one_step` contradicts the detector's `verdict`
+/// ([`agrees_in`]), so the loop it simulates is not this one (a sticky valve "repaired" from a
+/// negligible fitted S buys nothing; a healthy one gets a benefit from a band the detector
+/// does not see). `None` when the fit agrees.
+pub fn repair_refusal(
+    verdict: Verdict,
+    one_step: Estimate,
+    span_unknown: bool,
+) -> Option<repair::NoRepair> {
+    (!agrees_in(verdict, one_step, span_unknown)).then(|| repair::NoRepair::Contradicted {
+        s: one_step.s,
+        verdict: verdict.as_str(),
+    })
+}
+
 /// One verdict on a record and the S that explains it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Answer {
@@ -262,6 +278,25 @@ impl Answer {
             integrating: a.kind.integrating,
             integrating_by: a.kind.note(),
             caution,
+        }
+    }
+
+    /// Why a repair estimated with the one-step fit's valve does not go with this answer
+    /// ([`repair_refusal`]); `None` when it does, or without a one-step fit.
+    pub fn repair_refusal(&self) -> Option<repair::NoRepair> {
+        self.one_step
+            .and_then(|e| repair_refusal(self.verdict, e, self.span_unknown()))
+    }
+
+    /// The repair `r`, estimated with the one-step fit's valve, when that fit agrees with the
+    /// verdict; else why it does not go with this answer ([`Answer::repair_refusal`]).
+    pub fn repair(
+        &self,
+        r: Result<repair::Repair, repair::NoRepair>,
+    ) -> Result<repair::Repair, repair::NoRepair> {
+        match self.repair_refusal() {
+            Some(refusal) => Err(refusal),
+            None => r,
         }
     }
 

@@ -437,6 +437,10 @@ fn rows_of(reg: &Registration, settings: &str) -> Vec<Row> {
                 row(match (&c.result, reg.reported(k)) {
                     (Ok(fit), Some(rep)) => {
                         let g = |x: f64| on_grid(x, fit.step);
+                        let mut quantify = fit.record.clone();
+                        if let Some(refusal) = reg.repair_refusal(k) {
+                            quantify.set_repair(Err(refusal));
+                        }
                         Status::Ok(Box::new(OkRow {
                             stiction_model: c.stiction.to_string(),
                             linear_model: c.linear.to_string(),
@@ -454,7 +458,7 @@ fn rows_of(reg: &Registration, settings: &str) -> Vec<Row> {
                             fit_pv_val: fit.fit_val,
                             fit_no_stiction: fit.record.fit_no_stiction,
                             why: fit.evidence.iter().map(ToString::to_string).collect(),
-                            quantify: fit.record.clone(),
+                            quantify,
                         }))
                     }
                     (result, _) => Status::Error(ErrorRow {

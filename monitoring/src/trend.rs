@@ -610,6 +610,21 @@ impl Registration {
             datasets::units::span_unknown(&self.notes),
         ))
     }
+
+    /// Why combination `c`'s repair estimate (simulated with its one-step valve) does not go
+    /// with the registration's answer ([`crate::answer::repair_refusal`]); `None` when it does,
+    /// without a fit, or without the detector's verdict.
+    pub fn repair_refusal(&self, c: usize) -> Option<repair::NoRepair> {
+        let f = self.fit(c)?;
+        crate::answer::repair_refusal(
+            self.detect_verdict()?,
+            crate::answer::Estimate {
+                s: f.s,
+                range: f.s_range,
+            },
+            datasets::units::span_unknown(&self.notes),
+        )
+    }
 }
 
 /// One registration in a combination's trend (`trend --json`).

@@ -379,9 +379,9 @@ fn diagnose_doc(d: &LoopData, req: &Request) -> PyResult<serde_json::Value> {
     // what a repair would buy, and the answer, in the final model (as `stiction diagnose
     // --json`)
     let fit = dg.final_fit().unwrap_or(&dg.baseline_fit);
-    let repair = fit.repair(d, a.kind.integrating);
     let det = a.detect(d).detected;
     let answer = monitoring::Answer::new(&a, &det, Some(&fit.result));
+    let repair = answer.repair(fit.repair(d, a.kind.integrating));
     Ok(monitoring::document::diagnose(
         &d.source,
         &dg,
@@ -421,9 +421,12 @@ fn run_command(command: &str, d: &LoopData, req: &Request) -> PyResult<String> {
     let doc = match command {
         "quantify" => {
             let a = analysed(d, req);
-            let (fitted, r) = quantify_record(d, &a, (&req.stiction[0], &req.linear[0]), req)?;
+            let (fitted, mut r) = quantify_record(d, &a, (&req.stiction[0], &req.linear[0]), req)?;
             let det = a.detect(d).detected;
             let answer = monitoring::Answer::new(&a, &det, Some(&fitted.result));
+            if let Some(refusal) = answer.repair_refusal() {
+                r.set_repair(Err(refusal));
+            }
             monitoring::document::quantify(&d.source, &r, &det, &answer).map_err(data_err)?
         }
         "detect" => {

@@ -199,6 +199,15 @@ pub enum NoRepair {
         /// Its error spread over the record's.
         ratio: f64,
     },
+    /// The fitted valve is not the one the record's answer describes: its S contradicts the
+    /// detector's verdict, so a loop simulated with it is another loop's repair.
+    #[error("the fitted valve (S = {s:.2}) contradicts the detector's verdict {verdict}: a repair simulated with it would not be this valve's")]
+    Contradicted {
+        /// The fitted valve's S.
+        s: f64,
+        /// The detector's verdict, in words.
+        verdict: &'static str,
+    },
 }
 
 /// The record as logged: set point, process variable, controller output (all as long), and

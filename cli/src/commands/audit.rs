@@ -219,7 +219,7 @@ fn latest_page(
                 discrepancy::diagnose(problem, &baseline, &options).map_err(|e| e.to_string())?;
             let fit = dg.final_fit().unwrap_or(&dg.baseline_fit);
             let answer = monitoring::Answer::new(&a, &det.detected, Some(&fit.result));
-            let repair = fit.repair(&d, integrating);
+            let repair = answer.repair(fit.repair(&d, integrating));
             let causes = if dg.causes.is_empty() {
                 vec!["none (the baseline explains PV)".to_string()]
             } else {
@@ -236,8 +236,8 @@ fn latest_page(
                 .combination(st, li)
                 .map_err(|e| e.to_string())?;
             let fitted = combination.run(problem, None).map_err(|e| e.to_string())?;
-            let repair = fitted.repair(&d, integrating);
             let answer = monitoring::Answer::new(&a, &det.detected, Some(&fitted.result));
+            let repair = answer.repair(fitted.repair(&d, integrating));
             (
                 report::pages::quantify_page(used, &fitted, &det, &repair, &answer),
                 None,

@@ -53,7 +53,7 @@ pub(crate) fn run(args: Args, s: &mut Streams<'_>) -> CmdResult {
     // the one-step fit of the answer
     let fit = dg.final_fit().unwrap_or(&dg.baseline_fit);
     let answer = monitoring::Answer::new(&a, &det.detected, Some(&fit.result));
-    let repair = fit.repair(&d, a.kind.integrating);
+    let repair = answer.repair(fit.repair(&d, a.kind.integrating));
     reporting::write(&args.out.report, s, || {
         report::pages::diagnose_page(&d, &dg, &det, &repair, &answer)
     })?;

@@ -173,7 +173,7 @@ pub(crate) fn run_quantify(args: QuantifyArgs, s: &mut Streams<'_>) -> CmdResult
     }
     let det = a.detect(&d);
     let answer = monitoring::Answer::new(&a, &det.detected, Some(&r.result));
-    let repair = r.repair(&d, a.kind.integrating);
+    let repair = answer.repair(r.repair(&d, a.kind.integrating));
     reporting::write(&args.out.report, s, || {
         report::pages::quantify_page(&d, &r, &det, &repair, &answer)
     })?;
