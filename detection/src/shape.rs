@@ -9,8 +9,15 @@
 //!   flow) does. Both papers look for stretches where OP changes and the valve's proxy does
 //!   not; Yamashita's index is the share of OP's motion during which the proxy is steady.
 //!   Our version, noise-aware where the papers threshold raw differences: OP and the proxy
-//!   `y` are smoothed over 5 samples and cut into windows of an eighth of the oscillation's
-//!   period (5 to 60 samples; 10 without a regular oscillation); the free valve's gain `K` is
+//!   `y` are cut into windows in the loop's own time ([`window`]): an eighth of the
+//!   oscillation's period when the loop oscillates regularly; without a regular oscillation,
+//!   the same share of OP's correlation time (the lag where OP's autocovariance falls below
+//!   1/e: an eighth of a sinusoid's period is 0.66 of its correlation time), so a record
+//!   logged every second and the same record logged every ten seconds are cut into windows of
+//!   the same duration; both at least 5 samples (fewer cannot tell a step from noise) and at
+//!   most a twentieth of the record (the verdict needs ten informative windows). Each window's
+//!   ends are means over 5 samples (against the noise, which is drawn per sample); the free
+//!   valve's gain `K` is
 //!   the median of `Δy/ΔOP` over the windows where both `y` and OP clearly moved (more than
 //!   three noise deviations each; one such window is enough: a sticky valve slips rarely),
 //!   since a least-squares gain over all windows
@@ -20,8 +27,8 @@
 //!   Statistic: the stuck share of OP's motion over the informative windows,
 //!   `ρ = Σ_stuck |ΔOP| / Σ_informative |ΔOP|`. Verdict: stiction above 0.1, no stiction
 //!   below 0.05, inconclusive between or with fewer than ten informative windows (our
-//!   thresholds). Without a regular oscillation the window doubles until ten are
-//!   informative ([`stick_slip_scaled`]).
+//!   thresholds). Without a regular oscillation the window doubles, up to a tenth of the
+//!   record, until ten are informative ([`stick_slip_scaled`]).
 //! * **Area ratio** — Singhal & Salsbury, "A simple method for detecting valve stiction in
 //!   oscillating control loops", Journal of Process Control 15 (2005) 371-382. In a
 //!   self-regulating PI loop oscillating through stiction the control error builds up while
@@ -31,18 +38,43 @@
 //!   the period. Verdict: stiction when `R >= 1.5`, no stiction when `R <= 1.2`,
 //!   inconclusive between. It applies to self-regulating loops only.
 
-use crate::signal::{median, noise_scale, smooth, std_dev, zero_crossings};
+use crate::signal::{correlation_time, median, noise_scale, smooth, std_dev, zero_crossings};
 use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
 
-/// Smoothing half-width (samples) of the stick-slip test.
+/// Smoothing half-width (samples) of the stick-slip test: means over 5 samples. Counted in
+/// samples on purpose: it averages the measurement noise, which is drawn per sample; one over
+/// a share of the window (the same time at any sampling) was measured and not kept.
 const SMOOTH: usize = 2;
-/// Window length (samples) of the stick-slip test without a regular oscillation.
-const WINDOW: usize = 10;
+/// Shortest window (samples): with fewer, a window's ends are means over overlapping samples
+/// and a step cannot be told from the noise.
+const MIN_WINDOW: usize = 5;
+/// Fewest windows in a record: the verdict needs ten informative ones.
+const MIN_WINDOWS: usize = 20;
+/// An eighth of a sinusoid's period in units of its correlation time: its autocorrelation
+/// `cos(2πk/T)` falls to 1/e at `k = T·acos(1/e)/2π`, so `T/8 = 0.658 τ`. Without a regular
+/// oscillation the window is this share of OP's correlation time, the rule of the oscillating
+/// loop carried over to a loop that moves without one.
+const WINDOW_PER_TAU: f64 = std::f64::consts::PI / (4.0 * 1.194_528_049_465_325);
 
-/// The stick-slip test's window: an eighth of the period (5 to 60 samples) when the loop
-/// oscillates regularly, else [`WINDOW`].
-pub(crate) fn window(period: Option<f64>) -> usize {
-    period.map_or(WINDOW, |p| ((p / 8.0).round() as usize).clamp(5, 60))
+/// The stick-slip test's window (samples), in the loop's own time: an eighth of the period
+/// when the loop oscillates regularly, else [`WINDOW_PER_TAU`] of OP's correlation time `tau`
+/// (samples; `None`: longer than the record can show); at least [`MIN_WINDOW`] samples and at
+/// most a [`MIN_WINDOWS`]th of the record's `n` samples.
+pub(crate) fn window(period: Option<f64>, tau: Option<f64>, n: usize) -> usize {
+    let longest = (n / MIN_WINDOWS).max(MIN_WINDOW);
+    let w = match (period, tau) {
+        (Some(p), _) => p / 8.0,
+        (None, Some(t)) => WINDOW_PER_TAU * t,
+        (None, None) => longest as f64,
+    };
+    (w.round() as usize).clamp(MIN_WINDOW, longest)
+}
+
+/// OP's correlation time (samples) as [`window`] reads it: of the detrended OP, looked for up
+/// to the lag that gives the longest window.
+pub(crate) fn op_time_scale(op: &[f64]) -> Option<f64> {
+    let longest = (op.len() / MIN_WINDOWS).max(MIN_WINDOW);
+    correlation_time(op, (longest as f64 / WINDOW_PER_TAU).ceil() as usize)
 }
 
 /// The stick-slip index of OP and the valve's proxy `y` over windows of `window` samples;
@@ -128,11 +160,18 @@ impl DetectionTest for StickSlip {
         "stick-slip"
     }
     fn run(&self, reg: &Registration<'_>) -> Result<TestOutcome, DetectionError> {
-        let o = reg.prepared()?.oscillation;
-        let w = window(o.period.filter(|_| o.is_regular()));
+        let p = reg.prepared()?;
+        let o = p.oscillation;
+        let period = o.period.filter(|_| o.is_regular());
+        let tau = if period.is_some() {
+            None
+        } else {
+            op_time_scale(&p.op)
+        };
+        let first = window(period, tau, reg.len());
         let px = reg.valve_proxy();
         let (proxy, y, op) = (px.name, px.y, px.op);
-        let found = stick_slip_scaled(op, &y, w, o.is_regular());
+        let found = stick_slip_scaled(op, &y, first, o.is_regular());
         let Some((rho, windows, w)) = found else {
             return Ok(TestOutcome::new(
                 "stick-slip",
@@ -155,11 +194,16 @@ impl DetectionTest for StickSlip {
             Some(rho),
             verdict,
             format!(
-                "{proxy} stayed put during {:.0} % of OP's motion ({windows} informative windows of {w} samples)",
-                100.0 * rho
+                "{proxy} stayed put during {:.0} % of OP's motion ({windows} informative windows of {w} samples, {:.0} s)",
+                100.0 * rho,
+                w as f64 * reg.sample_time()
             ),
         );
-        out.values = vec![("windows", windows as f64)];
+        out.values = vec![
+            ("windows", windows as f64),
+            ("window", w as f64),
+            ("first_window", first as f64),
+        ];
         Ok(out)
     }
 }
@@ -253,8 +297,39 @@ inventory::submit! {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::testing::{noise, sine};
+    use crate::testing::{noise, sine, wandering};
     use stiction_models::{InitialState, Kano, StictionModel};
+
+    /// A window of 10 samples, what a loop without a regular oscillation got before its
+    /// windows were set by OP's correlation time.
+    const WINDOW: usize = 10;
+
+    /// Without a regular oscillation the window is a share of OP's correlation time, not a
+    /// number of samples: the same wandering OP read every 1 s and every 2 s gets windows of
+    /// the same duration within a sample of the coarser record (and a window of 10 samples at
+    /// both, the former rule, would be twice as long in time at 2 s); its white noise does not
+    /// shorten it. A sine gets an eighth of its period either way.
+    #[test]
+    fn the_window_is_the_same_time_at_any_sampling() {
+        for seed in [3, 5, 8] {
+            let (op1, op2) = (wandering(1.0, seed), wandering(2.0, seed));
+            let w1 = window(None, op_time_scale(&op1), op1.len());
+            let w2 = window(None, op_time_scale(&op2), op2.len());
+            assert!(w1 > 12, "seed {seed}: {w1} samples at 1 s");
+            assert!(
+                (w1 as f64 - 2.0 * w2 as f64).abs() <= 2.0,
+                "seed {seed}: {w1} s at 1 s, {} s at 2 s",
+                2 * w2
+            );
+        }
+        let s = sine(2000, 160.0);
+        assert_eq!(window(Some(160.0), None, 2000), 20);
+        let tau = op_time_scale(&s).unwrap();
+        assert_eq!(window(None, Some(tau), 2000), 20, "tau {tau}");
+        // bounded by what the record resolves: at least 5 samples, at most a twentieth of it
+        assert_eq!(window(Some(16.0), None, 2000), 5);
+        assert_eq!(window(None, None, 400), 20);
+    }
 
     #[test]
     fn a_valve_that_moves_in_jumps_is_stuck_and_a_free_one_is_not() {

@@ -270,6 +270,43 @@ pub(crate) fn noise_scale(x: &[f64]) -> f64 {
     median(&d) / (std::f64::consts::SQRT_2 * 0.6745)
 }
 
+/// The correlation time of `x` in samples: the lag at which its autocovariance (mean removed)
+/// first falls below `1/e` of its value at lag 0, interpolated linearly between lags; the
+/// signal's own time scale, whatever its sampling. The lag-0 value is extrapolated from lags 1
+/// and 2 (`c₁²/c₂`, at most `c₀`): white noise (measurement noise through the controller's
+/// gain, quantisation) is correlated at lag 0 only, and with `c₀` a noisy signal's time would
+/// be one sample at any sampling rate. `None` when it stays above `1/e` up to `max_lag`;
+/// `Some(1.0)` when even lag 1 is uncorrelated.
+pub(crate) fn correlation_time(x: &[f64], max_lag: usize) -> Option<f64> {
+    let n = x.len();
+    let max_lag = max_lag.min(n.saturating_sub(1));
+    if max_lag < 2 {
+        return None;
+    }
+    let m = mean(x);
+    let d: Vec<f64> = x.iter().map(|v| v - m).collect();
+    let c = |lag: usize| -> f64 { d[..n - lag].iter().zip(&d[lag..]).map(|(a, b)| a * b).sum() };
+    let (c0, c1, c2) = (c(0), c(1), c(2));
+    if c1 <= 0.0 || c0 <= 0.0 {
+        return Some(1.0);
+    }
+    let top = if c2 > 0.0 { (c1 * c1 / c2).min(c0) } else { c0 };
+    let level = top / std::f64::consts::E;
+    let (mut prev, mut prev_lag) = (top, 0usize);
+    for lag in 1..=max_lag {
+        let v = match lag {
+            1 => c1,
+            2 => c2,
+            _ => c(lag),
+        };
+        if v < level {
+            return Some(prev_lag as f64 + (prev - level) / (prev - v));
+        }
+        (prev, prev_lag) = (v, lag);
+    }
+    None
+}
+
 /// The longest run of exactly repeated values: `(first index, length)` (`(0, 0)` when empty).
 pub(crate) fn longest_run(x: &[f64]) -> (usize, usize) {
     let (mut best, mut best_start, mut run_start) = (0usize, 0usize, 0usize);

@@ -37,3 +37,24 @@ pub(crate) fn noise(n: usize, sigma: f64, seed: u64) -> Vec<f64> {
         })
         .collect()
 }
+
+/// A signal wandering as a first-order lag (time constant 40 s) of white noise, plus white
+/// noise of deviation 0.3 of its own (an OP's share of PV's noise through the controller's
+/// gain), read every `ts` seconds over 20 000 s: the lag is simulated every 0.5 s, so records
+/// at different `ts` are the same signal sampled differently.
+pub(crate) fn wandering(ts: f64, seed: u64) -> Vec<f64> {
+    let fine = 0.5;
+    let (steps, every) = ((20_000.0 / fine) as usize, (ts / fine).round() as usize);
+    let a = (-fine / 40.0_f64).exp();
+    let mut x = 0.0;
+    let slow: Vec<f64> = noise(steps, 10.0, seed)
+        .iter()
+        .map(|e| {
+            x = a * x + (1.0 - a) * e;
+            x
+        })
+        .collect();
+    let read: Vec<f64> = slow.iter().step_by(every.max(1)).copied().collect();
+    let white = noise(read.len(), 0.3, seed + 1);
+    read.iter().zip(&white).map(|(s, w)| s + w).collect()
+}

@@ -133,9 +133,9 @@ fn flips(records: &[Record]) -> (usize, usize, usize) {
     (flipped, unread, runs)
 }
 
-#[test]
-fn the_verdict_does_not_flip_with_the_export_on_simulated_loops() {
-    let spec = PopulationSpec {
+/// The population of the simulated checks: seeds of its own, `Ts` 1-60 s, 400-2000 rows.
+fn population() -> PopulationSpec {
+    PopulationSpec {
         seed: 9_100_003,
         families: vec![
             Family::Flow,
@@ -145,7 +145,88 @@ fn the_verdict_does_not_flip_with_the_export_on_simulated_loops() {
         ],
         sample_time: [1.0, 60.0],
         samples: [400, 2000],
-    };
+    }
+}
+
+/// The stick-slip test's first window (before any doubling) in seconds, with the record's
+/// rows and whether the loop oscillates regularly.
+fn stick_slip_window(
+    l: &datasets::simulate::population::PopulationLoop,
+    every: usize,
+) -> Option<(f64, usize, bool)> {
+    let thin = |x: &[f64]| -> Vec<f64> { x.iter().step_by(every).copied().collect() };
+    let (sp, pv, op) = (thin(&l.sim.sp), thin(&l.sim.pv), thin(&l.sim.op));
+    let ts = l.sample_time * every as f64;
+    let reg = detection::Registration::new(&pv, &op, ts)
+        .ok()?
+        .integrating(l.integrating)
+        .with_sp(&sp)
+        .ok()?;
+    let regular = reg.oscillation().ok()?.is_regular();
+    let t = detection::run_all(&reg)
+        .into_iter()
+        .find(|t| t.name == "stick-slip")?;
+    Some((t.value("first_window")? * ts, pv.len(), regular))
+}
+
+/// The stick-slip test's windows are in the loop's own time: a simulated loop and its every
+/// second row (the same loop logged at twice the sampling time) get first windows of the same
+/// duration (three in four within one sample of the thinned record, none more than a fifth
+/// apart), wherever neither window sits on a bound
+/// of what its record resolves (5 samples, a twentieth of the rows) and both records agree on
+/// whether the loop oscillates regularly (an eighth of the period then, a share of OP's
+/// correlation time otherwise). A window counted in samples (10 samples whatever the
+/// sampling) fails it: the thinned record's window is twice as long in time.
+#[test]
+fn the_stick_slip_window_is_the_same_time_at_half_the_sampling() {
+    let spec = population();
+    let (mut compared, mut within, mut worst) = (0, 0, 0.0_f64);
+    for i in 0..48 {
+        let l = spec.generate(i).unwrap();
+        let (Some((fine, n, r1)), Some((coarse, n2, r2))) =
+            (stick_slip_window(&l, 1), stick_slip_window(&l, 2))
+        else {
+            continue;
+        };
+        let ts2 = 2.0 * l.sample_time;
+        let bound = |w: f64, rows: usize, ts: f64| {
+            let samples = (w / ts).round() as usize;
+            samples <= 5 || samples >= rows / 20
+        };
+        if r1 != r2 || bound(fine, n, l.sample_time) || bound(coarse, n2, ts2) {
+            continue;
+        }
+        compared += 1;
+        let gap = (fine - coarse).abs();
+        let ok = gap <= ts2 + 1e-9;
+        within += usize::from(ok);
+        worst = worst.max(gap / fine.max(coarse));
+        println!(
+            "loop {i}: {fine:.1} s at {:.1} s, {coarse:.1} s at {ts2:.1} s{}",
+            l.sample_time,
+            if ok {
+                ""
+            } else {
+                "  <- more than a sample apart"
+            }
+        );
+    }
+    println!(
+        "{within} of {compared} loops within one sample of the thinned record; the largest gap {:.0} % of the window",
+        100.0 * worst
+    );
+    assert!(compared >= 8, "only {compared} loops to compare");
+    // Most within one sample; the correlation time is an estimate, and a component of OP
+    // correlated over a sample or two of the finer record counts as the loop's own at the
+    // finer sampling and as noise at the coarser: no window more than a fifth apart (a window
+    // counted in samples is twice as long in time on the thinned record, 50 % apart).
+    assert!(4 * within >= 3 * compared, "{within} of {compared}");
+    assert!(worst <= 0.2, "{worst}");
+}
+
+#[test]
+fn the_verdict_does_not_flip_with_the_export_on_simulated_loops() {
+    let spec = population();
     let records: Vec<Record> = (0..24)
         .map(|i| {
             let l = spec.generate(i).unwrap();
