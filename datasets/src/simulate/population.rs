@@ -637,15 +637,7 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         historian.push(format!("PV frozen from sample {k0}"));
     }
     let op_span = percentile_span(&sim.op);
-    let label = if op_span < BARELY_MOVES || 2 * longest_run(&sim.pv) > samples {
-        Label::CannotJudge
-    } else if sticky && trace.is_some_and(|t| !t.shows()) {
-        Label::NoTrace
-    } else if sticky {
-        Label::Sticky
-    } else {
-        Label::Healthy
-    };
+    let label = label_of(&sim, op_span, sticky, trace);
     let what = format!(
         "{} Ts={ts:.1}s N={samples} delay={delay} {tuning} | {} | {valve_what}{} | OP span {op_span:.2} %{}",
         family.as_str(),
@@ -668,6 +660,21 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         sample_time: ts,
         sim,
     })
+}
+
+/// The label of a loop as logged: cannot be judged (OP spans less than [`BARELY_MOVES`], or PV
+/// holds one value over more than half of the record), else sticky (without a trace when its
+/// [`Trace`] does not show) or healthy.
+fn label_of(sim: &SimulatedLoop, op_span: f64, sticky: bool, trace: Option<Trace>) -> Label {
+    if op_span < BARELY_MOVES || 2 * longest_run(&sim.pv) > sim.len() {
+        Label::CannotJudge
+    } else if sticky && trace.is_some_and(|t| !t.shows()) {
+        Label::NoTrace
+    } else if sticky {
+        Label::Sticky
+    } else {
+        Label::Healthy
+    }
 }
 
 /// The sample variance (about the mean) of `a − b`.
