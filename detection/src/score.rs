@@ -120,7 +120,9 @@ pub const WEIGHTS: [f64; 8] = [
 
 /// Score at or above which the verdict may be `stiction`: with [`NO_STICTION_AT`], the pair
 /// of a 0.05 grid that decides the training population best with at most 20 % of it
-/// inconclusive (`cargo xtask detect-calibrate`).
+/// inconclusive, judged without the parts' rule; with the parts' rule ([`settle`]) in place,
+/// no pair leaves 2 % of the training population fewer inconclusive while right on as large a
+/// share of the conclusive (`cargo xtask detect-calibrate`).
 pub const STICTION_AT: f64 = 0.5;
 /// Score at or below which the verdict may be `no-stiction` (chosen with [`STICTION_AT`]).
 pub const NO_STICTION_AT: f64 = 0.5;
@@ -143,6 +145,8 @@ pub struct Model {
     pub stiction_at: f64,
     /// Score at or below which the verdict may be `no-stiction`.
     pub no_stiction_at: f64,
+    /// Stiction band (% of span) that a `no-stiction` verdict must exclude ([`HIDDEN_S`]).
+    pub hidden_s: f64,
 }
 
 impl Model {
@@ -153,6 +157,7 @@ impl Model {
             weights: WEIGHTS.to_vec(),
             stiction_at: STICTION_AT,
             no_stiction_at: NO_STICTION_AT,
+            hidden_s: HIDDEN_S,
         }
     }
 
@@ -221,17 +226,21 @@ pub fn detect_with(reg: &Registration<'_>, model: &Model) -> Detection {
 /// half, every second row) never gets the opposite verdict of the whole: the part's own
 /// verdict is one of those checked here.
 pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection {
-    let opposite = match d.verdict {
-        Verdict::Stiction => Verdict::NoStiction,
-        Verdict::NoStiction => Verdict::Stiction,
-        Verdict::Inconclusive => return d,
-    };
+    if d.verdict == Verdict::Inconclusive {
+        return d;
+    }
+    settle_on(d, &parts(reg), model)
+}
+
+/// The parts of a record [`settle`] judges, each with what [`combine`] judges it on (`None`:
+/// the part cannot be built, e.g. too short for a registration).
+pub fn parts(reg: &Registration<'_>) -> [(&'static str, Option<Evidence>); 3] {
     let n = reg.len();
     let h = n / 2;
     let every_second = |x: &[f64]| -> Vec<f64> { x.iter().step_by(2).copied().collect() };
     let (pv2, op2) = (every_second(reg.pv()), every_second(reg.op()));
     let sp2 = reg.sp().map(every_second);
-    let part = |pv: &[f64], op: &[f64], sp: Option<&[f64]>, ts: f64| -> Option<Verdict> {
+    let part = |pv: &[f64], op: &[f64], sp: Option<&[f64]>, ts: f64| -> Option<Evidence> {
         let r = Registration::new(pv, op, ts)
             .ok()?
             .integrating(reg.is_integrating());
@@ -239,10 +248,10 @@ pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection 
             Some(sp) => r.with_sp(sp).ok()?,
             None => r,
         };
-        Some(combine(&r, run_all(&r), model).verdict)
+        Some(Evidence::of(&r, run_all(&r)))
     };
     let ts = reg.sample_time();
-    let parts: [(&str, Option<Verdict>); 3] = [
+    [
         (
             "its first half",
             part(
@@ -265,8 +274,21 @@ pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection 
             "every second sample",
             part(&pv2, &op2, sp2.as_deref(), 2.0 * ts),
         ),
-    ];
-    match parts.iter().find(|(_, v)| *v == Some(opposite)) {
+    ]
+}
+
+/// [`settle`] on parts already judged ([`parts`]) under `model`.
+pub fn settle_on(d: Detection, parts: &[(&str, Option<Evidence>)], model: &Model) -> Detection {
+    let opposite = match d.verdict {
+        Verdict::Stiction => Verdict::NoStiction,
+        Verdict::NoStiction => Verdict::Stiction,
+        Verdict::Inconclusive => return d,
+    };
+    let says_opposite = |e: &Option<Evidence>| {
+        e.as_ref()
+            .is_some_and(|e| e.judge(model).verdict == opposite)
+    };
+    match parts.iter().find(|(_, e)| says_opposite(e)) {
         None => d,
         Some((what, _)) => Detection {
             verdict: Verdict::Inconclusive,
@@ -279,15 +301,59 @@ pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection 
     }
 }
 
+/// What [`combine`] judges a registration on: the tests' outcomes, whether the loop
+/// oscillates regularly, and whether the record can be judged at all.
+#[derive(Debug, Clone)]
+pub struct Evidence {
+    /// Every test's outcome.
+    pub tests: Vec<TestOutcome>,
+    /// Whether the control error oscillates regularly.
+    pub oscillating: bool,
+    /// The oscillation's period in seconds, when it oscillates regularly.
+    pub period_s: Option<f64>,
+    /// Whether the loop was treated as integrating.
+    pub integrating: bool,
+    /// Why the record cannot be judged (`None`: it can).
+    pub degenerate: Option<String>,
+}
+
+impl Evidence {
+    /// The evidence of `tests` run on `reg`.
+    pub fn of(reg: &Registration<'_>, tests: Vec<TestOutcome>) -> Evidence {
+        let osc = reg.oscillation().ok().copied();
+        let oscillating = osc.is_some_and(|o| o.is_regular());
+        Evidence {
+            tests,
+            oscillating,
+            period_s: osc
+                .filter(|o| o.is_regular())
+                .and_then(|o| o.period)
+                .map(|p| p * reg.sample_time()),
+            integrating: reg.is_integrating(),
+            degenerate: reg.check().err().map(|e| degenerate_reason(&e)),
+        }
+    }
+
+    /// Score and verdict under `model` (the rule of [`combine`]).
+    pub fn judge(&self, model: &Model) -> Detection {
+        decide(self.clone(), model)
+    }
+}
+
 /// Combine already computed outcomes (e.g. with extra evidence appended by the caller).
 pub fn combine(reg: &Registration<'_>, tests: Vec<TestOutcome>, model: &Model) -> Detection {
+    decide(Evidence::of(reg, tests), model)
+}
+
+fn decide(e: Evidence, model: &Model) -> Detection {
+    let Evidence {
+        tests,
+        oscillating,
+        period_s,
+        integrating,
+        degenerate,
+    } = e;
     let score = model.score(&features(&tests));
-    let osc = reg.oscillation().ok().copied();
-    let oscillating = osc.is_some_and(|o| o.is_regular());
-    let period_s = osc
-        .filter(|o| o.is_regular())
-        .and_then(|o| o.period)
-        .map(|p| p * reg.sample_time());
     let says = |name: &str| {
         tests
             .iter()
@@ -301,15 +367,15 @@ pub fn combine(reg: &Registration<'_>, tests: Vec<TestOutcome>, model: &Model) -
     let hammer = says("hammerstein");
     let judged = tests.iter().any(|t| t.statistic.is_some());
     let (lo, hi) = (model.no_stiction_at, model.stiction_at);
-    let (verdict, reason) = match reg.check() {
-        Err(e) => (Verdict::Inconclusive, degenerate_reason(&e)),
+    let (verdict, reason) = match degenerate {
+        Some(why) => (Verdict::Inconclusive, why),
         // With no statistic at all the score is the model's base rate: no evidence either way
         // (it said `no-stiction`, score 0.30).
-        Ok(()) if !judged => (
+        None if !judged => (
             Verdict::Inconclusive,
             "no test could judge this record (each says why)".to_string(),
         ),
-        Ok(()) if score >= hi && (oscillating || stick_slip || hammer) => {
+        None if score >= hi && (oscillating || stick_slip || hammer) => {
             let mut with = Vec::new();
             if oscillating {
                 with.push("a regular oscillation");
@@ -325,24 +391,25 @@ pub fn combine(reg: &Registration<'_>, tests: Vec<TestOutcome>, model: &Model) -
                 format!("score {score:.2} >= {hi:.2} with {}", with.join(" and ")),
             )
         }
-        Ok(()) if score >= hi => (
+        None if score >= hi => (
             Verdict::Inconclusive,
             format!(
                 "score {score:.2} >= {hi:.2}, but no regular oscillation, no stick-slip and no sticky valve that explains PV: the shape tests alone do not make a sticky valve"
             ),
         ),
-        Ok(()) if score <= lo && s_upper.is_some_and(|s| s >= HIDDEN_S) => (
+        None if score <= lo && s_upper.is_some_and(|s| s >= model.hidden_s) => (
             Verdict::Inconclusive,
             format!(
-                "score {score:.2} <= {lo:.2}, but a sticky valve with S up to {:.2} % explains the data as well as a free one: they cannot rule out a stiction band of {HIDDEN_S} % or more",
-                s_upper.unwrap_or(HIDDEN_S)
+                "score {score:.2} <= {lo:.2}, but a sticky valve with S up to {:.2} % explains the data as well as a free one: they cannot rule out a stiction band of {} % or more",
+                s_upper.unwrap_or(model.hidden_s),
+                model.hidden_s
             ),
         ),
-        Ok(()) if score <= lo => (
+        None if score <= lo => (
             Verdict::NoStiction,
             format!("score {score:.2} <= {lo:.2}"),
         ),
-        Ok(()) => (
+        None => (
             Verdict::Inconclusive,
             format!("score {score:.2} between {lo:.2} and {hi:.2}"),
         ),
@@ -353,7 +420,7 @@ pub fn combine(reg: &Registration<'_>, tests: Vec<TestOutcome>, model: &Model) -
         reason,
         oscillating,
         period_s,
-        integrating: reg.is_integrating(),
+        integrating,
         integrating_by: None,
         tests,
     }

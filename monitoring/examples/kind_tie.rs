@@ -10,7 +10,8 @@
 //! when the other kind gives the same) and `not-opposite` (it stands unless the other kind
 //! gives the opposite one). Per loop kind and overall: the verdict right on the conclusive (a
 //! conclusive verdict on a loop that cannot be judged is wrong) and the share of sticky and
-//! free loops left `inconclusive`.
+//! free loops left `inconclusive`. A sticky valve that leaves no trace in its record
+//! (`Label::NoTrace`) counts as sticky, as in the calibration's first figure set.
 //!
 //! `cargo run --release -p monitoring --example kind_tie -- [LOOPS]` (default 80 per
 //! population, as the calibration).
@@ -76,7 +77,8 @@ fn figures(cases: &[&Case], verdict: impl Fn(&Case) -> Verdict) -> (f64, usize, 
         .filter(|c| {
             matches!(
                 (c.label, verdict(c)),
-                (Label::Sticky, Verdict::Stiction) | (Label::Healthy, Verdict::NoStiction)
+                (Label::Sticky | Label::NoTrace, Verdict::Stiction)
+                    | (Label::Healthy, Verdict::NoStiction)
             )
         })
         .count();

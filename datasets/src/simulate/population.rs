@@ -37,6 +37,33 @@
 //!   holds one value over more than half of the record is labelled [`Label::CannotJudge`]
 //!   whatever its valve: a valve stuck that long and a frozen transmitter give the same PV and
 //!   OP.
+//! * **Stiction that leaves no trace** ([`Label::NoTrace`]): a sticky valve whose effect on
+//!   the record is below what the record can show, decided from the simulation alone (never
+//!   from a detector), by [`trace`] below.
+//!
+//! # Stiction that leaves no trace
+//! Each sticky loop has a *twin*: the same [`Scenario`] (the same seed, so the same noise,
+//! set-point moves and disturbances; the same plant, controller, installed characteristic
+//! and historian) with a free valve. What separates the two records is the stiction's effect
+//! on the record, and nothing else. The label asks whether a perfect model — one that knows
+//! that effect exactly — could tell it from the noise in this record:
+//!
+//! `LR = N ln(1 + var(X_sticky − X_twin) / σ²_X)` for `X` = PV and for `X` = OP,
+//!
+//! the log-likelihood gain of a model that explains the difference over one that does not,
+//! with Gaussian white residuals of variance `σ²_X`: the variance of the noise's contribution
+//! to `X` in the twin (the twin simulated again without noise, subtracted), plus the
+//! historian's (a quantisation step `q` adds `q²/12`, swinging-door compression with
+//! deviation `d` adds `d²/3` to PV). OP counts as well as PV: the controller reacts to the
+//! valve, and the difference may stand further above OP's noise than above PV's. The
+//! difference is centred (its mean left out): a constant offset between the records — a
+//! backlash's offset in OP under a valve that never reverses — is absorbed by any model's
+//! constant and shows nothing. When the larger of the two is below χ²₁(95 %) = 3.84
+//! ([`NO_TRACE_LR`]), not even that perfect model would find the stiction in the record at the
+//! 5 % level: the loop is labelled [`Label::NoTrace`] (its S is kept). Neither verdict is
+//! wrong about such a record: the valve sticks, and the data show no effect a repair would
+//! remove. Residuals are taken as white: where the noise is coloured and the difference slow,
+//! the gain is overstated, so the label errs towards "shows a trace" (it is conservative).
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -106,6 +133,35 @@ pub enum Label {
     /// or a frozen transmitter): the record cannot show whether the valve sticks (expected
     /// `inconclusive`).
     CannotJudge,
+    /// The valve sticks, but its effect on the record is below what the record can show
+    /// ([`trace`]): neither `stiction` nor `no-stiction` is wrong about the record.
+    NoTrace,
+}
+
+/// The log-likelihood gain under which a sticky valve leaves no trace in its record: χ²₁ at
+/// 95 % ([`Label::NoTrace`]).
+pub const NO_TRACE_LR: f64 = 3.84;
+
+/// How far a sticky loop's record stands from its free twin's, in the log-likelihood gain of
+/// a perfect model (module docs, "Stiction that leaves no trace").
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Trace {
+    /// `N ln(1 + var(PV_sticky − PV_twin) / σ²_PV)`.
+    pub lr_pv: f64,
+    /// The same of OP.
+    pub lr_op: f64,
+}
+
+impl Trace {
+    /// The larger of the two gains.
+    pub fn lr(&self) -> f64 {
+        self.lr_pv.max(self.lr_op)
+    }
+
+    /// Whether the stiction shows in the record (the gain at least [`NO_TRACE_LR`]).
+    pub fn shows(&self) -> bool {
+        self.lr() >= NO_TRACE_LR
+    }
 }
 
 /// The ranges of a population.
@@ -151,6 +207,8 @@ pub struct PopulationLoop {
     pub label: Label,
     /// The valve's S (% of span; 0 for a free valve).
     pub s: f64,
+    /// How far the record stands from its free twin's ([`trace`]; sticky valves only).
+    pub trace: Option<Trace>,
     /// One line saying what the loop is.
     pub what: String,
     /// Seconds per sample.
@@ -539,6 +597,16 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         ..Scenario::default()
     }
     .simulate()?;
+    // The historian's own error, as measurement noise: (PV, OP) variances.
+    let historian_var = {
+        let q = quant.map_or(0.0, |q| q * q / 12.0);
+        (q + compress.map_or(0.0, |d| d * d / 3.0), q)
+    };
+    let trace = if sticky {
+        Some(trace(&sim, historian_var)?)
+    } else {
+        None
+    };
     let mut historian = Vec::new();
     if let Some(dev) = compress {
         sim.pv = swinging_door(&sim.pv, dev).0;
@@ -569,13 +637,7 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         historian.push(format!("PV frozen from sample {k0}"));
     }
     let op_span = percentile_span(&sim.op);
-    let label = if op_span < BARELY_MOVES || 2 * longest_run(&sim.pv) > samples {
-        Label::CannotJudge
-    } else if sticky {
-        Label::Sticky
-    } else {
-        Label::Healthy
-    };
+    let label = label_of(&sim, op_span, sticky, trace);
     let what = format!(
         "{} Ts={ts:.1}s N={samples} delay={delay} {tuning} | {} | {valve_what}{} | OP span {op_span:.2} %{}",
         family.as_str(),
@@ -593,15 +655,80 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         integrating: family.integrating(),
         label,
         s: if sticky { s } else { 0.0 },
+        trace,
         what,
         sample_time: ts,
         sim,
     })
 }
 
+/// The label of a loop as logged: cannot be judged (OP spans less than [`BARELY_MOVES`], or PV
+/// holds one value over more than half of the record), else sticky (without a trace when its
+/// [`Trace`] does not show) or healthy.
+fn label_of(sim: &SimulatedLoop, op_span: f64, sticky: bool, trace: Option<Trace>) -> Label {
+    if op_span < BARELY_MOVES || 2 * longest_run(&sim.pv) > sim.len() {
+        Label::CannotJudge
+    } else if sticky && trace.is_some_and(|t| !t.shows()) {
+        Label::NoTrace
+    } else if sticky {
+        Label::Sticky
+    } else {
+        Label::Healthy
+    }
+}
+
+/// The sample variance (about the mean) of `a − b`.
+fn var_of_difference(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    if n < 2 {
+        return 0.0;
+    }
+    let d = || a.iter().zip(b).map(|(x, y)| x - y);
+    let mean = d().sum::<f64>() / n as f64;
+    d().map(|v| (v - mean).powi(2)).sum::<f64>() / n as f64
+}
+
+/// `N ln(1 + var(difference) / σ²)`; infinite for a difference on a record without noise.
+fn gain(n: usize, var_difference: f64, noise_var: f64) -> f64 {
+    if noise_var > 0.0 {
+        n as f64 * (var_difference / noise_var).ln_1p()
+    } else if var_difference > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    }
+}
+
+/// How far the record `sim` (as simulated, before the historian) of a sticky valve stands from
+/// its free twin's: the same scenario with a free valve, and again without noise for the
+/// noise's own contribution; `historian_var` adds the historian's error to the noise's
+/// variance of (PV, OP). The module docs, "Stiction that leaves no trace", give the rule.
+pub fn trace(sim: &SimulatedLoop, historian_var: (f64, f64)) -> Result<Trace, DataError> {
+    let free = || -> Result<Scenario, DataError> {
+        Ok(Scenario {
+            valve: Box::new(Kano::params().check()?),
+            ..sim.scenario.clone()
+        })
+    };
+    let twin = free()?.simulate()?;
+    let quiet = Scenario {
+        noise_sigma: 0.0,
+        ..free()?
+    }
+    .simulate()?;
+    let n = sim.len();
+    let noise_pv = var_of_difference(&twin.pv, &quiet.pv) + historian_var.0;
+    let noise_op = var_of_difference(&twin.op, &quiet.op) + historian_var.1;
+    Ok(Trace {
+        lr_pv: gain(n, var_of_difference(&sim.pv, &twin.pv), noise_pv),
+        lr_op: gain(n, var_of_difference(&sim.op, &twin.op), noise_op),
+    })
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
+    use super::super::{Controller, Setpoint};
     use super::*;
 
     #[test]
@@ -647,6 +774,67 @@ mod tests {
             let last = l.sim.pv[l.sim.len() - 1];
             assert_eq!(l.sim.pv[l.sim.len() / 2], last, "{}", l.what);
         }
+    }
+
+    fn loop_with(s: f64, j: f64, noise: f64, kc: f64, set_point_moves: bool) -> SimulatedLoop {
+        Scenario {
+            valve: Box::new(Kano::params().s(s).j(j).check().unwrap()),
+            noise_sigma: noise,
+            controller: Controller { kc, ki: 0.5 },
+            setpoint: if set_point_moves {
+                Setpoint::default()
+            } else {
+                Setpoint::constant()
+            },
+            samples: 1000,
+            ..Scenario::default()
+        }
+        .simulate()
+        .unwrap()
+    }
+
+    #[test]
+    fn a_dithered_valve_leaves_no_trace_and_a_limit_cycle_does() {
+        // A valve of S = 0.5 % under a controller that turns PV's noise into OP swings of
+        // tens of %: it follows OP almost as a free valve does.
+        let dithered = loop_with(0.5, 0.2, 2.0, 2.0, false);
+        assert!(percentile_span(&dithered.op) > 20.0);
+        let t = trace(&dithered, (0.0, 0.0)).unwrap();
+        assert!(!t.shows(), "{t:?}");
+        // the historian's error only hides it further
+        let t2 = trace(&dithered, (0.5, 0.5)).unwrap();
+        assert!(t2.lr() < t.lr(), "{t2:?} {t:?}");
+        // The paper's S = 9, J = 3 valve cycles: stuck most of the time, PV square-ish.
+        let cycling = loop_with(9.0, 3.0, 0.1, 0.5, true);
+        assert!(cycling.stuck_fraction() > 0.5);
+        let t = trace(&cycling, (0.0, 0.0)).unwrap();
+        assert!(t.shows() && t.lr_pv > 100.0, "{t:?}");
+    }
+
+    #[test]
+    fn a_population_labels_its_traceless_sticky_loops_and_keeps_their_s() {
+        let spec = PopulationSpec {
+            seed: 5,
+            families: vec![Family::Flow, Family::Level],
+            sample_time: [2.0, 30.0],
+            samples: [300, 3000],
+        };
+        let loops: Vec<PopulationLoop> = (0..120).map(|i| spec.generate(i).unwrap()).collect();
+        let mut no_trace = 0;
+        for l in &loops {
+            let sticky = l.index % 2 == 0;
+            assert_eq!(l.trace.is_some(), sticky, "{}", l.what);
+            match l.label {
+                Label::NoTrace => {
+                    no_trace += 1;
+                    assert!(l.s > 0.0 && !l.trace.unwrap().shows(), "{}", l.what);
+                }
+                Label::Sticky => assert!(l.trace.unwrap().shows(), "{}", l.what),
+                Label::Healthy => assert!(!sticky),
+                Label::CannotJudge => {}
+            }
+        }
+        assert!(no_trace > 0, "no sticky loop without a trace in 60");
     }
 
     #[test]

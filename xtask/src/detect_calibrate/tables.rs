@@ -1,0 +1,234 @@
+//! The tables of `cargo xtask detect-calibrate` beyond the figures: why verdicts are
+//! `inconclusive`, the no-trace label against the oracle, and the reference paper's benchmark.
+
+use super::*;
+
+/// Why a verdict is `inconclusive`, from its reason (the first rule of [`judge`] that made it so).
+fn why_inconclusive(reason: &str) -> String {
+    const RULES: [(&str, &str); 8] = [
+        (
+            "the two readings disagree",
+            "kind tie (the other loop kind's reading says the opposite)",
+        ),
+        (
+            "cannot rule out a stiction band",
+            "HIDDEN_S (a band of 2 % or more fits as well as a free valve)",
+        ),
+        (
+            "the shape tests alone",
+            "oscillation gate (score high, no limit cycle, stick-slip or sticky valve)",
+        ),
+        ("barely asked to move", "OP barely moves"),
+        ("frozen transmitter", "PV frozen"),
+        (" between ", "score between the thresholds"),
+        ("no test could judge", "no test could judge"),
+        ("the data cannot be judged", "other degenerate record"),
+    ];
+    if !reason.contains("the two readings disagree") {
+        if let Some(at) = reason.find(" alone says ") {
+            let head = &reason[..at];
+            let part = ["its first half", "its second half", "every second sample"]
+                .into_iter()
+                .find(|p| head.ends_with(p))
+                .unwrap_or("a part");
+            let says = reason[at + " alone says ".len()..]
+                .split(':')
+                .next()
+                .unwrap_or("");
+            return format!("part: {part} says {says}");
+        }
+    }
+    RULES
+        .iter()
+        .find(|(key, _)| reason.contains(key))
+        .map_or_else(|| format!("other: {reason}"), |(_, name)| name.to_string())
+}
+
+/// The inconclusive verdicts of `sets` counted by reason and by label (sticky with a trace,
+/// sticky without, free, cannot be judged), and how many of them had the Hammerstein optimum
+/// on the grid's edge.
+pub(super) fn reasons(sets: &[(&str, Vec<Case>)]) -> Result<()> {
+    let mut counts: std::collections::BTreeMap<String, [usize; 4]> = Default::default();
+    let (mut edge, mut total) = (0usize, 0usize);
+    for c in sets.iter().flat_map(|(_, c)| c.iter()) {
+        let j = c.judged()?;
+        if j.verdict != Verdict::Inconclusive {
+            continue;
+        }
+        total += 1;
+        let col = match (c.judgeable, c.sticky, c.no_trace) {
+            (false, _, _) => 3,
+            (true, true, false) => 0,
+            (true, true, true) => 1,
+            (true, false, _) => 2,
+        };
+        counts.entry(why_inconclusive(&j.reason)).or_default()[col] += 1;
+        edge += usize::from(
+            c.outcomes
+                .iter()
+                .any(|o| o.name == "hammerstein" && o.evidence.contains("grid's edge")),
+        );
+    }
+    println!(
+        "  {:78} {:>6} {:>8} {:>5} {:>7}",
+        "reason", "sticky", "no trace", "free", "cannot"
+    );
+    let mut rows: Vec<_> = counts.into_iter().collect();
+    rows.sort_by_key(|(_, c)| std::cmp::Reverse(c.iter().sum::<usize>()));
+    for (why, [a, b, c, d]) in rows {
+        println!("  {why:78} {a:>6} {b:>8} {c:>5} {d:>7}");
+    }
+    println!(
+        "  {total} inconclusive; of them the Hammerstein test's best sticky valve on the grid's edge: {edge}"
+    );
+    Ok(())
+}
+
+/// The no-trace label (from the free twin) against the oracle (the true valve position
+/// against OP through the Hammerstein model): how many sticky validation loops each flags and
+/// how they overlap.
+pub(super) fn trace_and_oracle(valid: &[(&str, Vec<Case>)]) {
+    let sticky: Vec<&Case> = valid
+        .iter()
+        .flat_map(|(_, c)| c.iter())
+        .filter(|c| c.sticky && c.judgeable)
+        .collect();
+    let oracle_hidden = |c: &&Case| c.oracle.is_none_or(|o| o < REGION_LR);
+    let both = sticky
+        .iter()
+        .filter(|c| c.no_trace && oracle_hidden(c))
+        .count();
+    let trace_only = sticky
+        .iter()
+        .filter(|c| c.no_trace && !oracle_hidden(c))
+        .count();
+    let oracle_only = sticky
+        .iter()
+        .filter(|c| !c.no_trace && oracle_hidden(c))
+        .count();
+    println!(
+        "\nsticky validation loops that can be judged: {}; no trace by the twin (LR < {}): {}; hidden to the oracle (oracle LR < {REGION_LR}): {}; both {both}, the twin only {trace_only}, the oracle only {oracle_only}",
+        sticky.len(),
+        datasets::simulate::population::NO_TRACE_LR,
+        both + trace_only,
+        both + oracle_only
+    );
+    let mut only: Vec<f64> = sticky
+        .iter()
+        .filter(|c| !c.no_trace && oracle_hidden(c))
+        .filter_map(|c| c.trace_lr)
+        .collect();
+    only.sort_by(f64::total_cmp);
+    if let (Some(first), Some(mid)) = (only.first(), only.get(only.len() / 2)) {
+        println!(
+            "  the twin's LR on the loops hidden to the oracle only: smallest {first:.1}, median {mid:.1}"
+        );
+    }
+    let mut lrs: Vec<f64> = sticky.iter().filter_map(|c| c.trace_lr).collect();
+    lrs.sort_by(f64::total_cmp);
+    if !lrs.is_empty() {
+        let at = |q: f64| lrs[((lrs.len() - 1) as f64 * q).round() as usize];
+        println!(
+            "  the twin's LR over those loops: 10 % {:.1}, 25 % {:.1}, median {:.1}, 75 % {:.1}",
+            at(0.1),
+            at(0.25),
+            at(0.5),
+            at(0.75)
+        );
+    }
+    for (name, cases) in valid {
+        let n = cases.iter().filter(|c| c.no_trace).count();
+        let k = cases.iter().filter(|c| c.sticky && c.judgeable).count();
+        println!("  {name:24} no trace {n:>3} of {k:>3} sticky");
+    }
+}
+
+/// The valves of [`paper_benchmark`]: `(S, J)`.
+const PAPER_VALVES: [(f64, f64); 4] = [(0.0, 0.0), (1.0, 0.5), (3.0, 1.0), (9.0, 3.0)];
+/// Seeds per cell of [`paper_benchmark`].
+const PAPER_SEEDS: u64 = 6;
+
+/// One loop of the reference paper's benchmark (`stiction simulate` with these settings):
+/// its third-order ARMAX plant (or the slower preset), PI 0.5/0.5, random-walk set point,
+/// the paper's two-sine disturbance of amplitude `a`, 1 500 samples.
+fn paper_case(preset: PlantPreset, a: f64, s: f64, j: f64, seed: u64) -> Result<Case> {
+    let sim = Scenario {
+        plant: PlantSpec::Preset(preset),
+        valve: Box::new(Kano::params().s(s).j(j).check()?),
+        disturbances: if a > 0.0 {
+            vec![Disturbance::Paper { a }]
+        } else {
+            Vec::new()
+        },
+        samples: 1500,
+        seed,
+        ..Scenario::default()
+    }
+    .simulate()
+    .with_context(|| format!("paper benchmark {preset:?} a = {a} S = {s} seed {seed}"))?;
+    Case {
+        what: format!("{preset:?} a={a} S={s} J={j} seed {seed}"),
+        sticky: s > 0.0,
+        no_trace: false,
+        trace_lr: None,
+        tie: false,
+        judged: None,
+        judgeable: true,
+        kind_integrating: false,
+        oracle: None,
+        kind_from_data: None,
+        sp: Some(sim.sp),
+        pv: sim.pv,
+        op: sim.op,
+        ts: 1.0,
+        integrating: false,
+        outcomes: Vec::new(),
+        x: Vec::new(),
+    }
+    .evaluate()
+}
+
+/// The final model on loops of another generator: the reference paper's benchmark, whose
+/// plants (third order, coloured noise) and disturbance are not those of the training loops.
+pub(super) fn paper_benchmark(model: &Model) -> Result<()> {
+    let mut cells = Vec::new();
+    for preset in [PlantPreset::Paper, PlantPreset::Slow] {
+        for a in [0.0, 0.25, 1.0] {
+            for (s, j) in PAPER_VALVES {
+                cells.push((preset, a, s, j));
+            }
+        }
+    }
+    let judged: Vec<Vec<(Verdict, bool)>> = cells
+        .par_iter()
+        .map(|&(preset, a, s, j)| {
+            (1..=PAPER_SEEDS)
+                .map(|seed| {
+                    let c = paper_case(preset, a, s, j, seed)?;
+                    Ok((judge(&c, model)?.verdict, c.sticky))
+                })
+                .collect::<Result<Vec<_>>>()
+        })
+        .collect::<Result<_>>()?;
+    println!(
+        "\nthe reference paper's benchmark (`stiction simulate`: plant preset, disturbance a, Kano S/J; {PAPER_SEEDS} seeds, 1 500 samples), final model:"
+    );
+    println!("plant  a     S    J    stiction  no-stiction  inconclusive");
+    for ((preset, a, s, j), v) in cells.iter().zip(&judged) {
+        let count = |d: Verdict| v.iter().filter(|(x, _)| *x == d).count();
+        println!(
+            "{:6} {a:<5} {s:<4} {j:<4} {:>8}  {:>11}  {:>12}",
+            format!("{preset:?}").to_lowercase(),
+            count(Verdict::Stiction),
+            count(Verdict::NoStiction),
+            count(Verdict::Inconclusive)
+        );
+    }
+    let all: Vec<(Verdict, bool)> = judged.into_iter().flatten().collect();
+    let (right, inc, right_all) = rates(&all);
+    println!(
+        "verdict right on {right_all:.1} % of all {} ({right:.1} % of the conclusive, {inc:.1} % inconclusive)",
+        all.len()
+    );
+    Ok(())
+}
