@@ -155,8 +155,10 @@ struct Target {
     raw: Vec<Vec<f64>>,
     /// `raw` sample by sample: `rows[t][j]` is `raw[j][t]` (0 beyond `raw`'s count).
     rows: Vec<[f64; MAX_BASIS]>,
-    /// The frequencies of `raw`'s pairs (rad/sample).
-    omegas: Vec<f64>,
+    /// `(sin ωs, cos ωs)` of each frequency `ω` of `raw`'s pairs (rad/sample) at each shift `s < SHIFTS`: the
+    /// rotations that carry the sums with the nuisance pairs from one shift to another
+    /// ([`oe_variants`], every lane of every pass).
+    rotations: Vec<[(f64, f64); SHIFTS]>,
     /// The orthonormal basis of the regressors over the rows, as combinations of `raw`: basis
     /// vector `k` is `Σ_j coef[k][j] raw[j]` on the rows.
     coef: Vec<Vec<f64>>,
@@ -220,7 +222,10 @@ impl Target {
             yy,
             rows,
             raw,
-            omegas: omegas.to_vec(),
+            rotations: omegas
+                .iter()
+                .map(|&om| std::array::from_fn(|s| (om * s as f64).sin_cos()))
+                .collect(),
             coef,
             start,
         }
@@ -370,9 +375,9 @@ fn oe_variants(tg: &Target, sums: &PassSums, x: &dyn Fn(usize) -> f64) -> [f64; 
             w[j] = window(full[j], s, &|t| x(t) * tg.raw[j][t]);
         }
         r[s][0] = w[0];
-        for (i, &om) in tg.omegas.iter().enumerate() {
+        for (i, rot) in tg.rotations.iter().enumerate() {
             // sin(ω(τ+s)) = sin ωτ cos ωs + cos ωτ sin ωs; cos(ω(τ+s)) = cos ωτ cos ωs − sin ωτ sin ωs
-            let (sn, cs) = (om * s as f64).sin_cos();
+            let (sn, cs) = rot[s];
             let (ws, wc) = (w[1 + 2 * i], w[2 + 2 * i]);
             r[s][1 + 2 * i] = ws * cs + wc * sn;
             r[s][2 + 2 * i] = wc * cs - ws * sn;
@@ -498,16 +503,32 @@ fn best_oe_lanes<const L: usize>(
 /// operations are the same, so are the bits: the compiler fuses no multiply-add unless asked
 /// to).
 fn best_oe_many(tg: &Target, inputs: &[&[f64]]) -> Vec<(f64, f64)> {
-    struct Run<'a> {
+    best_oe_arx_many(tg, None, inputs)
+        .into_iter()
+        .map(|(oe, _)| oe)
+        .collect()
+}
+
+/// [`best_oe_many`], and with `arx` each input's best one-step ARX residual ([`best_arx`],
+/// the same bits; its products with the output's lags computed in the same lanes).
+fn best_oe_arx_many(
+    tg: &Target,
+    arx: Option<&ArxTarget<'_>>,
+    inputs: &[&[f64]],
+) -> Vec<((f64, f64), f64)> {
+    struct Run<'a, 'b> {
         tg: &'a Target,
+        arx: Option<&'a ArxTarget<'b>>,
         u: &'a [[f64; LANES]],
         x: &'a mut [[f64; LANES]],
     }
-    impl faer::traits::pulp::WithSimd for Run<'_> {
-        type Output = [(f64, f64); LANES];
+    type ArxProducts = [[[f64; ARX_LAGS]; 3]; LANES];
+    impl faer::traits::pulp::WithSimd for Run<'_, '_> {
+        type Output = ([(f64, f64); LANES], Option<ArxProducts>);
         #[inline(always)]
         fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> Self::Output {
-            best_oe_lanes::<LANES>(self.tg, self.u, self.x)
+            let c = self.arx.map(|a| arx_products_lanes::<LANES>(a, self.u));
+            (best_oe_lanes::<LANES>(self.tg, self.u, self.x), c)
         }
     }
     let n = tg.ry.len();
@@ -520,12 +541,21 @@ fn best_oe_many(tg: &Target, inputs: &[&[f64]]) -> Vec<(f64, f64)> {
                 *v = chunk[l.min(chunk.len() - 1)][t];
             }
         }
-        let r = faer::traits::pulp::Arch::new().dispatch(Run {
+        let (r, c) = faer::traits::pulp::Arch::new().dispatch(Run {
             tg,
+            arx,
             u: &u,
             x: &mut x,
         });
-        out.extend_from_slice(&r[..chunk.len()]);
+        for (l, (&oe, input)) in r.iter().zip(chunk).enumerate() {
+            let best_arx = match (arx, &c) {
+                (Some(a), Some(c)) => arx_from_products(a, input, &c[l])
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min),
+                _ => f64::NAN,
+            };
+            out.push((oe, best_arx));
+        }
     }
     out
 }
@@ -587,6 +617,44 @@ fn arx_all(tg: &ArxTarget<'_>, u: &[f64]) -> [f64; MAX_DELAY + 1] {
             c[2][k - 1] += y2 * uk;
         }
     }
+    arx_from_products(tg, u, &c)
+}
+
+/// [`arx_all`]'s products `c[b][k−1] = Σ y(t−b)·u(t−k)` of `L` inputs side by side
+/// (`u[t][l]`: input `l` at `t`), lane `l` of `out[l]`: each sum the same operations in the
+/// same order as [`arx_all`]'s, so the same bits. Inlined into [`best_oe_many`]'s dispatch.
+#[inline(always)]
+fn arx_products_lanes<const L: usize>(
+    tg: &ArxTarget<'_>,
+    u: &[[f64; L]],
+) -> [[[f64; ARX_LAGS]; 3]; L] {
+    let (y, start) = (tg.y, tg.start);
+    let n = y.len().min(u.len());
+    let mut c = [[[0.0; L]; ARX_LAGS]; 3];
+    // one output lag at a time: five sums of four lanes stay in registers
+    for (b, cb) in c.iter_mut().enumerate() {
+        for t in start.max(ARX_LAGS)..n {
+            let yb = y[t - b];
+            let w = &u[t - ARX_LAGS..t];
+            for k in 1..=ARX_LAGS {
+                let uk = &w[ARX_LAGS - k];
+                for l in 0..L {
+                    cb[k - 1][l] += yb * uk[l];
+                }
+            }
+        }
+    }
+    std::array::from_fn(|l| c.map(|cb| cb.map(|v| v[l])))
+}
+
+/// [`arx_all`] from the products `c` of the output's lags with the input's lags.
+fn arx_from_products(
+    tg: &ArxTarget<'_>,
+    u: &[f64],
+    c: &[[f64; ARX_LAGS]; 3],
+) -> [f64; MAX_DELAY + 1] {
+    let (y, start) = (tg.y, tg.start);
+    let n = y.len();
     // Over τ = t − k in start−k ..= n−1−k: the full sums less the ends.
     let (mut s1, mut s2, mut s12) = (0.0, 0.0, 0.0);
     for tau in 0..n {
@@ -741,8 +809,12 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
     let flush = |pending: &mut Vec<Vec<f64>>, fits: &mut [ValveFit]| {
         let inputs: Vec<&[f64]> = pending.iter().map(Vec::as_slice).collect();
         let k = fits.len() - inputs.len();
-        for (f, (oe, d)) in fits[k..].iter_mut().zip(best_oe_many(&tg, &inputs)) {
-            (f.oe, f.delay) = (oe, d);
+        for (f, ((oe, d), arx)) in
+            fits[k..]
+                .iter_mut()
+                .zip(best_oe_arx_many(&tg, Some(&arx_tg), &inputs))
+        {
+            (f.oe, f.delay, f.arx) = (oe, d, arx);
         }
         pending.clear();
     };
@@ -764,7 +836,6 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
                     node: profile.len() - 1,
                     s,
                     j,
-                    arx: best_arx(&arx_tg, &mv),
                     ..ValveFit::default()
                 });
                 pending.push(mv);
