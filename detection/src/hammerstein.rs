@@ -52,7 +52,7 @@
 
 use crate::signal::mean;
 use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
-use nalgebra::{SMatrix, SVector};
+use arx::{arx_from_products, arx_products_lanes, best_arx, ArxTarget, ARX_LAGS};
 use stiction_models::{InitialState, Kano, StictionModel};
 
 /// The stiction band S of the grid, in OP units.
@@ -63,25 +63,6 @@ const S_GRID: [f64; 13] = [
 /// output-error model delays of 1 to `MAX_DELAY + 1` samples in half samples. Both span 1-4
 /// samples.
 const MAX_DELAY: usize = 3;
-/// Regressors: two outputs, two inputs, a constant.
-const P: usize = 5;
-
-/// The one-step residual `yᵀy − bᵀG⁻¹b` of the normal equations `G`, `b` (a ridge of 1e-10
-/// of G's trace: the projection without a rank decision).
-fn arx_solve(mut gram: SMatrix<f64, P, P>, b: SVector<f64, P>, yy: f64) -> f64 {
-    let ridge = 1e-10 * gram.trace().max(f64::MIN_POSITIVE);
-    gram += SMatrix::<f64, P, P>::identity() * ridge;
-    // RSS = yᵀy − zᵀz with L z = b (L the Cholesky factor): the projection of y on the
-    // regressors.
-    let Some(chol) = gram.cholesky() else {
-        return yy;
-    };
-    let Some(z) = chol.l().solve_lower_triangular(&b) else {
-        return yy;
-    };
-    (yy - z.norm_squared()).max(0.0)
-}
-
 /// Nuisance regressors of the output-error target at most: a constant and three sine-cosine
 /// pairs.
 const MAX_BASIS: usize = 7;
@@ -155,8 +136,10 @@ struct Target {
     raw: Vec<Vec<f64>>,
     /// `raw` sample by sample: `rows[t][j]` is `raw[j][t]` (0 beyond `raw`'s count).
     rows: Vec<[f64; MAX_BASIS]>,
-    /// The frequencies of `raw`'s pairs (rad/sample).
-    omegas: Vec<f64>,
+    /// `(sin ωs, cos ωs)` of each frequency `ω` of `raw`'s pairs (rad/sample) at each shift
+    /// `s < SHIFTS`: the rotations that carry the sums with the nuisance pairs from one shift
+    /// to another ([`oe_variants`], every lane of every pass).
+    rotations: Vec<[(f64, f64); SHIFTS]>,
     /// The orthonormal basis of the regressors over the rows, as combinations of `raw`: basis
     /// vector `k` is `Σ_j coef[k][j] raw[j]` on the rows.
     coef: Vec<Vec<f64>>,
@@ -220,7 +203,10 @@ impl Target {
             yy,
             rows,
             raw,
-            omegas: omegas.to_vec(),
+            rotations: omegas
+                .iter()
+                .map(|&om| std::array::from_fn(|s| (om * s as f64).sin_cos()))
+                .collect(),
             coef,
             start,
         }
@@ -370,9 +356,9 @@ fn oe_variants(tg: &Target, sums: &PassSums, x: &dyn Fn(usize) -> f64) -> [f64; 
             w[j] = window(full[j], s, &|t| x(t) * tg.raw[j][t]);
         }
         r[s][0] = w[0];
-        for (i, &om) in tg.omegas.iter().enumerate() {
+        for (i, rot) in tg.rotations.iter().enumerate() {
             // sin(ω(τ+s)) = sin ωτ cos ωs + cos ωτ sin ωs; cos(ω(τ+s)) = cos ωτ cos ωs − sin ωτ sin ωs
-            let (sn, cs) = (om * s as f64).sin_cos();
+            let (sn, cs) = rot[s];
             let (ws, wc) = (w[1 + 2 * i], w[2 + 2 * i]);
             r[s][1 + 2 * i] = ws * cs + wc * sn;
             r[s][2 + 2 * i] = wc * cs - ws * sn;
@@ -498,16 +484,32 @@ fn best_oe_lanes<const L: usize>(
 /// operations are the same, so are the bits: the compiler fuses no multiply-add unless asked
 /// to).
 fn best_oe_many(tg: &Target, inputs: &[&[f64]]) -> Vec<(f64, f64)> {
-    struct Run<'a> {
+    best_oe_arx_many(tg, None, inputs)
+        .into_iter()
+        .map(|(oe, _)| oe)
+        .collect()
+}
+
+/// [`best_oe_many`], and with `arx` each input's best one-step ARX residual ([`best_arx`],
+/// the same bits; its products with the output's lags computed in the same lanes).
+fn best_oe_arx_many(
+    tg: &Target,
+    arx: Option<&ArxTarget<'_>>,
+    inputs: &[&[f64]],
+) -> Vec<((f64, f64), f64)> {
+    struct Run<'a, 'b> {
         tg: &'a Target,
+        arx: Option<&'a ArxTarget<'b>>,
         u: &'a [[f64; LANES]],
         x: &'a mut [[f64; LANES]],
     }
-    impl faer::traits::pulp::WithSimd for Run<'_> {
-        type Output = [(f64, f64); LANES];
+    type ArxProducts = [[[f64; ARX_LAGS]; 3]; LANES];
+    impl faer::traits::pulp::WithSimd for Run<'_, '_> {
+        type Output = ([(f64, f64); LANES], Option<ArxProducts>);
         #[inline(always)]
         fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> Self::Output {
-            best_oe_lanes::<LANES>(self.tg, self.u, self.x)
+            let c = self.arx.map(|a| arx_products_lanes::<LANES>(a, self.u));
+            (best_oe_lanes::<LANES>(self.tg, self.u, self.x), c)
         }
     }
     let n = tg.ry.len();
@@ -520,132 +522,21 @@ fn best_oe_many(tg: &Target, inputs: &[&[f64]]) -> Vec<(f64, f64)> {
                 *v = chunk[l.min(chunk.len() - 1)][t];
             }
         }
-        let r = faer::traits::pulp::Arch::new().dispatch(Run {
+        let (r, c) = faer::traits::pulp::Arch::new().dispatch(Run {
             tg,
+            arx,
             u: &u,
             x: &mut x,
         });
-        out.extend_from_slice(&r[..chunk.len()]);
-    }
-    out
-}
-
-/// The output's side of the one-step ARX normal equations (the same for every valve).
-struct ArxTarget<'a> {
-    y: &'a [f64],
-    start: usize,
-    /// `Σ y(t−a)·y(t−b)` for `a, b` in 0..=2, over the rows.
-    yy: [[f64; 3]; 3],
-    /// `Σ y(t−1)`, `Σ y(t−2)`, `Σ y(t)`.
-    sum: [f64; 3],
-}
-
-impl<'a> ArxTarget<'a> {
-    fn new(y: &'a [f64], start: usize) -> ArxTarget<'a> {
-        let mut yy = [[0.0; 3]; 3];
-        let mut sum = [0.0; 3];
-        for t in start..y.len() {
-            let v = [y[t], y[t - 1], y[t - 2]];
-            for a in 0..3 {
-                sum[a] += v[a];
-                for b in 0..3 {
-                    yy[a][b] += v[a] * v[b];
-                }
-            }
+        for (l, (&oe, input)) in r.iter().zip(chunk).enumerate() {
+            let best_arx = match (arx, &c) {
+                (Some(a), Some(c)) => arx_from_products(a, input, &c[l])
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min),
+                _ => f64::NAN,
+            };
+            out.push((oe, best_arx));
         }
-        ArxTarget {
-            y,
-            start,
-            yy,
-            sum: [sum[1], sum[2], sum[0]],
-        }
-    }
-}
-
-/// Input lags the ARX fits use: `u(t−1−d)` and `u(t−2−d)` for `d` in `0..=MAX_DELAY`.
-const ARX_LAGS: usize = MAX_DELAY + 2;
-
-/// The best one-step ARX residual over the delays for input `u` (the tests' `arx_rss` for
-/// every delay, from one pass: the products of the output's lags with the input's lags 1 to
-/// `MAX_DELAY + 2`, and the input's lagged sums, squares and neighbour products).
-fn best_arx(tg: &ArxTarget<'_>, u: &[f64]) -> f64 {
-    arx_all(tg, u).into_iter().fold(f64::INFINITY, f64::min)
-}
-
-/// The one-step ARX residual of every delay `0..=MAX_DELAY`.
-fn arx_all(tg: &ArxTarget<'_>, u: &[f64]) -> [f64; MAX_DELAY + 1] {
-    let (y, start) = (tg.y, tg.start);
-    let n = y.len();
-    // c[b][k−1] = Σ y(t−b)·u(t−k)
-    let mut c = [[0.0; ARX_LAGS]; 3];
-    for t in start..n {
-        let (y0, y1, y2) = (y[t], y[t - 1], y[t - 2]);
-        for k in 1..=ARX_LAGS {
-            let uk = u[t - k];
-            c[0][k - 1] += y0 * uk;
-            c[1][k - 1] += y1 * uk;
-            c[2][k - 1] += y2 * uk;
-        }
-    }
-    // Over τ = t − k in start−k ..= n−1−k: the full sums less the ends.
-    let (mut s1, mut s2, mut s12) = (0.0, 0.0, 0.0);
-    for tau in 0..n {
-        s1 += u[tau];
-        s2 += u[tau] * u[tau];
-        if tau > 0 {
-            s12 += u[tau] * u[tau - 1];
-        }
-    }
-    let window = |total: f64, k: usize, f: &dyn Fn(usize) -> f64| -> f64 {
-        total - (0..start - k).map(f).sum::<f64>() - (n - k..n).map(f).sum::<f64>()
-    };
-    let rows = (n - start) as f64;
-    let mut out = [0.0; MAX_DELAY + 1];
-    for (d, o) in out.iter_mut().enumerate() {
-        let (k1, k2) = (1 + d, 2 + d);
-        let u1 = window(s1, k1, &|t| u[t]);
-        let u2 = window(s1, k2, &|t| u[t]);
-        let u11 = window(s2, k1, &|t| u[t] * u[t]);
-        let u22 = window(s2, k2, &|t| u[t] * u[t]);
-        // Σ u(t−1−d)·u(t−2−d): τ = t−1−d, u(τ)·u(τ−1)
-        let u12 = s12
-            - (1..start - k1).map(|t| u[t] * u[t - 1]).sum::<f64>()
-            - (n - k1..n).map(|t| u[t] * u[t - 1]).sum::<f64>();
-        let gram = SMatrix::<f64, P, P>::from_row_slice(&[
-            tg.yy[1][1],
-            tg.yy[1][2],
-            c[1][k1 - 1],
-            c[1][k2 - 1],
-            tg.sum[0],
-            tg.yy[2][1],
-            tg.yy[2][2],
-            c[2][k1 - 1],
-            c[2][k2 - 1],
-            tg.sum[1],
-            c[1][k1 - 1],
-            c[2][k1 - 1],
-            u11,
-            u12,
-            u1,
-            c[1][k2 - 1],
-            c[2][k2 - 1],
-            u12,
-            u22,
-            u2,
-            tg.sum[0],
-            tg.sum[1],
-            u1,
-            u2,
-            rows,
-        ]);
-        let b = SVector::<f64, P>::from([
-            tg.yy[0][1],
-            tg.yy[0][2],
-            c[0][k1 - 1],
-            c[0][k2 - 1],
-            tg.sum[2],
-        ]);
-        *o = arx_solve(gram, b, tg.yy[0][0]);
     }
     out
 }
@@ -741,8 +632,12 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
     let flush = |pending: &mut Vec<Vec<f64>>, fits: &mut [ValveFit]| {
         let inputs: Vec<&[f64]> = pending.iter().map(Vec::as_slice).collect();
         let k = fits.len() - inputs.len();
-        for (f, (oe, d)) in fits[k..].iter_mut().zip(best_oe_many(&tg, &inputs)) {
-            (f.oe, f.delay) = (oe, d);
+        for (f, ((oe, d), arx)) in
+            fits[k..]
+                .iter_mut()
+                .zip(best_oe_arx_many(&tg, Some(&arx_tg), &inputs))
+        {
+            (f.oe, f.delay, f.arx) = (oe, d, arx);
         }
         pending.clear();
     };
@@ -764,7 +659,6 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
                     node: profile.len() - 1,
                     s,
                     j,
-                    arx: best_arx(&arx_tg, &mv),
                     ..ValveFit::default()
                 });
                 pending.push(mv);
@@ -984,5 +878,6 @@ inventory::submit! {
     }
 }
 
+mod arx;
 #[cfg(test)]
 mod tests;

@@ -160,6 +160,16 @@ mod registry;
 #[cfg(test)]
 mod test_data;
 
+/// Runs `f` compiled for the best instruction set the processor has (pulp's runtime
+/// dispatch, through faer, as this crate's fused passes are): a loop written lane-wise over
+/// `f64` arrays and inlined into `f` gets AVX2's four-wide registers where the processor has
+/// them. The IEEE operations are the same either way (no multiply-add is fused unless asked
+/// for), so are the bits.
+#[inline(always)]
+pub fn vectorized<R>(f: impl FnOnce() -> R) -> R {
+    faer::traits::pulp::Arch::new().dispatch(f)
+}
+
 pub use arx::{Arx, ArxParams, Centering};
 pub use arx_sums::{ArxOutputSums, GRAM_PIVOT_TOL};
 pub use error::{IdError, WindowStats, CONSTANT_SPREAD};

@@ -393,13 +393,17 @@ pub fn run_valve_indexed(
 }
 
 /// The four In.2/In.3 starts, as `simulate_starts` + `average_into` + `in3_valid_from` do it
-/// sample by sample: run 0 over the whole record, the other three until their state equals
-/// run 0's (after which their MV is run 0's, bit for bit). MV goes to `scratch.mv`: before the
-/// common merge the average of the four runs where they differ, run 0's value elsewhere,
-/// assembled piece by piece over the union of the four runs' intervals (constant pieces where
-/// all four are stuck, per sample elsewhere). Returns the In.3 stationary time before the
-/// fallback: one after the last sample where the runs differ by more than
-/// `1e-12 · max(1, |MV_0|)` (0 if none).
+/// sample by sample: run 0 over the whole record, each other run until its state equals that
+/// of an earlier run (after which its MV is that run's, bit for bit). MV goes to `scratch.mv`:
+/// before the common merge (every run equal to run 0) the average of the four runs where they
+/// differ, run 0's value elsewhere, assembled piece by piece over the union of the runs'
+/// intervals (constant pieces where all four are stuck, per sample elsewhere). Returns the
+/// In.3 stationary time before the fallback: one after the last sample where the runs differ
+/// by more than `1e-12 · max(1, |MV_0|)` (0 if none).
+///
+/// A run stops at the first earlier run it meets, not only at run 0: on a record where run 0
+/// never meets the others (a valve held where it started), runs 2 and 3 usually meet run 1
+/// early, and then read run 1's intervals instead of generating the same ones again.
 fn four_starts(rule: EventRule, index: &OpIndex, scratch: &mut ValveScratch) -> usize {
     let op = &index.op;
     let n = op.len();
@@ -410,7 +414,8 @@ fn four_starts(rule: EventRule, index: &OpIndex, scratch: &mut ValveScratch) -> 
     let starts = InitialState::four_variants();
     let mut segs = std::mem::take(&mut scratch.segs);
     let mut mv0 = [0.0; 4];
-    let mut merges = [n; 4];
+    // run i equals run `joins[i].1` from sample `joins[i].0` on (`n`: never)
+    let mut joins = [(n, 0usize); 4];
     for s in segs.iter_mut() {
         s.clear();
     }
@@ -421,40 +426,67 @@ fn four_starts(rule: EventRule, index: &OpIndex, scratch: &mut ValveScratch) -> 
         segs[0].push(s);
     }
     mv0[0] = runner0.mv0;
-    merges[0] = 1;
+    joins[0] = (usize::MAX, 0);
     for i in 1..4 {
         let (head, tail) = segs.split_at_mut(i);
-        let (segs0, own) = (&head[0], &mut tail[0]);
+        let own = &mut tail[0];
         if let Some(mut runner) = Runner::new(rule, index, &starts[i]) {
             mv0[i] = runner.mv0;
-            // equality with run 0 can only begin at an interval start of either run, and
-            // persists once reached
-            let mut p0 = 0usize;
-            while let Some(seg) = runner.next() {
+            // equality with an earlier run can only begin at an interval start of either run,
+            // and persists once reached; an earlier run's own intervals hold until it joined
+            // another (from there that one's list describes it)
+            let mut cursors = [0usize; 4];
+            'run: while let Some(seg) = runner.next() {
                 own.push(seg);
-                if let Some(k) = first_same(segs0, &mut p0, &seg, runner.k) {
-                    merges[i] = k;
-                    break;
+                let mut found: Option<(usize, usize)> = None;
+                for (q, list) in head.iter().enumerate() {
+                    let end = runner.k.min(joins[q].0);
+                    if seg.start >= end {
+                        continue;
+                    }
+                    if let Some(k) = first_same(list, &mut cursors[q], &seg, end) {
+                        if found.is_none_or(|(f, _)| k < f) {
+                            found = Some((k, q));
+                        }
+                    }
+                }
+                if let Some(j) = found {
+                    joins[i] = j;
+                    break 'run;
                 }
             }
         }
     }
+    // the first sample from which each run equals run 0
+    let mut merges = [n; 4];
+    merges[0] = 1;
+    for i in 1..4 {
+        let (k, q) = joins[i];
+        merges[i] = if k >= n {
+            n
+        } else if q == 0 {
+            k
+        } else {
+            k.max(merges[q])
+        };
+    }
     let merge = merges.iter().copied().max().unwrap_or(n).min(n);
     // run 0 from the merge on
     fill_from(&rule, op, &segs[0], mv0[0], &mut scratch.mv, merge, n);
-    let last = assemble(&rule, op, &segs, &mv0, &merges, merge, &mut scratch.mv);
+    let last = assemble(&rule, op, &segs, &mv0, &joins, merge, &mut scratch.mv);
     scratch.segs = segs;
     last.map_or(0, |k| k + 1)
 }
 
-/// MV over `[0, merge)` from the four runs' intervals (see [`four_starts`]); returns the last
-/// sample where a run differs from run 0 by more than the In.3 tolerance.
+/// MV over `[0, merge)` from the four runs' intervals (see [`four_starts`]; run `r` reads its
+/// own list before `joins[r].0`, then the list of the run it joined); returns the last sample
+/// where a run differs from run 0 by more than the In.3 tolerance.
 fn assemble(
     rule: &EventRule,
     op: &[f64],
     segs: &[Vec<Seg>; 4],
     mv0: &[f64; 4],
-    merges: &[usize; 4],
+    joins: &[(usize, usize); 4],
     merge: usize,
     mv: &mut [f64],
 ) -> Option<usize> {
@@ -479,26 +511,28 @@ fn assemble(
     if differs(mv0) {
         last = Some(0);
     }
-    // cursors: [own interval index per run]; a run at or past its merge reads run 0's
+    // cursors: [interval index per list]; a run at or past its join reads the list of the run
+    // it joined (run 0's list covers the record)
     let mut cur = [0usize; 4];
     let mut k = 1;
     while k < merge {
         let mut st = [State::Moving { d: 0.0 }; 4];
         let mut end = merge;
-        for r in 0..4 {
-            let list = if k >= merges[r] { 0 } else { r };
+        for (r, state) in st.iter_mut().enumerate() {
+            let mut list = r;
+            while k >= joins[list].0 {
+                list = joins[list].1;
+            }
             let sl = &segs[list];
             let c = &mut cur[list];
             while *c + 1 < sl.len() && sl[*c + 1].start <= k {
                 *c += 1;
             }
-            st[r] = sl[*c].state;
+            *state = sl[*c].state;
             if let Some(next) = sl.get(*c + 1) {
                 end = end.min(next.start);
             }
-            if k < merges[r] {
-                end = end.min(merges[r]);
-            }
+            end = end.min(joins[list].0);
         }
         let all_stuck = st.iter().all(|s| matches!(s, State::Stuck { .. }));
         if all_stuck {

@@ -2,8 +2,10 @@
 //! processes.
 #![allow(clippy::unwrap_used)]
 
+use super::arx::{arx_all, arx_solve, P};
 use super::*;
 use crate::testing::noise;
+use nalgebra::{SMatrix, SVector};
 
 /// Residual sum of squares of `y(t)` on `[y(t−1), y(t−2), u(t−1−d), u(t−2−d), 1]`, `t` from
 /// `start` (the same rows for every model, so that the sums compare): the definition, which

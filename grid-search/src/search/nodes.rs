@@ -405,7 +405,8 @@ pub(crate) fn polynomial_prediction_sse(
         u,
         y,
     };
-    let sse = match fixed_order_sse(one_step, lo, hi) {
+    // compiled for AVX2 where the processor has it: the same operations, so the same bits
+    let sse = match linear_id::vectorized(|| fixed_order_sse(one_step, lo, hi)) {
         Some(sse) => sse,
         None => {
             // predictions over [lo, hi) coefficient by coefficient (vectorised), in `buf`
@@ -460,6 +461,7 @@ pub(crate) struct OneStep<'a> {
 
 /// The squared one-step residuals summed over `[lo, hi)`, for orders up to (3, 3) as
 /// compile-time constants: one fused pass.
+#[inline(always)]
 pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Option<f64> {
     fn run<const NA: usize, const NB: usize>(p: OneStep<'_>, lo: usize, hi: usize) -> Option<f64> {
         const L: usize = 8;
