@@ -414,6 +414,29 @@ mod tests {
         Some(Estimate { s, range: [s, s] })
     }
 
+    /// A repair simulated with the one-step valve goes with the answer only where that fit
+    /// agrees with the verdict.
+    #[test]
+    fn a_repair_goes_with_the_answer_only_from_an_agreeing_fit() {
+        let e = |s: f64, lo: f64| Estimate { s, range: [lo, s] };
+        let refused = |v, x, unknown| repair_refusal(v, x, unknown).is_some();
+        assert!(refused(Verdict::Stiction, e(0.1, 0.0), false));
+        assert!(!refused(Verdict::Stiction, e(2.0, 1.5), false));
+        assert!(refused(Verdict::NoStiction, e(2.6, 2.5), false));
+        assert!(!refused(Verdict::NoStiction, e(0.3, 0.0), false));
+        assert!(!refused(Verdict::Inconclusive, e(9.0, 8.0), false));
+        // OP's span unknown: the fit's own region decides
+        assert!(refused(Verdict::Stiction, e(5.0, 0.0), true));
+        assert!(!refused(Verdict::Stiction, e(0.1, 0.05), true));
+        let msg = repair_refusal(Verdict::Stiction, e(0.1, 0.0), false)
+            .unwrap()
+            .to_string();
+        assert!(
+            msg.contains("contradicts the detector's verdict stiction"),
+            "{msg}"
+        );
+    }
+
     #[test]
     fn the_agreeing_rule_reports_the_fit_that_agrees_with_the_verdict() {
         let pick =
