@@ -523,6 +523,19 @@ fn a_frozen_pv_gets_the_detectors_answer_in_batch_trend_and_audit() {
             && text.contains("errors 1, inconclusive without a fit 1"),
         "{text}"
     );
+    // its page shows the record it could not fit, with the detector's answer
+    let page_dir = dir.join("trend-page");
+    run_ok(
+        &["trend", path, "--report", page_dir.to_str().unwrap()],
+        b"",
+    );
+    let page = std::fs::read_to_string(page_dir.join("index.html")).unwrap();
+    assert!(
+        page.contains("refused or without a fit (2)")
+            && page.contains("(detector: inconclusive)")
+            && page.contains("<svg"),
+        "the trend page shows neither the record without a fit nor a figure of it"
+    );
 
     // the fleet page: valve F8's only registration is the frozen one; the unreadable file
     // becomes valve `broken`

@@ -262,16 +262,28 @@ fn causes_section(vt: &ValveTrend, c: &run::Consensus) -> Section {
     }
 }
 
-/// Registrations the reader refused: the reason and the raw columns (the first few).
+/// Registrations the reader refused, and those read but with nothing to fit (a PV or OP
+/// constant or flat over most of the record: the detector's answer only): the reason and the
+/// raw columns (the first few).
 fn refused_section(regs: &[Registration]) -> Result<Option<Section>, ReportError> {
     let refused: Vec<(&Registration, &RegistrationError)> = regs
         .iter()
-        .filter_map(|r| r.outcome.as_ref().err().map(|e| (r, e)))
+        .filter_map(|r| match &r.outcome {
+            Err(e) => Some((r, e)),
+            Ok(_) if r.unfit() => r.error(0).map(|e| (r, e)),
+            Ok(_) => None,
+        })
         .collect();
     if !refused.is_empty() {
-        let mut sec = Section::new(format!("Refused registrations ({})", refused.len()));
+        let mut sec = Section::new(format!(
+            "Registrations refused or without a fit ({})",
+            refused.len()
+        ));
         for (k, (r, e)) in refused.iter().enumerate() {
-            sec.push(Block::Note(format!("{}: {e}", r.file)));
+            let verdict = r
+                .detect_verdict()
+                .map_or(String::new(), |v| format!(" (detector: {v})"));
+            sec.push(Block::Note(format!("{}: {e}{verdict}", r.file)));
             if k >= 4 {
                 continue;
             }
