@@ -42,7 +42,7 @@ mod tables;
 use tables::{paper_benchmark, reasons, trace_and_oracle};
 
 const USAGE: &str = "\
-usage: cargo xtask detect-calibrate [--train N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR]
+usage: cargo xtask detect-calibrate [--train N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE]
 
   --train N    loops in the training population (default 320)
   --valid N    loops in each validation population (default 80)
@@ -55,7 +55,10 @@ usage: cargo xtask detect-calibrate [--train N] [--valid N] [--ridge L] [--plant
                from the record, the tag letter breaking a tie, as `--integrating auto` does
                (default), or the simulation's own (the training population always has its own)
   --paper      also score the reference paper's benchmark (`stiction simulate` loops)
-  --dump DIR   also write the `in range` validation loops as CSV (t, SP, PV, OP) with an index.csv";
+  --dump DIR   also write the `in range` validation loops as CSV (t, SP, PV, OP) with an index.csv
+  --cases FILE also write one CSV row per training and validation loop under the fitted model:
+               population, description, label, score, verdict, reason and each test's
+               statistic and verdict (to see which loops a change moves)";
 
 /// One labelled registration.
 #[derive(Clone)]
@@ -480,6 +483,59 @@ fn print_model(model: &Model) {
 
 /// Write each case as `sim-<index>.csv` (t, SP, PV, OP) under `dir`, with `index.csv` naming
 /// what each is.
+/// `--cases FILE`: one CSV row per loop of `sets` under the model they were last judged with.
+fn write_cases(
+    path: &Path,
+    train: &[(&str, Vec<Case>)],
+    valid: &[(&str, Vec<Case>)],
+) -> Result<()> {
+    let quote = |s: &str| format!("\"{}\"", s.replace('"', "'"));
+    let names: Vec<&str> = registry().iter().map(|e| e.name).collect();
+    let mut text = String::from(
+        "population,what,sticky,no_trace,judgeable,kind_integrating,integrating,tie,score,verdict,reason",
+    );
+    for n in &names {
+        text.push_str(&format!(",{n},{n}_verdict"));
+    }
+    text.push_str(",hammerstein_lr_arx,hammerstein_S,hammerstein_delay,hammerstein_S_upper\n");
+    for (set, cases) in train.iter().chain(valid) {
+        for c in cases {
+            let j = c.judged()?;
+            text.push_str(&format!(
+                "{},{},{},{},{},{},{},{},{:.4},{},{}",
+                quote(set),
+                quote(&c.what),
+                c.sticky,
+                c.no_trace,
+                c.judgeable,
+                c.kind_integrating,
+                c.integrating,
+                c.tie,
+                j.score,
+                j.verdict,
+                quote(&j.reason)
+            ));
+            for n in &names {
+                let o = c.outcomes.iter().find(|o| o.name == *n);
+                let stat = o
+                    .and_then(|o| o.statistic)
+                    .map_or(String::new(), |v| format!("{v:.4}"));
+                let verdict = o.map_or(String::new(), |o| o.verdict.to_string());
+                text.push_str(&format!(",{stat},{verdict}"));
+            }
+            let h = c.outcomes.iter().find(|o| o.name == "hammerstein");
+            for key in ["lr_arx", "S", "delay", "S_upper"] {
+                let v = h
+                    .and_then(|o| o.values.iter().find(|(k, _)| *k == key))
+                    .map_or(String::new(), |(_, v)| format!("{v:.4}"));
+                text.push_str(&format!(",{v}"));
+            }
+            text.push('\n');
+        }
+    }
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
 fn dump_cases(dir: &Path, cases: &[Case]) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let mut index = String::from("file,what,sticky,judgeable,integrating\n");
@@ -789,6 +845,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     let mut ridge = 0.1;
     let mut paper = false;
     let mut dump: Option<PathBuf> = None;
+    let mut cases_out: Option<PathBuf> = None;
     let mut auto = true;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
@@ -819,6 +876,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
                 }
             }
             "--dump" => dump = Some(PathBuf::from(value("--dump")?)),
+            "--cases" => cases_out = Some(PathBuf::from(value("--cases")?)),
             "--help" | "-h" => {
                 println!("{USAGE}");
                 return Ok(());
@@ -883,6 +941,10 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
         table(&train)?;
         println!("validation populations (never fitted on):");
         table(&valid)?;
+    }
+    if let Some(path) = &cases_out {
+        write_cases(path, &train, &valid)?;
+        println!("\nwrote one row per loop to {}", path.display());
     }
     LEAVE_OUT.set(LeaveOut::Hidden);
     println!("\nthe sticky loops whose stiction never showed to the true valve position (oracle LR < {REGION_LR}) left out of the AUC and the inconclusive share:");
