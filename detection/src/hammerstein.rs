@@ -112,8 +112,13 @@ fn second_frequency(op: &[f64], omegas: &[f64]) -> Option<f64> {
 }
 
 /// Poles of the first-order lag of the output-error model: a coarse grid, refined by a
-/// golden-section search between the best pole's neighbours.
-const POLES: [f64; 8] = [0.0, 0.3, 0.5, 0.7, 0.82, 0.9, 0.95, 0.98];
+/// golden-section search between the best pole's neighbours. It reaches time constants of
+/// about 500 samples (0.998): a composition loop (τ up to 600 s) logged every few seconds
+/// lags hundreds of samples, and a free valve whose lag the grid cannot reach loses to a
+/// deadband, which slows the valve's answer too (`docs/decisions/2026-11-27-detection-slow-lags.md`).
+const POLES: [f64; 11] = [
+    0.0, 0.3, 0.5, 0.7, 0.82, 0.9, 0.95, 0.98, 0.99, 0.995, 0.998,
+];
 /// Golden-section steps of the pole refinement (the bracket shrinks by 0.618 per step).
 const GOLDEN_STEPS: usize = 12;
 /// Delay variants of the output-error model: whole delays of 1 to `MAX_DELAY + 1` samples,
