@@ -497,7 +497,9 @@ fn write_cases(
     for n in &names {
         text.push_str(&format!(",{n},{n}_verdict"));
     }
-    text.push_str(",hammerstein_lr_arx,hammerstein_S,hammerstein_delay,hammerstein_S_upper\n");
+    text.push_str(
+        ",hammerstein_lr_arx,hammerstein_S,hammerstein_delay,hammerstein_S_upper,stick_slip_window\n",
+    );
     for (set, cases) in train.iter().chain(valid) {
         for c in cases {
             let j = c.judged()?;
@@ -530,7 +532,13 @@ fn write_cases(
                     .map_or(String::new(), |(_, v)| format!("{v:.4}"));
                 text.push_str(&format!(",{v}"));
             }
-            text.push('\n');
+            let w = c
+                .outcomes
+                .iter()
+                .find(|o| o.name == "stick-slip")
+                .and_then(|o| o.value("window"))
+                .map_or(String::new(), |v| format!("{v:.0}"));
+            text.push_str(&format!(",{w}\n"));
         }
     }
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
