@@ -133,25 +133,37 @@ fn direct_lag_sums(d: &[f64], max_lag: usize) -> Vec<f64> {
             .map(|(a, b)| a * b)
             .sum::<f64>()
     };
+    /// The lags `lag..lag + L`: lane l holds n - lag - l products, the first `common` of
+    /// every lane side by side (in registers), then each lane's last ones.
+    #[inline(always)]
+    fn block(d: &[f64], lag: usize) -> [f64; L] {
+        let n = d.len();
+        let common = n - lag - (L - 1);
+        let mut acc = [-0.0f64; L];
+        for (&a, b) in d[..common].iter().zip(d[lag..].windows(L)) {
+            acc = std::array::from_fn(|l| acc[l] + a * b[l]);
+        }
+        for (l, s) in acc.iter_mut().enumerate() {
+            for i in common..n - lag - l {
+                *s += d[i] * d[i + lag + l];
+            }
+        }
+        acc
+    }
+    /// [`block`] as a kernel of [`linear_id::vectorized`].
+    struct Block<'a>(&'a [f64], usize);
+    impl linear_id::Kernel for Block<'_> {
+        type Output = [f64; L];
+        #[inline(always)]
+        fn run(self) -> [f64; L] {
+            block(self.0, self.1)
+        }
+    }
     let mut out = Vec::with_capacity(max_lag + 1);
     let mut lag = 0;
     while lag + L <= max_lag + 1 {
-        // lane l holds n - lag - l products: the first `common` of every lane side by side,
-        // then each lane's last ones
-        let common = n - lag - (L - 1);
-        let mut acc = [-0.0f64; L];
-        for (i, &a) in d[..common].iter().enumerate() {
-            let b = &d[i + lag..i + lag + L];
-            for l in 0..L {
-                acc[l] += a * b[l];
-            }
-        }
-        for (l, mut s) in acc.into_iter().enumerate() {
-            for i in common..n - lag - l {
-                s += d[i] * d[i + lag + l];
-            }
-            out.push(s);
-        }
+        // compiled for AVX2 where the processor has it: the same operations, so the same bits
+        out.extend(linear_id::vectorized(Block(d, lag)));
         lag += L;
     }
     out.extend((lag..=max_lag).map(one));
