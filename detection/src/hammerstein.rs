@@ -623,59 +623,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
     let tg = Target::new(&y, start, omegas);
     let arx_tg = ArxTarget::new(&z, start);
     let arx0 = best_arx(&arx_tg, &u0);
-    // The valve's state at the start of the record is unknown: at rest after moving down or
-    // after moving up (a creeping OP that keeps going one way holds a valve of the second kind
-    // for S, the first only for J); each node keeps the better of the two.
-    let starts = [InitialState::down(), InitialState::up()];
-    // The profile over S: the best output-error residual of each S (over J and the starts).
-    let mut profile: Vec<(f64, f64)> = Vec::with_capacity(S_GRID.len());
-    // Every valve's fit in the grid's order: its node in the profile, S, J, the one-step
-    // residual, then the output-error residual and delay, filled [`LANES`] valves at a time
-    // (the free valve first).
-    let mut fits: Vec<ValveFit> = vec![ValveFit::default()];
-    let mut pending: Vec<Vec<f64>> = vec![u0.clone()];
-    let flush = |pending: &mut Vec<Vec<f64>>, fits: &mut [ValveFit]| {
-        let inputs: Vec<&[f64]> = pending.iter().map(Vec::as_slice).collect();
-        let k = fits.len() - inputs.len();
-        for (f, ((oe, d), arx)) in
-            fits[k..]
-                .iter_mut()
-                .zip(best_oe_arx_many(&tg, Some(&arx_tg), &inputs))
-        {
-            (f.oe, f.delay, f.arx) = (oe, d, arx);
-        }
-        pending.clear();
-    };
-    for &s in S_GRID.iter().filter(|&&s| s <= range) {
-        // A stop requested (Ctrl-C in Python): the caller discards the answer.
-        if stiction_models::cancel::requested() {
-            return None;
-        }
-        profile.push((s, f64::INFINITY));
-        for j in [0.0, 0.5 * s, s] {
-            let Ok(valve) = Kano::params().s(s).j(j).check() else {
-                continue;
-            };
-            for init in &starts {
-                let Ok(mv) = valve.simulate(&u0, init) else {
-                    continue;
-                };
-                fits.push(ValveFit {
-                    node: profile.len() - 1,
-                    s,
-                    j,
-                    ..ValveFit::default()
-                });
-                pending.push(mv);
-                if pending.len() == LANES {
-                    flush(&mut pending, &mut fits);
-                }
-            }
-        }
-    }
-    if !pending.is_empty() {
-        flush(&mut pending, &mut fits);
-    }
+    let (fits, mut profile) = valve_fits(&tg, &arx_tg, &u0, range, true)?.0;
     let oe0 = fits[0].oe;
     let mut best = (f64::INFINITY, 0.0, 0.0, 0.0);
     let mut arx1 = (f64::INFINITY, 0.0);
@@ -728,6 +676,100 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
         lr_arx: rows as f64 * (arx0 / arx1.0).max(1.0).ln(),
         s_arx: arx1.1,
     })
+}
+
+/// Every valve's fit of [`compare`]'s grid in the grid's order (the free valve first), and
+/// the profile over S with each S's best output-error residual still unset (infinite); with
+/// the number of valves whose fits were shared. `None` on a stop request.
+///
+/// With `share`, a valve whose second start gives its first start's MV bit for bit (with
+/// `J = S` both starts hold OP(0) and share their band) takes that start's fits instead of
+/// a pass of its own, which would give the same bits (the lanes are independent); without,
+/// every valve gets its pass (the tests compare the two).
+#[allow(clippy::type_complexity)]
+fn valve_fits(
+    tg: &Target,
+    arx_tg: &ArxTarget<'_>,
+    u0: &[f64],
+    range: f64,
+    share: bool,
+) -> Option<((Vec<ValveFit>, Vec<(f64, f64)>), usize)> {
+    // The valve's state at the start of the record is unknown: at rest after moving down or
+    // after moving up (a creeping OP that keeps going one way holds a valve of the second kind
+    // for S, the first only for J); each node keeps the better of the two.
+    let starts = [InitialState::down(), InitialState::up()];
+    // The profile over S: the best output-error residual of each S (over J and the starts).
+    let mut profile: Vec<(f64, f64)> = Vec::with_capacity(S_GRID.len());
+    // Every valve's fit in the grid's order: its node in the profile, S, J, the one-step
+    // residual, then the output-error residual and delay, filled [`LANES`] valves at a time
+    // (the free valve first).
+    let mut fits: Vec<ValveFit> = vec![ValveFit::default()];
+    // the inputs waiting for a pass, with the index of their fit
+    let mut pending: Vec<(usize, Vec<f64>)> = vec![(0, u0.to_vec())];
+    let flush = |pending: &mut Vec<(usize, Vec<f64>)>, fits: &mut [ValveFit]| {
+        let inputs: Vec<&[f64]> = pending.iter().map(|(_, mv)| mv.as_slice()).collect();
+        for (&(k, _), ((oe, d), arx)) in
+            pending
+                .iter()
+                .zip(best_oe_arx_many(tg, Some(arx_tg), &inputs))
+        {
+            (fits[k].oe, fits[k].delay, fits[k].arx) = (oe, d, arx);
+        }
+        pending.clear();
+    };
+    // (copy, original) fit indices
+    let mut copies: Vec<(usize, usize)> = Vec::new();
+    for &s in S_GRID.iter().filter(|&&s| s <= range) {
+        // A stop requested (Ctrl-C in Python): the caller discards the answer.
+        if stiction_models::cancel::requested() {
+            return None;
+        }
+        profile.push((s, f64::INFINITY));
+        for j in [0.0, 0.5 * s, s] {
+            let Ok(valve) = Kano::params().s(s).j(j).check() else {
+                continue;
+            };
+            let mut first: Option<(usize, Vec<f64>)> = None;
+            for init in &starts {
+                let Ok(mv) = valve.simulate(u0, init) else {
+                    continue;
+                };
+                let k = fits.len();
+                fits.push(ValveFit {
+                    node: profile.len() - 1,
+                    s,
+                    j,
+                    ..ValveFit::default()
+                });
+                match &first {
+                    Some((k0, mv0)) if share && same_bits(mv0, &mv) => {
+                        copies.push((k, *k0));
+                        continue;
+                    }
+                    Some(_) => {}
+                    None if share => first = Some((k, mv.clone())),
+                    None => {}
+                }
+                pending.push((k, mv));
+                if pending.len() == LANES {
+                    flush(&mut pending, &mut fits);
+                }
+            }
+        }
+    }
+    if !pending.is_empty() {
+        flush(&mut pending, &mut fits);
+    }
+    for &(k, from) in &copies {
+        (fits[k].oe, fits[k].delay, fits[k].arx) =
+            (fits[from].oe, fits[from].delay, fits[from].arx);
+    }
+    Some(((fits, profile), copies.len()))
+}
+
+/// Whether two series hold the same bits at every sample.
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
 /// How much better the valve position `mv` explains the output `y` (PV, or ΔPV for an

@@ -111,17 +111,67 @@ pub(crate) fn acf(x: &[f64], max_lag: usize) -> Vec<f64> {
             .map(|c| c.0 / size as f64 / c0)
             .collect();
     }
-    (0..=max_lag)
-        .map(|lag| {
-            d[..n - lag]
-                .iter()
-                .zip(&d[lag..])
-                .map(|(a, b)| a * b)
-                .sum::<f64>()
-                / c0
-        })
+    direct_lag_sums(&d, max_lag)
+        .into_iter()
+        .map(|s| s / c0)
         .collect()
 }
+
+/// `Σ_{i < n - lag} d(i) d(i + lag)` for `lag = 0..=max_lag` (`max_lag < n`), each lag's sum
+/// the chain `(((-0 + p_0) + p_1) + ...)` of `Iterator::sum`. The lags go [`LAG_LANES`] side
+/// by side: one lag's additions are a chain of dependent operations that leaves the core's
+/// units idle, which the other lags fill; each lane still adds its own products in their
+/// order, so every lag's sum is the same bits as alone (test
+/// `lag_sums_side_by_side_are_the_one_lag_sums`).
+fn direct_lag_sums(d: &[f64], max_lag: usize) -> Vec<f64> {
+    const L: usize = LAG_LANES;
+    let n = d.len();
+    let one = |lag: usize| -> f64 {
+        d[..n - lag]
+            .iter()
+            .zip(&d[lag..])
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
+    };
+    /// The lags `lag..lag + L`: lane l holds n - lag - l products, the first `common` of
+    /// every lane side by side (in registers), then each lane's last ones.
+    #[inline(always)]
+    fn block(d: &[f64], lag: usize) -> [f64; L] {
+        let n = d.len();
+        let common = n - lag - (L - 1);
+        let mut acc = [-0.0f64; L];
+        for (&a, b) in d[..common].iter().zip(d[lag..].windows(L)) {
+            acc = std::array::from_fn(|l| acc[l] + a * b[l]);
+        }
+        for (l, s) in acc.iter_mut().enumerate() {
+            for i in common..n - lag - l {
+                *s += d[i] * d[i + lag + l];
+            }
+        }
+        acc
+    }
+    /// [`block`] as a kernel of [`linear_id::vectorized`].
+    struct Block<'a>(&'a [f64], usize);
+    impl linear_id::Kernel for Block<'_> {
+        type Output = [f64; L];
+        #[inline(always)]
+        fn run(self) -> [f64; L] {
+            block(self.0, self.1)
+        }
+    }
+    let mut out = Vec::with_capacity(max_lag + 1);
+    let mut lag = 0;
+    while lag + L <= max_lag + 1 {
+        // compiled for AVX2 where the processor has it: the same operations, so the same bits
+        out.extend(linear_id::vectorized(Block(d, lag)));
+        lag += L;
+    }
+    out.extend((lag..=max_lag).map(one));
+    out
+}
+
+/// Lags summed side by side in [`direct_lag_sums`].
+const LAG_LANES: usize = 8;
 
 /// Normalised cross-correlation `r_xy(τ) = Σ x(k) y(k + τ) / (N σ_x σ_y)` for
 /// `τ = -max_lag..=max_lag` (index `τ + max_lag`), of the mean-removed series.
@@ -351,6 +401,40 @@ mod tests {
                 im += xk.0 * a.sin();
             }
             assert!((re - yf.0).abs() < 1e-9 && (im - yf.1).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn lag_sums_side_by_side_are_the_one_lag_sums() {
+        // every lag alone as `Iterator::sum` adds it, against the lanes, bit for bit: lengths
+        // and lag ranges that end inside a block of lanes, on it, and with a negative zero
+        let x: Vec<f64> = (0..203)
+            .map(|k| (k as f64 * 0.37).sin() * 1e3 + ((k * 7919 % 101) as f64 - 50.0) / 7.0)
+            .collect();
+        for (n, max_lag) in [
+            (203, 202),
+            (203, 135),
+            (64, 7),
+            (64, 8),
+            (9, 8),
+            (1, 0),
+            (17, 16),
+        ] {
+            let d = &x[..n];
+            let sums = direct_lag_sums(d, max_lag);
+            assert_eq!(sums.len(), max_lag + 1);
+            for (lag, s) in sums.iter().enumerate() {
+                let one: f64 = d[..n - lag].iter().zip(&d[lag..]).map(|(a, b)| a * b).sum();
+                assert_eq!(s.to_bits(), one.to_bits(), "n {n}, lag {lag}: {s} {one}");
+            }
+        }
+        // zeros of alternating sign: the odd lags' products are all -0, so is their sum
+        let d: Vec<f64> = (0..20)
+            .map(|k| if k % 2 == 0 { 0.0 } else { -0.0 })
+            .collect();
+        let z = direct_lag_sums(&d, 19);
+        for (lag, v) in z.iter().enumerate() {
+            assert_eq!(v.is_sign_negative(), lag % 2 == 1, "lag {lag}: {v}");
         }
     }
 

@@ -160,14 +160,36 @@ mod registry;
 #[cfg(test)]
 mod test_data;
 
-/// Runs `f` compiled for the best instruction set the processor has (pulp's runtime
+/// A computation for [`vectorized`]; its `run` must be `#[inline(always)]`, and so must what
+/// it calls for the loops, so that they are compiled into the dispatched code.
+pub trait Kernel {
+    /// The result.
+    type Output;
+    /// The computation.
+    fn run(self) -> Self::Output;
+}
+
+/// [`Kernel`] as pulp's [`WithSimd`](faer::traits::pulp::WithSimd).
+struct KernelSimd<K>(K);
+
+impl<K: Kernel> faer::traits::pulp::WithSimd for KernelSimd<K> {
+    type Output = K::Output;
+    #[inline(always)]
+    fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> K::Output {
+        self.0.run()
+    }
+}
+
+/// Runs `kernel` compiled for the best instruction set the processor has (pulp's runtime
 /// dispatch, through faer, as this crate's fused passes are): a loop written lane-wise over
-/// `f64` arrays and inlined into `f` gets AVX2's four-wide registers where the processor has
-/// them. The IEEE operations are the same either way (no multiply-add is fused unless asked
-/// for), so are the bits.
+/// `f64` arrays and inlined into [`Kernel::run`] gets AVX2's four-wide registers where the
+/// processor has them. The IEEE operations are the same either way (no multiply-add is fused
+/// unless asked for), so are the bits. A kernel, not a closure: a closure's body is a
+/// function of its own, which the compiler need not inline into the dispatched code (the
+/// grid's validation SSE, called through a closure, ran on SSE2's two lanes).
 #[inline(always)]
-pub fn vectorized<R>(f: impl FnOnce() -> R) -> R {
-    faer::traits::pulp::Arch::new().dispatch(f)
+pub fn vectorized<K: Kernel>(kernel: K) -> K::Output {
+    faer::traits::pulp::Arch::new().dispatch(KernelSimd(kernel))
 }
 
 pub use arx::{Arx, ArxParams, Centering};

@@ -49,6 +49,10 @@ pub struct EventRule {
 /// against 74 ms galloping from the first sample, `examples/profile_exhaustive`).
 const SCAN: usize = 16;
 
+/// Longest block known to hold the exit that [`OpIndex::first_exit`] scans sample by sample
+/// instead of lifting through the table.
+const LINEAR_BLOCK: usize = 128;
+
 /// A record's OP, indexed for event-driven valve runs (built once per record, shared by every
 /// grid node and thread).
 #[derive(Debug, Clone)]
@@ -119,8 +123,8 @@ impl OpIndex {
         if p >= n {
             return n;
         }
-        // gallop: blocks of SCAN, 2 SCAN, 4 SCAN, ... samples without an exit, then binary
-        // lifting inside the last block
+        // gallop: blocks of SCAN, 2 SCAN, 4 SCAN, ... samples without an exit, then the last
+        // block sample by sample when it is short, else by binary lifting
         let top = self.table.len();
         let mut j = SCAN.trailing_zeros() as usize;
         while j < top && p + (1 << j) <= n {
@@ -130,6 +134,15 @@ impl OpIndex {
             }
             p += 1 << j;
             j += 1;
+        }
+        if j < top && p + (1 << j) <= n && (1 << j) <= LINEAR_BLOCK {
+            // the exit lies in the block [p, p + 2^j): a short one is scanned sample by
+            // sample (contiguous) rather than lifted through the table's levels (one read
+            // per level, each in a level of its own far apart in memory)
+            let block = &op[p..p + (1 << j)];
+            if let Some(i) = block.iter().position(|&v| exits(v, v)) {
+                return p + i;
+            }
         }
         for jj in (0..j.min(top)).rev() {
             let len = 1usize << jj;

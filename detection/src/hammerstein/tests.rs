@@ -230,3 +230,40 @@ fn a_sticky_valve_is_found_and_a_free_one_is_not() {
     let c = compare(&y, &y, &op, &[]).unwrap();
     assert!(c.lr < FREE_LR, "{c:?}");
 }
+
+#[test]
+fn valves_with_the_same_mv_share_their_fits_bit_for_bit() {
+    // the grid's valves as `compare` builds them, every one with its own pass and with the
+    // valves whose second start repeats the first one's MV sharing its fits
+    let (y, op) = process(true);
+    let start = MAX_DELAY + 2;
+    let centered = |x: &[f64]| -> Vec<f64> {
+        let m = mean(x);
+        x.iter().map(|v| v - m).collect()
+    };
+    let (y, u0) = (centered(&y), centered(&op));
+    let tg = Target::new(&y, start, &[0.0314]);
+    let arx = ArxTarget::new(&y, start);
+    let range = 10.0;
+    let ((own, own_profile), none) = valve_fits(&tg, &arx, &u0, range, false).unwrap();
+    let ((shared, profile), copies) = valve_fits(&tg, &arx, &u0, range, true).unwrap();
+    assert_eq!(none, 0);
+    // with J = S both starts give the same MV here: one shared valve per S of the grid
+    let grid = S_GRID.iter().filter(|&&s| s <= range).count();
+    assert_eq!(copies, grid, "shared {copies} of {} valves", own.len());
+    assert_eq!(own.len(), shared.len());
+    assert_eq!(own_profile, profile);
+    let bits = |f: &ValveFit| {
+        (
+            f.node,
+            f.s.to_bits(),
+            f.j.to_bits(),
+            f.arx.to_bits(),
+            f.oe.to_bits(),
+            f.delay.to_bits(),
+        )
+    };
+    for (k, (a, b)) in own.iter().zip(&shared).enumerate() {
+        assert_eq!(bits(a), bits(b), "valve {k}: {a:?} against {b:?}");
+    }
+}

@@ -406,7 +406,16 @@ pub(crate) fn polynomial_prediction_sse(
         y,
     };
     // compiled for AVX2 where the processor has it: the same operations, so the same bits
-    let sse = match linear_id::vectorized(|| fixed_order_sse(one_step, lo, hi)) {
+    /// [`fixed_order_sse`] as a kernel of [`linear_id::vectorized`].
+    struct Sse<'a>(OneStep<'a>, usize, usize);
+    impl linear_id::Kernel for Sse<'_> {
+        type Output = Option<f64>;
+        #[inline(always)]
+        fn run(self) -> Option<f64> {
+            fixed_order_sse(self.0, self.1, self.2)
+        }
+    }
+    let sse = match linear_id::vectorized(Sse(one_step, lo, hi)) {
         Some(sse) => sse,
         None => {
             // predictions over [lo, hi) coefficient by coefficient (vectorised), in `buf`
@@ -463,6 +472,8 @@ pub(crate) struct OneStep<'a> {
 /// compile-time constants: one fused pass.
 #[inline(always)]
 pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Option<f64> {
+    // inlined, as the ARX(2, 2) pass below, into the caller's dispatched code
+    #[inline(always)]
     fn run<const NA: usize, const NB: usize>(p: OneStep<'_>, lo: usize, hi: usize) -> Option<f64> {
         const L: usize = 8;
         let (delay, kconst, ym, u, y) = (p.delay, p.kconst, p.ym, p.u, p.y);
@@ -499,20 +510,21 @@ pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Op
         }
         Some(s)
     }
-    let OneStep {
-        a,
-        b,
-        delay,
-        kconst,
-        ym,
-        u,
-        y,
-    } = one_step;
-    let n = y.len();
-    if let (&[a1, a2], &[b1, b2]) = (a, b) {
-        // the paper's ARX(2, 2): one zip of the five lagged slices (no index arithmetic, so it
-        // vectorises), the same per-sample order as `run`
-        let sse22 = |lo: usize, hi: usize| -> Option<f64> {
+    // the paper's ARX(2, 2): one zip of the five lagged slices (no index arithmetic, so it
+    // vectorises), the same per-sample order as `run`; a function inlined into the caller's
+    // dispatched code (a closure was compiled on its own, for SSE2)
+    #[inline(always)]
+    fn sse22(p: OneStep<'_>, [a1, a2, b1, b2]: [f64; 4], lo: usize, hi: usize) -> Option<f64> {
+        let OneStep {
+            delay,
+            kconst,
+            ym,
+            u,
+            y,
+            ..
+        } = p;
+        let n = y.len();
+        {
             if lo < 2.max(delay + 2) || hi > n || lo > hi {
                 return None;
             }
@@ -558,8 +570,11 @@ pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Op
                 s += e * e;
             }
             Some(s)
-        };
-        return sse22(lo, hi);
+        }
+    }
+    let (a, b) = (one_step.a, one_step.b);
+    if let (&[a1, a2], &[b1, b2]) = (a, b) {
+        return sse22(one_step, [a1, a2, b1, b2], lo, hi);
     }
     macro_rules! fixed {
         ($(($na:literal, $nb:literal))*) => {
