@@ -132,8 +132,12 @@ impl DetectionTest for OscillationTest {
         out.values = vec![
             ("regularity", o.regularity),
             ("acf_at_period", o.acf_at_period),
-            ("period_samples", o.period.unwrap_or(f64::NAN)),
         ];
+        // Only a period found: a NaN in its place made every record without one read as "its
+        // statistic is not a finite number" (`run_all`'s guard) instead of this sentence.
+        if let Some(p) = o.period {
+            out.values.push(("period_samples", p));
+        }
         Ok(out)
     }
 }
@@ -165,6 +169,31 @@ mod tests {
         assert!(o.is_regular(), "{o:?}");
         let p = o.period.unwrap();
         assert!((p - 50.0).abs() < 2.0, "{p}");
+    }
+
+    #[test]
+    fn a_record_without_an_oscillation_says_so_with_its_regularity() {
+        // a random walk: its ACF crosses zero too few times for a period
+        let pv: Vec<f64> = noise(750, 1.0, 3)
+            .iter()
+            .scan(0.0, |acc, v| {
+                *acc += v;
+                Some(*acc)
+            })
+            .collect();
+        let op: Vec<f64> = noise(750, 1.0, 4).iter().map(|v| 50.0 + v).collect();
+        let reg = Registration::new(&pv, &op, 1.0).unwrap();
+        let o = crate::run_all(&reg)
+            .into_iter()
+            .find(|o| o.name == "oscillation")
+            .unwrap();
+        assert_eq!(o.statistic, Some(0.0), "{o:?}");
+        assert_eq!(o.value("period_samples"), None, "{o:?}");
+        assert!(
+            o.evidence.starts_with("no regular oscillation"),
+            "{}",
+            o.evidence
+        );
     }
 
     #[test]
