@@ -483,10 +483,8 @@ fn print_model(model: &Model) {
     }
 }
 
-/// Write each case as `sim-<index>.csv` (t, SP, PV, OP) under `dir`, with `index.csv` naming
-/// what each is.
-
-/// The labelled plant registrations the reader accepts, and the files it refuses.
+/// The labelled plant registrations, read as `stiction detect` reads them, and the files the
+/// reader still refuses.
 fn plant_cases(dir: &Path) -> Result<(Vec<Case>, Vec<String>)> {
     let labels = std::fs::read_to_string(dir.join("labels.csv"))
         .with_context(|| format!("reading {}", dir.join("labels.csv").display()))?;

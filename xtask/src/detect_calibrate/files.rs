@@ -64,6 +64,8 @@ pub(super) fn write_cases(
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
+/// Write each case as `sim-<index>.csv` (t, SP, PV, OP) under `dir`, with `index.csv` naming
+/// what each is.
 pub(super) fn dump_cases(dir: &Path, cases: &[Case]) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let mut index = String::from("file,what,sticky,judgeable,integrating\n");
