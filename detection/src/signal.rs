@@ -125,14 +125,6 @@ pub(crate) fn acf(x: &[f64], max_lag: usize) -> Vec<f64> {
 /// `lag_sums_side_by_side_are_the_one_lag_sums`).
 fn direct_lag_sums(d: &[f64], max_lag: usize) -> Vec<f64> {
     const L: usize = LAG_LANES;
-    let n = d.len();
-    let one = |lag: usize| -> f64 {
-        d[..n - lag]
-            .iter()
-            .zip(&d[lag..])
-            .map(|(a, b)| a * b)
-            .sum::<f64>()
-    };
     /// The lags `lag..lag + L`: lane l holds n - lag - l products, the first `common` of
     /// every lane side by side (in registers), then each lane's last ones.
     #[inline(always)]
@@ -166,8 +158,18 @@ fn direct_lag_sums(d: &[f64], max_lag: usize) -> Vec<f64> {
         out.extend(linear_id::vectorized(Block(d, lag)));
         lag += L;
     }
-    out.extend((lag..=max_lag).map(one));
+    out.extend((lag..=max_lag).map(|lag| lag_sum(d, lag)));
     out
+}
+
+/// `Σ_{i < n - lag} d(i) d(i + lag)`, one lag, as `Iterator::sum` adds it (the chain every
+/// lane of [`direct_lag_sums`] reproduces).
+fn lag_sum(d: &[f64], lag: usize) -> f64 {
+    d[..d.len() - lag]
+        .iter()
+        .zip(&d[lag..])
+        .map(|(a, b)| a * b)
+        .sum()
 }
 
 /// Lags summed side by side in [`direct_lag_sums`].
@@ -335,7 +337,7 @@ pub(crate) fn correlation_time(x: &[f64], max_lag: usize) -> Option<f64> {
     }
     let m = mean(x);
     let d: Vec<f64> = x.iter().map(|v| v - m).collect();
-    let c = |lag: usize| -> f64 { d[..n - lag].iter().zip(&d[lag..]).map(|(a, b)| a * b).sum() };
+    let c = |lag: usize| lag_sum(&d, lag);
     let (c0, c1, c2) = (c(0), c(1), c(2));
     if c1 <= 0.0 || c0 <= 0.0 {
         return Some(1.0);
