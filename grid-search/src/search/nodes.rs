@@ -510,9 +510,9 @@ pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Op
         }
         Some(s)
     }
-    // the paper's ARX(2, 2): one zip of the five lagged slices (no index arithmetic, so it
-    // vectorises), the same per-sample order as `run`; a function inlined into the caller's
-    // dispatched code (a closure was compiled on its own, for SSE2)
+    // the paper's ARX(2, 2): the five lagged slices through `linear_id`'s explicit four-wide
+    // pass, the same per-sample operations and lanes as `run` (the compiler vectorised the
+    // zip of the slices written here on SSE2's two lanes even in AVX2's dispatched code)
     #[inline(always)]
     fn sse22(p: OneStep<'_>, [a1, a2, b1, b2]: [f64; 4], lo: usize, hi: usize) -> Option<f64> {
         let OneStep {
@@ -533,42 +533,9 @@ pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Op
                 &u[lo - delay - 1..hi - delay - 1],
                 &u[lo - delay - 2..hi - delay - 2],
             );
-            let mut acc = [0.0; 8];
-            let (c0, c1, c2, c3, c4) = (
-                y0.chunks_exact(8),
-                y1.chunks_exact(8),
-                y2.chunks_exact(8),
-                u1.chunks_exact(8),
-                u2.chunks_exact(8),
-            );
-            let rem = (
-                c0.remainder(),
-                c1.remainder(),
-                c2.remainder(),
-                c3.remainder(),
-                c4.remainder(),
-            );
-            for ((((w0, w1), w2), w3), w4) in c0.zip(c1).zip(c2).zip(c3).zip(c4) {
-                for l in 0..8 {
-                    let mut v = kconst;
-                    v -= a1 * w1[l];
-                    v -= a2 * w2[l];
-                    v += b1 * w3[l];
-                    v += b2 * w4[l];
-                    let e = (v + ym) - w0[l];
-                    acc[l] += e * e;
-                }
-            }
-            let mut s = lanes8(acc);
-            for t in 0..rem.0.len() {
-                let mut v = kconst;
-                v -= a1 * rem.1[t];
-                v -= a2 * rem.2[t];
-                v += b1 * rem.3[t];
-                v += b2 * rem.4[t];
-                let e = (v + ym) - rem.0[t];
-                s += e * e;
-            }
+            // `run::<2, 2>`'s per-sample operations and lanes, on AVX2's four-wide registers
+            let s =
+                linear_id::arx22_one_step_sse([a1, a2, b1, b2], kconst, ym, [y0, y1, y2], [u1, u2]);
             Some(s)
         }
     }
