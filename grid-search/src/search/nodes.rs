@@ -136,11 +136,13 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             return Err(Skip::InitialState { valid_from: k0 });
         }
         let window = &mv[k0..ni];
-        let stats = WindowStats::of(window);
-        if !three_distinct(window, stats.as_ref()) {
+        // the count first: a valve that hardly moves (a third of the nodes of a fine grid)
+        // is skipped without the statistics' pass, and one that moves shows three values in
+        // its first samples
+        if !three_distinct(window) {
             return Err(Skip::ValveHardlyMoves);
         }
-        Ok(stats)
+        Ok(WindowStats::of(window))
     }
 }
 
@@ -608,24 +610,45 @@ pub(crate) fn fit_from(num: f64, den: f64) -> f64 {
     }
 }
 
-/// `distinct_at_least(x, 3) >= 3` given `stats = WindowStats::of(x)`, in one more vectorised
-/// pass: finite values take at least
-/// three distinct values iff one lies strictly between their minimum and maximum (a NaN, which
-/// equals nothing, takes the counting path).
-pub(crate) fn three_distinct(x: &[f64], stats: Option<&WindowStats>) -> bool {
-    match stats {
-        Some(&WindowStats { min, max, .. }) => {
-            // eight samples at a time without a branch inside (vectorises), then stop
-            let inside = |c: &[f64]| c.iter().fold(false, |a, &v| a | (v > min && v < max));
-            let chunks = x.chunks_exact(8);
-            let rest = chunks.remainder();
-            min < max && (chunks.into_iter().any(inside) || inside(rest))
+/// `distinct_at_least(x, 3) >= 3` (NaN, which equals nothing, included), without the
+/// statistics: the first sample `a`, the first later one `b` unlike it, then any later one
+/// unlike both (`distinct_at_least`'s test against the values seen), eight samples at a
+/// time without a branch inside, on AVX2 where the processor has it. A valve stuck over the
+/// window costs one pass of comparisons; a moving one stops within its first samples.
+pub(crate) fn three_distinct(x: &[f64]) -> bool {
+    struct Three<'a>(&'a [f64]);
+    impl linear_id::Kernel for Three<'_> {
+        type Output = bool;
+        #[inline(always)]
+        fn run(self) -> bool {
+            three_distinct_lanes(self.0)
         }
-        None => distinct_at_least(x, 3) >= 3,
     }
+    linear_id::vectorized(Three(x))
 }
 
-/// Number of distinct values, counting up to `cap`.
+#[inline(always)]
+fn three_distinct_lanes(x: &[f64]) -> bool {
+    const L: usize = 8;
+    let Some(&a) = x.first() else {
+        return false;
+    };
+    let mut i = 1;
+    while i + L <= x.len() && x[i..i + L].iter().fold(true, |all, &v| all & (v == a)) {
+        i += L;
+    }
+    let Some(p) = x[i..].iter().position(|&v| v != a) else {
+        return false;
+    };
+    let b = x[i + p];
+    let third = |c: &[f64]| c.iter().fold(false, |any, &v| any | ((v != a) & (v != b)));
+    let chunks = x[i + p + 1..].chunks_exact(L);
+    let rest = chunks.remainder();
+    chunks.into_iter().any(third) || third(rest)
+}
+
+/// Number of distinct values, counting up to `cap` (the reference of [`three_distinct`]).
+#[cfg(test)]
 pub(crate) fn distinct_at_least(x: &[f64], cap: usize) -> usize {
     let mut seen: Vec<f64> = Vec::with_capacity(cap);
     let mut i = 0;
