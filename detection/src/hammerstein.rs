@@ -351,11 +351,11 @@ impl<S: faer::traits::pulp::Simd> FirstPass for Avx<S> {
         // t = 1 holds the start-up value; from 2 the recursion; the target's products from
         // `start` on (the loop split there, the same order per sum)
         let split = start.clamp(2, n.max(2));
-        for t in 1..n.min(2) {
+        if n > 1 {
             sq = mul_add(sq, l0, l0);
             nb = mul_add(nb, l0, l1);
-            if t >= start {
-                let r = simd.splat_f64s(ry[t]);
+            if start <= 1 {
+                let r = simd.splat_f64s(ry[1]);
                 (a0, a1, a2, a3, a4) = (
                     mul_add(a0, l0, r),
                     mul_add(a1, l1, r),
