@@ -53,6 +53,9 @@
 use crate::signal::mean;
 use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
 use arx::{arx_from_products, arx_products_lanes, best_arx, ArxTarget, ARX_LAGS};
+#[cfg(test)]
+use first_pass::Arrays;
+use first_pass::{first_pass_arrays, Avx, FirstPass, FirstSums};
 use stiction_models::{InitialState, Kano, StictionModel};
 
 /// The stiction band S of the grid, in OP units.
@@ -239,6 +242,7 @@ const LANES: usize = 4;
 /// waits on it sample after sample; independent inputs in the lanes of one pass fill that
 /// wait and share the vector instructions. Each lane's sums are the same operations in the
 /// same order as a pass of its own, so are their bits.
+#[cfg(test)]
 #[inline(always)]
 fn oe_rss_lanes<const L: usize>(
     tg: &Target,
@@ -246,18 +250,31 @@ fn oe_rss_lanes<const L: usize>(
     p: [f64; L],
     x: &mut [[f64; L]],
 ) -> [[f64; VARIANTS]; L] {
+    oe_rss_lanes_with(Arrays, tg, u, p, x)
+}
+
+/// [`oe_rss_lanes`] with its first pass run by `fp`.
+#[inline(always)]
+fn oe_rss_lanes_with<F: FirstPass, const L: usize>(
+    fp: F,
+    tg: &Target,
+    u: &[[f64; L]],
+    p: [f64; L],
+    x: &mut [[f64; L]],
+) -> [[f64; VARIANTS]; L] {
     // The nuisance regressors' count as a constant: the pass's sums then stay in registers.
     match tg.raw.len() {
-        1 => oe_rss_fixed::<L, 1>(tg, u, p, x),
-        3 => oe_rss_fixed::<L, 3>(tg, u, p, x),
-        5 => oe_rss_fixed::<L, 5>(tg, u, p, x),
-        _ => oe_rss_fixed::<L, MAX_BASIS>(tg, u, p, x),
+        1 => oe_rss_fixed::<F, L, 1>(fp, tg, u, p, x),
+        3 => oe_rss_fixed::<F, L, 3>(fp, tg, u, p, x),
+        5 => oe_rss_fixed::<F, L, 5>(fp, tg, u, p, x),
+        _ => oe_rss_fixed::<F, L, MAX_BASIS>(fp, tg, u, p, x),
     }
 }
 
 /// [`oe_rss_lanes`] for `NR` nuisance regressors as written (the constant and the sines).
 #[inline(always)]
-fn oe_rss_fixed<const L: usize, const NR: usize>(
+fn oe_rss_fixed<F: FirstPass, const L: usize, const NR: usize>(
+    fp: F,
     tg: &Target,
     u: &[[f64; L]],
     p: [f64; L],
@@ -273,39 +290,15 @@ fn oe_rss_fixed<const L: usize, const NR: usize>(
     let (x, u, ry, rows) = (&mut x[..n], &u[..n], &tg.ry[..n], &tg.rows[..n]);
     x[0] = u[0];
     x[1] = u[0];
-    let mut a = [[0.0; L]; SHIFTS];
-    let (mut sq, mut nb) = ([0.0; L], [0.0; L]);
-    // The last SHIFTS values of the lag, newest first, in named variables (registers): the
-    // recursion and the products read them without a round trip through memory.
-    let (mut l0, mut l1, mut l2, mut l3, mut l4) = (u[0], u[0], u[0], u[0], u[0]);
     let mul_add = |acc: &mut [f64; L], x: &[f64; L], y: &[f64; L]| {
         for l in 0..L {
             acc[l] += x[l] * y[l];
         }
     };
-    // First pass: the recursion, the squares, the neighbour products and the target's
-    // products with the shifts (from `start` on). t = 1 holds the start-up value.
-    for t in 1..n {
-        if t >= 2 {
-            let ut = &u[t - 1];
-            let mut v = [0.0; L];
-            for l in 0..L {
-                v[l] = p[l] * l0[l] + g[l] * ut[l];
-            }
-            x[t] = v;
-            (l4, l3, l2, l1, l0) = (l3, l2, l1, l0, v);
-        }
-        mul_add(&mut sq, &l0, &l0);
-        mul_add(&mut nb, &l0, &l1);
-        if t >= start {
-            let r = [ry[t]; L];
-            mul_add(&mut a[0], &l0, &r);
-            mul_add(&mut a[1], &l1, &r);
-            mul_add(&mut a[2], &l2, &r);
-            mul_add(&mut a[3], &l3, &r);
-            mul_add(&mut a[4], &l4, &r);
-        }
-    }
+    let FirstSums { a, sq, nb } = match fp.run(u, x, ry, start, p, g) {
+        Some(sums) => sums,
+        None => first_pass_arrays(u, x, ry, start, p, g),
+    };
     // Second pass: the products with the nuisance regressors as written, over the lag just
     // stored (the same values, in the same order per sum).
     let mut full = [[0.0; L]; NR];
@@ -406,7 +399,8 @@ fn oe_variants(tg: &Target, sums: &PassSums, x: &dyn Fn(usize) -> f64) -> [f64; 
 /// search between the best one's neighbours on the best residual over the variants; the
 /// lanes run the same steps side by side, each on its own pole.
 #[inline(always)]
-fn best_oe_lanes<const L: usize>(
+fn best_oe_lanes<F: FirstPass, const L: usize>(
+    fp: F,
     tg: &Target,
     u: &[[f64; L]],
     x: &mut [[f64; L]],
@@ -414,14 +408,15 @@ fn best_oe_lanes<const L: usize>(
     /// One pass at the poles `p`: each lane's best residual over the variants, its best
     /// model so far updated.
     #[inline(always)]
-    fn eval<const L: usize>(
+    fn eval<F: FirstPass, const L: usize>(
+        fp: F,
         tg: &Target,
         u: &[[f64; L]],
         x: &mut [[f64; L]],
         p: [f64; L],
         best: &mut [(f64, f64); L],
     ) -> [f64; L] {
-        let r = oe_rss_lanes(tg, u, p, x);
+        let r = oe_rss_lanes_with(fp, tg, u, p, x);
         let mut m = [f64::INFINITY; L];
         for l in 0..L {
             for (v, &rv) in r[l].iter().enumerate() {
@@ -437,7 +432,7 @@ fn best_oe_lanes<const L: usize>(
     let mut best = [(f64::INFINITY, 0.0); L];
     let mut at = [[0.0; L]; POLES.len()];
     for (f, &p) in at.iter_mut().zip(&POLES) {
-        *f = eval(tg, u, x, [p; L], &mut best);
+        *f = eval(fp, tg, u, x, [p; L], &mut best);
     }
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut lo, mut hi) = ([0.0; L], [0.0; L]);
@@ -451,8 +446,8 @@ fn best_oe_lanes<const L: usize>(
         a[l] = hi[l] - g * (hi[l] - lo[l]);
         b[l] = lo[l] + g * (hi[l] - lo[l]);
     }
-    let mut fa = eval(tg, u, x, a, &mut best);
-    let mut fb = eval(tg, u, x, b, &mut best);
+    let mut fa = eval(fp, tg, u, x, a, &mut best);
+    let mut fb = eval(fp, tg, u, x, b, &mut best);
     for _ in 0..GOLDEN_STEPS {
         let mut next = [0.0; L];
         let mut left = [false; L];
@@ -470,7 +465,7 @@ fn best_oe_lanes<const L: usize>(
                 next[l] = b[l];
             }
         }
-        let f = eval(tg, u, x, next, &mut best);
+        let f = eval(fp, tg, u, x, next, &mut best);
         for l in 0..L {
             if left[l] {
                 fa[l] = f[l];
@@ -512,9 +507,9 @@ fn best_oe_arx_many(
     impl faer::traits::pulp::WithSimd for Run<'_, '_> {
         type Output = ([(f64, f64); LANES], Option<ArxProducts>);
         #[inline(always)]
-        fn with_simd<S: faer::traits::pulp::Simd>(self, _: S) -> Self::Output {
+        fn with_simd<S: faer::traits::pulp::Simd>(self, simd: S) -> Self::Output {
             let c = self.arx.map(|a| arx_products_lanes::<LANES>(a, self.u));
-            (best_oe_lanes::<LANES>(self.tg, self.u, self.x), c)
+            (best_oe_lanes(Avx(simd), self.tg, self.u, self.x), c)
         }
     }
     let n = tg.ry.len();
@@ -926,5 +921,6 @@ inventory::submit! {
 }
 
 mod arx;
+mod first_pass;
 #[cfg(test)]
 mod tests;

@@ -58,6 +58,9 @@ use crate::arx::{Arx, Centering};
 use crate::error::WindowStats;
 use crate::{LinearFit, Structure};
 use faer::traits::pulp::{bytemuck, Arch, Simd, WithSimd};
+pub use sse22::arx22_one_step_sse;
+#[cfg(test)]
+use sse22::Sse22Pass;
 
 /// Smallest accepted squared pivot of the unit-diagonal Cholesky factor (see the module
 /// documentation).
@@ -267,10 +270,11 @@ impl<S: Simd> Quad for Native<S> {
 }
 
 /// Rows `[k, k + 4)` of the lagged columns, the input centered; rows past the rows' count
-/// are zeros in both.
+/// are zeros in both. `FULL`: the four rows exist (the passes' blocks before the last), so
+/// no test for the padding.
 #[inline(always)]
 #[allow(clippy::type_complexity)]
-fn rows_at<Q: Quad, const NY: usize, const NU: usize>(
+fn rows_at<Q: Quad, const NY: usize, const NU: usize, const FULL: bool>(
     q: Q,
     ys: &[&[f64]; NY],
     us: &[&[f64]; NU],
@@ -278,6 +282,9 @@ fn rows_at<Q: Quad, const NY: usize, const NU: usize>(
     k: usize,
 ) -> ([Q::V; NY], [Q::V; NU]) {
     let load = |x: &[f64], fill: f64| -> Q::V {
+        if FULL {
+            return q.load(&x[k..k + 4]);
+        }
         match x.get(k..k + 4) {
             Some(four) => q.load(four),
             None => q.load(&std::array::from_fn::<_, 4, _>(|l| {
@@ -303,19 +310,30 @@ fn lag_products_fixed<Q: Quad, const NY: usize, const NU: usize>(
     let (u_mean, rows) = (pass.u_mean, pass.rows);
     let zero = q.splat(0.0);
     let (mut yu, mut y0u, mut uu, mut su) = ([zero; NY], [zero; NU], [zero; NU], zero);
-    // the padding of the last block adds zeros
-    for k in (0..rows.1 - rows.0).step_by(4) {
-        let (y, v) = rows_at(q, &ys, &us, u_mean, k);
-        su = q.add(su, v[0]);
-        for i in 0..NY {
-            yu[i] = q.add_mul(yu[i], y[i], v[0]);
-        }
-        for j in 1..NU {
-            y0u[j] = q.add_mul(y0u[j], y[0], v[j]);
-        }
-        for j in 0..NU {
-            uu[j] = q.add_mul(uu[j], v[0], v[j]);
-        }
+    // (a macro, not a closure: a closure is compiled on its own, outside the dispatched code)
+    macro_rules! add {
+        ($rows:expr) => {{
+            let (y, v) = $rows;
+            su = q.add(su, v[0]);
+            for i in 0..NY {
+                yu[i] = q.add_mul(yu[i], y[i], v[0]);
+            }
+            for j in 1..NU {
+                y0u[j] = q.add_mul(y0u[j], y[0], v[j]);
+            }
+            for j in 0..NU {
+                uu[j] = q.add_mul(uu[j], v[0], v[j]);
+            }
+        }};
+    }
+    // the blocks of four rows, then the last one, whose padding adds zeros
+    let len = rows.1 - rows.0;
+    let full = len / 4 * 4;
+    for k in (0..full).step_by(4) {
+        add!(rows_at::<Q, NY, NU, true>(q, &ys, &us, u_mean, k));
+    }
+    if full < len {
+        add!(rows_at::<Q, NY, NU, false>(q, &ys, &us, u_mean, full));
     }
     let mut p = LagProducts {
         u: q.sum(su),
@@ -347,29 +365,45 @@ fn residual_products_fixed<Q: Quad, const NY: usize, const NU: usize>(
     let b: [Q::V; NU] = std::array::from_fn(|j| q.splat(x[NY - 1 + j]));
     let (cv, zero) = (q.splat(c), q.splat(0.0));
     let (mut sum, mut sq, mut ry, mut ru) = (zero, zero, [zero; NY], [zero; NU]);
-    for k in (0..len).step_by(4) {
-        let (y, v) = rows_at(q, &ys, &us, u_mean, k);
-        let mut r = q.sub(y[0], cv);
-        for i in 1..NY {
-            r = q.add_mul(r, a[i], y[i]);
-        }
-        for j in 0..NU {
-            r = q.sub(r, q.mul(b[j], v[j]));
-        }
-        if k + 4 > len {
-            // the padding's residual is -c: not a row
-            let mut lanes = q.lanes(r);
-            lanes[len - k..].fill(0.0);
-            r = q.load(&lanes);
-        }
-        sum = q.add(sum, r);
-        sq = q.add_mul(sq, r, r);
-        for i in 1..NY {
-            ry[i] = q.add_mul(ry[i], r, y[i]);
-        }
-        for j in 0..NU {
-            ru[j] = q.add_mul(ru[j], r, v[j]);
-        }
+    // (macros, not closures: a closure is compiled on its own, outside the dispatched code)
+    macro_rules! residual {
+        ($y:expr, $v:expr) => {{
+            let (y, v) = ($y, $v);
+            let mut r = q.sub(y[0], cv);
+            for i in 1..NY {
+                r = q.add_mul(r, a[i], y[i]);
+            }
+            for j in 0..NU {
+                r = q.sub(r, q.mul(b[j], v[j]));
+            }
+            r
+        }};
+    }
+    macro_rules! add {
+        ($r:expr, $y:expr, $v:expr) => {{
+            let (r, y, v) = ($r, $y, $v);
+            sum = q.add(sum, r);
+            sq = q.add_mul(sq, r, r);
+            for i in 1..NY {
+                ry[i] = q.add_mul(ry[i], r, y[i]);
+            }
+            for j in 0..NU {
+                ru[j] = q.add_mul(ru[j], r, v[j]);
+            }
+        }};
+    }
+    // the blocks of four rows, then the last one
+    let full = len / 4 * 4;
+    for k in (0..full).step_by(4) {
+        let (y, v) = rows_at::<Q, NY, NU, true>(q, &ys, &us, u_mean, k);
+        add!(residual!(y, v), y, v);
+    }
+    if full < len {
+        let (y, v) = rows_at::<Q, NY, NU, false>(q, &ys, &us, u_mean, full);
+        // the padding's residual is -c: not a row
+        let mut lanes = q.lanes(residual!(y, v));
+        lanes[len - full..].fill(0.0);
+        add!(q.load(&lanes), y, v);
     }
     let mut p = ResidualProducts {
         sum: q.sum(sum),
@@ -907,5 +941,6 @@ fn refined_sse(
     sse
 }
 
+mod sse22;
 #[cfg(test)]
 mod tests;

@@ -234,7 +234,7 @@ impl WindowStats {
     fn of_scalar(x: &[f64]) -> Option<WindowStats> {
         const L: usize = 8;
         let &first = x.first()?;
-        let (mut lo, mut hi, mut nan) = ([first; L], [first; L], first.is_nan());
+        let (mut lo, mut hi) = ([first; L], [first; L]);
         let mut acc = [0.0; L];
         let chunks = x.chunks_exact(L);
         let rest = chunks.remainder();
@@ -242,12 +242,8 @@ impl WindowStats {
             for l in 0..L {
                 lo[l] = if c[l] < lo[l] { c[l] } else { lo[l] };
                 hi[l] = if c[l] > hi[l] { c[l] } else { hi[l] };
-                nan |= c[l].is_nan();
                 acc[l] += c[l];
             }
-        }
-        if nan || rest.iter().any(|v| v.is_nan()) {
-            return None;
         }
         let (mut min, mut max) = (first, first);
         for l in 0..L {
@@ -260,6 +256,12 @@ impl WindowStats {
             min = min.min(v);
             max = max.max(v);
             sum += v;
+        }
+        // a NaN sample makes its lane's sum, so the sum, NaN: only then is there a NaN to
+        // look for (an infinite sum of both signs is NaN too, without one); no per-sample
+        // flag in the loop above, which kept the sums off AVX2
+        if sum.is_nan() && x.iter().any(|v| v.is_nan()) {
+            return None;
         }
         Some(WindowStats { min, max, sum })
     }
@@ -425,6 +427,27 @@ mod tests {
             let mut with_nan = x.clone();
             with_nan[len / 2] = f64::NAN;
             assert_eq!(WindowStats::of(&with_nan), None);
+        }
+    }
+
+    /// `None` exactly when a sample is NaN, wherever it is (lanes and tail); infinities of
+    /// both signs (a NaN sum without a NaN sample) keep their statistics.
+    #[test]
+    fn window_stats_refuse_a_nan_sample_only() {
+        for len in 1..30 {
+            for at in 0..len {
+                let mut x: Vec<f64> = (0..len).map(|i| i as f64).collect();
+                x[at] = f64::NAN;
+                assert_eq!(WindowStats::of(&x), None, "NaN at {at} of {len}");
+                if len >= 2 {
+                    let mut y: Vec<f64> = (0..len).map(|i| i as f64).collect();
+                    y[at] = f64::INFINITY;
+                    y[(at + 1) % len] = f64::NEG_INFINITY;
+                    let stats = WindowStats::of(&y).expect("no NaN sample");
+                    assert_eq!((stats.min, stats.max), (f64::NEG_INFINITY, f64::INFINITY));
+                    assert!(stats.sum.is_nan());
+                }
+            }
         }
     }
 }

@@ -193,7 +193,7 @@ pub fn vectorized<K: Kernel>(kernel: K) -> K::Output {
 }
 
 pub use arx::{Arx, ArxParams, Centering};
-pub use arx_sums::{ArxOutputSums, GRAM_PIVOT_TOL};
+pub use arx_sums::{arx22_one_step_sse, ArxOutputSums, GRAM_PIVOT_TOL};
 pub use error::{IdError, WindowStats, CONSTANT_SPREAD};
 pub use fit::{
     e_g, fit_mv, fit_percent_unsquared, fit_pv, frequency_grid, polynomial_frequency_response,

@@ -267,3 +267,59 @@ fn valves_with_the_same_mv_share_their_fits_bit_for_bit() {
         assert_eq!(bits(a), bits(b), "valve {k}: {a:?} against {b:?}");
     }
 }
+
+/// The output-error pass's first pass in one AVX2 register gives the lane arrays' bits: every
+/// variant's residual and the stored lag, for rows from the first the variants allow on and
+/// later, with 1, 3, 5 and 7 nuisance regressors.
+#[test]
+fn the_vector_first_pass_is_the_lane_arrays_bit_for_bit() {
+    struct Vector<'a> {
+        tg: &'a Target,
+        u: &'a [[f64; LANES]],
+        p: [f64; LANES],
+        x: &'a mut [[f64; LANES]],
+    }
+    impl faer::traits::pulp::WithSimd for Vector<'_> {
+        type Output = [[f64; VARIANTS]; LANES];
+        fn with_simd<S: faer::traits::pulp::Simd>(self, simd: S) -> Self::Output {
+            oe_rss_lanes_with(Avx(simd), self.tg, self.u, self.p, self.x)
+        }
+    }
+    let (y, op) = process(true);
+    let mvs: Vec<Vec<f64>> = [(0.5, 0.0), (2.0, 0.5), (4.0, 4.0), (1.0, 0.5)]
+        .iter()
+        .map(|&(s, j)| {
+            let v = Kano::params().s(s).j(j).check().unwrap();
+            v.simulate(&op, &InitialState::down()).unwrap()
+        })
+        .collect();
+    let u: Vec<[f64; LANES]> = (0..y.len())
+        .map(|t| [mvs[0][t], mvs[1][t], mvs[2][t], mvs[3][t]])
+        .collect();
+    let poles = [0.1, 0.5, 0.93, 0.998];
+    for start in [MAX_DELAY + 2, MAX_DELAY + 3, 40] {
+        for omegas in [
+            &[][..],
+            &[0.0314][..],
+            &[0.0314, 0.09][..],
+            &[0.0314, 0.09, 0.2][..],
+        ] {
+            let tg = Target::new(&y, start, omegas);
+            let mut xa = vec![[0.0; LANES]; y.len()];
+            let mut xv = vec![[0.7; LANES]; y.len()];
+            let arrays = oe_rss_lanes(&tg, &u, poles, &mut xa);
+            let vector = faer::traits::pulp::Arch::new().dispatch(Vector {
+                tg: &tg,
+                u: &u,
+                p: poles,
+                x: &mut xv,
+            });
+            let bits = |r: &[[f64; VARIANTS]; LANES]| r.map(|v| v.map(f64::to_bits));
+            assert_eq!(bits(&arrays), bits(&vector), "start {start}, {omegas:?}");
+            let xbits = |x: &[[f64; LANES]]| -> Vec<[u64; LANES]> {
+                x.iter().map(|v| v.map(f64::to_bits)).collect()
+            };
+            assert_eq!(xbits(&xa), xbits(&xv), "start {start}, {omegas:?}");
+        }
+    }
+}

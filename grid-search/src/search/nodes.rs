@@ -136,11 +136,13 @@ impl<I: LinearIdentifier + ?Sized> Ctx<'_, I> {
             return Err(Skip::InitialState { valid_from: k0 });
         }
         let window = &mv[k0..ni];
-        let stats = WindowStats::of(window);
-        if !three_distinct(window, stats.as_ref()) {
+        // the count first: a valve that hardly moves (a third of the nodes of a fine grid)
+        // is skipped without the statistics' pass, and one that moves shows three values in
+        // its first samples
+        if !three_distinct(window) {
             return Err(Skip::ValveHardlyMoves);
         }
-        Ok(stats)
+        Ok(WindowStats::of(window))
     }
 }
 
@@ -510,9 +512,9 @@ pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Op
         }
         Some(s)
     }
-    // the paper's ARX(2, 2): one zip of the five lagged slices (no index arithmetic, so it
-    // vectorises), the same per-sample order as `run`; a function inlined into the caller's
-    // dispatched code (a closure was compiled on its own, for SSE2)
+    // the paper's ARX(2, 2): the five lagged slices through `linear_id`'s explicit four-wide
+    // pass, the same per-sample operations and lanes as `run` (the compiler vectorised the
+    // zip of the slices written here on SSE2's two lanes even in AVX2's dispatched code)
     #[inline(always)]
     fn sse22(p: OneStep<'_>, [a1, a2, b1, b2]: [f64; 4], lo: usize, hi: usize) -> Option<f64> {
         let OneStep {
@@ -533,42 +535,9 @@ pub(crate) fn fixed_order_sse(one_step: OneStep<'_>, lo: usize, hi: usize) -> Op
                 &u[lo - delay - 1..hi - delay - 1],
                 &u[lo - delay - 2..hi - delay - 2],
             );
-            let mut acc = [0.0; 8];
-            let (c0, c1, c2, c3, c4) = (
-                y0.chunks_exact(8),
-                y1.chunks_exact(8),
-                y2.chunks_exact(8),
-                u1.chunks_exact(8),
-                u2.chunks_exact(8),
-            );
-            let rem = (
-                c0.remainder(),
-                c1.remainder(),
-                c2.remainder(),
-                c3.remainder(),
-                c4.remainder(),
-            );
-            for ((((w0, w1), w2), w3), w4) in c0.zip(c1).zip(c2).zip(c3).zip(c4) {
-                for l in 0..8 {
-                    let mut v = kconst;
-                    v -= a1 * w1[l];
-                    v -= a2 * w2[l];
-                    v += b1 * w3[l];
-                    v += b2 * w4[l];
-                    let e = (v + ym) - w0[l];
-                    acc[l] += e * e;
-                }
-            }
-            let mut s = lanes8(acc);
-            for t in 0..rem.0.len() {
-                let mut v = kconst;
-                v -= a1 * rem.1[t];
-                v -= a2 * rem.2[t];
-                v += b1 * rem.3[t];
-                v += b2 * rem.4[t];
-                let e = (v + ym) - rem.0[t];
-                s += e * e;
-            }
+            // `run::<2, 2>`'s per-sample operations and lanes, on AVX2's four-wide registers
+            let s =
+                linear_id::arx22_one_step_sse([a1, a2, b1, b2], kconst, ym, [y0, y1, y2], [u1, u2]);
             Some(s)
         }
     }
@@ -641,24 +610,45 @@ pub(crate) fn fit_from(num: f64, den: f64) -> f64 {
     }
 }
 
-/// `distinct_at_least(x, 3) >= 3` given `stats = WindowStats::of(x)`, in one more vectorised
-/// pass: finite values take at least
-/// three distinct values iff one lies strictly between their minimum and maximum (a NaN, which
-/// equals nothing, takes the counting path).
-pub(crate) fn three_distinct(x: &[f64], stats: Option<&WindowStats>) -> bool {
-    match stats {
-        Some(&WindowStats { min, max, .. }) => {
-            // eight samples at a time without a branch inside (vectorises), then stop
-            let inside = |c: &[f64]| c.iter().fold(false, |a, &v| a | (v > min && v < max));
-            let chunks = x.chunks_exact(8);
-            let rest = chunks.remainder();
-            min < max && (chunks.into_iter().any(inside) || inside(rest))
+/// `distinct_at_least(x, 3) >= 3` (NaN, which equals nothing, included), without the
+/// statistics: the first sample `a`, the first later one `b` unlike it, then any later one
+/// unlike both (`distinct_at_least`'s test against the values seen), eight samples at a
+/// time without a branch inside, on AVX2 where the processor has it. A valve stuck over the
+/// window costs one pass of comparisons; a moving one stops within its first samples.
+pub(crate) fn three_distinct(x: &[f64]) -> bool {
+    struct Three<'a>(&'a [f64]);
+    impl linear_id::Kernel for Three<'_> {
+        type Output = bool;
+        #[inline(always)]
+        fn run(self) -> bool {
+            three_distinct_lanes(self.0)
         }
-        None => distinct_at_least(x, 3) >= 3,
     }
+    linear_id::vectorized(Three(x))
 }
 
-/// Number of distinct values, counting up to `cap`.
+#[inline(always)]
+fn three_distinct_lanes(x: &[f64]) -> bool {
+    const L: usize = 8;
+    let Some(&a) = x.first() else {
+        return false;
+    };
+    let mut i = 1;
+    while i + L <= x.len() && x[i..i + L].iter().fold(true, |all, &v| all & (v == a)) {
+        i += L;
+    }
+    let Some(p) = x[i..].iter().position(|&v| v != a) else {
+        return false;
+    };
+    let b = x[i + p];
+    let third = |c: &[f64]| c.iter().fold(false, |any, &v| any | ((v != a) & (v != b)));
+    let chunks = x[i + p + 1..].chunks_exact(L);
+    let rest = chunks.remainder();
+    chunks.into_iter().any(third) || third(rest)
+}
+
+/// Number of distinct values, counting up to `cap` (the reference of [`three_distinct`]).
+#[cfg(test)]
 pub(crate) fn distinct_at_least(x: &[f64], cap: usize) -> usize {
     let mut seen: Vec<f64> = Vec::with_capacity(cap);
     let mut i = 0;
