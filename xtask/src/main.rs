@@ -9,7 +9,7 @@
 //! | `reproduce [--runs N] [--out DIR] [--only ...]` | the paper's §3 simulation study, the criterion study and the recovery rates ([`reproduce`]) |
 //! | `suite [--size N]` | the hidden-effect suite of `diagnose` at full size (release build) |
 //! | `fuzz [--minutes N]` | mutated plant and generated loop data through the reader and the search, in process, with a time and memory budget per case ([`fuzz`]) |
-//! | `detect-calibrate [--train N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE]` | fit the detection score's coefficients on a simulated training population, measure them on validation populations never fitted on, then on the shared plant data as a test set ([`detect_calibrate`]) |
+//! | `detect-calibrate [--train N] [--train-seed N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE]` | fit the detection score's coefficients on a simulated training population, measure them on validation populations never fitted on, then on the shared plant data as a test set ([`detect_calibrate`]) |
 //! | `report-check [--out DIR] [--plant DIR] [--html FILE...]` | the CLI's HTML reports (`--report DIR`) opened in headless Chromium and checked, screenshots saved; the fleet page of a synthetic fleet written and driven (sort, filters, link) ([`browser`]) |
 
 use std::process::Command;
@@ -47,7 +47,7 @@ tasks:
                        mutate plant (../shared) and generated CSV/MAT loops, run the reader and the
                        search in process; a panic, abort, time-out or memory overrun is saved under
                        datasets/tests/fuzz-regressions (default 1 minute; `cargo xtask test` runs it)
-  detect-calibrate [--train N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE]
+  detect-calibrate [--train N] [--train-seed N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE]
                        fit the coefficients of `stiction detect`'s score on simulated loops and
                        ../shared/data/plant, validated leaving one valve out (docs/DETECTION.md)
   report-check [--out DIR] [--plant DIR] [--html FILE...]
