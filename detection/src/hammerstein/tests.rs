@@ -124,13 +124,7 @@ fn the_one_pass_fits_equal_the_direct_ones() {
         }
     }
     // Four valves side by side, each lane at its own pole, equal each one's direct sums.
-    let mvs: Vec<Vec<f64>> = [(0.5, 0.0), (2.0, 0.5), (4.0, 4.0), (1.0, 0.5)]
-        .iter()
-        .map(|&(s, j)| {
-            let v = Kano::params().s(s).j(j).check().unwrap();
-            v.simulate(&op, &InitialState::down()).unwrap()
-        })
-        .collect();
+    let mvs = four_valves(&op);
     let tg = Target::new(&y, start, &[0.0314, 0.09]);
     let u: Vec<[f64; LANES]> = (0..y.len())
         .map(|t| [mvs[0][t], mvs[1][t], mvs[2][t], mvs[3][t]])
@@ -286,13 +280,7 @@ fn the_vector_first_pass_is_the_lane_arrays_bit_for_bit() {
         }
     }
     let (y, op) = process(true);
-    let mvs: Vec<Vec<f64>> = [(0.5, 0.0), (2.0, 0.5), (4.0, 4.0), (1.0, 0.5)]
-        .iter()
-        .map(|&(s, j)| {
-            let v = Kano::params().s(s).j(j).check().unwrap();
-            v.simulate(&op, &InitialState::down()).unwrap()
-        })
-        .collect();
+    let mvs = four_valves(&op);
     let u: Vec<[f64; LANES]> = (0..y.len())
         .map(|t| [mvs[0][t], mvs[1][t], mvs[2][t], mvs[3][t]])
         .collect();
@@ -322,4 +310,16 @@ fn the_vector_first_pass_is_the_lane_arrays_bit_for_bit() {
             assert_eq!(xbits(&xa), xbits(&xv), "start {start}, {omegas:?}");
         }
     }
+}
+
+/// The MV of four Kano valves (S, J) = (0.5, 0), (2, 0.5), (4, 4), (1, 0.5) at rest after
+/// moving down, driven by `op`: the lanes of the side-by-side tests.
+fn four_valves(op: &[f64]) -> Vec<Vec<f64>> {
+    [(0.5, 0.0), (2.0, 0.5), (4.0, 4.0), (1.0, 0.5)]
+        .iter()
+        .map(|&(s, j)| {
+            let v = Kano::params().s(s).j(j).check().unwrap();
+            v.simulate(op, &InitialState::down()).unwrap()
+        })
+        .collect()
 }
