@@ -8,7 +8,7 @@
 //! better than a linear valve is the evidence of stiction. Ours is built for detection (fast,
 //! on closed-loop data, no quantification):
 //!
-//! * every Kano valve `(S, J)` of a small grid (S from 0.25 to 12 in OP units, J in
+//! * every Kano valve `(S, J)` of a small grid (S from 0.25 to 25 in OP units, J in
 //!   `{0, S/2, S}`, S at most OP's range: a limit cycle's OP spans little more than S) turns
 //!   OP into MV, from two starts (at rest after moving down, after moving up: the paper's
 //!   unknown initial state), the better kept; the free valve is `MV = OP`;
@@ -58,9 +58,13 @@ use first_pass::Arrays;
 use first_pass::{first_pass_arrays, Avx, FirstPass, FirstSums};
 use stiction_models::{InitialState, Kano, StictionModel};
 
-/// The stiction band S of the grid, in OP units.
-const S_GRID: [f64; 13] = [
-    0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0,
+/// The stiction band S of the grid, in OP units. Its top, 25, is the largest band of the
+/// simulated populations (a valve stuck for long stretches, S 10-25 %): with the grid ending
+/// at 12 such valves had their optimum on the edge or a region reaching it, and were
+/// `inconclusive` (measured on the training population; `cargo xtask detect-calibrate`,
+/// docs/decisions/2026-11-28-model-family-and-grid-top.md).
+const S_GRID: [f64; 16] = [
+    0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0,
 ];
 /// Delays tried for every valve: the one-step ARX uses MV from `t−1−d`, `d` up to this; the
 /// output-error model delays of 1 to `MAX_DELAY + 1` samples in half samples. Both span 1-4
