@@ -34,6 +34,9 @@ pub struct Analysis {
     pub searched: LoopData,
     /// OP's valve span is unknown: S is in % of the OP range seen.
     pub span_unknown: bool,
+    /// PV read back from a historian's compressed storage ([`datasets::compression`], as the
+    /// reader notes it): `None` when PV is not.
+    pub pv_compression: Option<datasets::Compression>,
 }
 
 /// The [`Analysis`] of the record `d` read from `file` (`None` for a made-up record): the
@@ -44,18 +47,28 @@ pub fn analyse(d: &LoopData, file: Option<&Path>, integrating: Integrating) -> A
         .map(|f| datasets::parse_registration_name(&file_name(f)).valve)
         .unwrap_or_default();
     let kind = integrating.decide(&valve, Some(d));
-    Analysis {
-        searched: if kind.integrating {
-            increments(d)
-        } else {
-            d.clone()
-        },
-        span_unknown: datasets::units::span_unknown(&d.notes),
-        kind,
-    }
+    Analysis::of(d, kind)
 }
 
 impl Analysis {
+    /// The analysis of the record `d` with its loop kind already decided.
+    pub fn of(d: &LoopData, kind: KindDecision) -> Analysis {
+        Analysis {
+            searched: if kind.integrating {
+                increments(d)
+            } else {
+                d.clone()
+            },
+            span_unknown: datasets::units::span_unknown(&d.notes),
+            pv_compression: d
+                .pv
+                .as_deref()
+                .and_then(datasets::compression)
+                .filter(datasets::Compression::detected),
+            kind,
+        }
+    }
+
     /// The detector on the record as read (`d`, the same record [`analyse`] took), with the
     /// decided kind.
     pub fn detect(&self, d: &LoopData) -> DetectionView {
@@ -262,6 +275,10 @@ impl Answer {
             }
             _ => None,
         };
+        let caution = match (caution, compression_caution(verdict, a.pv_compression)) {
+            (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+            (a, b) => a.or(b),
+        };
         Answer {
             verdict,
             score: det.score(),
@@ -341,6 +358,21 @@ impl Answer {
         }
         out
     }
+}
+
+/// The caution a `stiction` verdict carries on a PV read back from compressed storage: swinging
+/// door and box-car archives keep a point only when PV has moved by more than their deviation,
+/// so the PV read back lacks its small moves, as a deadband's MV lacks OP's. On the simulated
+/// populations of `cargo xtask detect-calibrate` the verdict `stiction` is wrong (a free valve)
+/// about twice as often when PV is compressed (docs/DETECTION.md, Failures). `None` for
+/// any other verdict or an uncompressed PV.
+pub fn compression_caution(verdict: Verdict, pv: Option<datasets::Compression>) -> Option<String> {
+    let c = pv.filter(|_| verdict == Verdict::Stiction)?;
+    Some(format!(
+        "PV reads back from compressed storage ({:.0} % of its samples on {} straight segments): compression drops PV's small moves as a deadband drops OP's, and free valves are called sticky about twice as often on such records; confirm on an uncompressed export",
+        100.0 * c.share,
+        c.segments
+    ))
 }
 
 /// The S a registration reports ([`reported`]): the S that explains the detector's verdict,

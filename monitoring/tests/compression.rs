@@ -53,3 +53,70 @@ fn a_compressed_pv_is_a_doubt() {
     );
     assert!(flagged, "warning and verdict: {doubts:?}");
 }
+
+/// The detector's `stiction` on a compressed PV carries the caution of
+/// [`monitoring::answer::compression_caution`], in every command's one answer; the raw PV of
+/// the same loop does not.
+#[test]
+fn a_stiction_verdict_on_a_compressed_pv_carries_a_caution() {
+    let answer = |compression: Option<f64>| {
+        let sim = Scenario {
+            valve: Box::new(Kano::params().s(4.0).j(1.0).check().expect("test data")),
+            noise_sigma: 0.3,
+            pv_compression: compression,
+            ..Scenario::default()
+        }
+        .simulate()
+        .expect("test data");
+        let d = sim.to_loop_data();
+        let a = monitoring::analyse(&d, None, monitoring::Integrating::Auto);
+        let view = a.detect(&d);
+        (
+            a.pv_compression,
+            monitoring::Answer::new(&a, &view.detected, None),
+        )
+    };
+    let (raw, plain) = answer(None);
+    assert!(raw.is_none(), "{raw:?}");
+    assert_eq!(
+        plain.verdict,
+        detection::Verdict::Stiction,
+        "{}",
+        plain.line()
+    );
+    assert!(
+        !plain.line().contains("compressed storage"),
+        "{}",
+        plain.line()
+    );
+    let (found, cautioned) = answer(Some(0.6));
+    assert!(found.is_some_and(|c| c.share > 0.5), "{found:?}");
+    assert_eq!(
+        cautioned.verdict,
+        detection::Verdict::Stiction,
+        "{}",
+        cautioned.line()
+    );
+    assert!(
+        cautioned
+            .line()
+            .contains("caution: PV reads back from compressed storage"),
+        "{}",
+        cautioned.line()
+    );
+}
+
+#[test]
+fn only_a_stiction_verdict_on_a_compressed_pv_is_cautioned() {
+    use detection::Verdict;
+    use monitoring::answer::compression_caution;
+    let c = datasets::Compression {
+        share: 0.9,
+        segments: 40,
+        median_len: 8,
+    };
+    assert!(compression_caution(Verdict::Stiction, Some(c)).is_some());
+    assert!(compression_caution(Verdict::NoStiction, Some(c)).is_none());
+    assert!(compression_caution(Verdict::Inconclusive, Some(c)).is_none());
+    assert!(compression_caution(Verdict::Stiction, None).is_none());
+}

@@ -192,15 +192,7 @@ fn latest_page(
     let d = datasets::read_path(path, &opts.read).map_err(|e| e.to_string())?;
     let kind = opts.integrating.decide(valve, Some(&d));
     let integrating = kind.integrating;
-    let a = monitoring::Analysis {
-        kind,
-        searched: if integrating {
-            monitoring::registration::increments(&d)
-        } else {
-            d.clone()
-        },
-        span_unknown: datasets::units::span_unknown(&d.notes),
-    };
+    let a = monitoring::Analysis::of(&d, kind);
     let used = &a.searched;
     let problem = run::problem(used).map_err(|e| e.to_string())?;
     // the tests judge the record as read; the page draws `used` (the increments of an

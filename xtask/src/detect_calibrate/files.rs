@@ -18,7 +18,7 @@ pub(super) fn write_cases(
         text.push_str(&format!(",{n},{n}_verdict"));
     }
     text.push_str(
-        ",hammerstein_lr_arx,hammerstein_S,hammerstein_delay,hammerstein_S_upper,stick_slip_window\n",
+        ",hammerstein_lr_arx,hammerstein_S,hammerstein_delay,hammerstein_S_upper,stick_slip_window,oracle_lr,pv_straight_share\n",
     );
     for (set, cases) in train.iter().chain(valid) {
         for c in cases {
@@ -58,7 +58,11 @@ pub(super) fn write_cases(
                 .find(|o| o.name == "stick-slip")
                 .and_then(|o| o.value("window"))
                 .map_or(String::new(), |v| format!("{v:.0}"));
-            text.push_str(&format!(",{w}\n"));
+            let oracle = c.oracle.map_or(String::new(), |v| format!("{v:.4}"));
+            let straight = datasets::compression(&c.pv)
+                .filter(datasets::Compression::detected)
+                .map_or("0".to_string(), |k| format!("{:.3}", k.share));
+            text.push_str(&format!(",{w},{oracle},{straight}\n"));
         }
     }
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
