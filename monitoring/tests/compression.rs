@@ -1,20 +1,26 @@
 //! A PV read back from a historian's compressed storage is named among the doubts of every
 //! search on it, and the verdict does not say "the valve sticks" on its strength alone.
 
-use datasets::simulate::Scenario;
+use datasets::simulate::{Scenario, SimulatedLoop};
 use grid_search::{Doubt, Problem};
 use run::Settings;
 use stiction_models::Kano;
 
-fn search(compression: Option<f64>) -> (f64, Vec<Doubt>, bool) {
-    let sim = Scenario {
+/// A sticky loop (Kano S = 4, J = 1), its PV archived with the swinging door's `compression`
+/// deviation when given.
+fn simulated(compression: Option<f64>) -> SimulatedLoop {
+    Scenario {
         valve: Box::new(Kano::params().s(4.0).j(1.0).check().expect("test data")),
         noise_sigma: 0.3,
         pv_compression: compression,
         ..Scenario::default()
     }
     .simulate()
-    .expect("test data");
+    .expect("test data")
+}
+
+fn search(compression: Option<f64>) -> (f64, Vec<Doubt>, bool) {
+    let sim = simulated(compression);
     let fitted = Settings::default()
         .combination("kano", "arx")
         .expect("test data")
@@ -60,15 +66,7 @@ fn a_compressed_pv_is_a_doubt() {
 #[test]
 fn a_stiction_verdict_on_a_compressed_pv_carries_a_caution() {
     let answer = |compression: Option<f64>| {
-        let sim = Scenario {
-            valve: Box::new(Kano::params().s(4.0).j(1.0).check().expect("test data")),
-            noise_sigma: 0.3,
-            pv_compression: compression,
-            ..Scenario::default()
-        }
-        .simulate()
-        .expect("test data");
-        let d = sim.to_loop_data();
+        let d = simulated(compression).to_loop_data();
         let a = monitoring::analyse(&d, None, monitoring::Integrating::Auto);
         let view = a.detect(&d);
         (
