@@ -25,8 +25,11 @@
 //!   would lose to a backlash, which lags a sinusoid by a fraction of a sample). Strictly
 //!   causal, as closed-loop identification must be: OP(t) is computed from PV(t), so a
 //!   same-sample term fits the controller read backwards, which made the free valve unbeatable
-//!   on aggressively tuned sticky loops. It weighs the low frequencies: OP that ramps while PV
-//!   stays flat, then a jump;
+//!   on aggressively tuned sticky loops. For the same reason the gain `K` must have the
+//!   process's sign, read from the controller's own answer in the same sample
+//!   ([`process_gain_sign`]): a fit of the other sign is the controller read backwards through
+//!   a delay or a deadband, and explains nothing. It weighs the low frequencies: OP that ramps
+//!   while PV stays flat, then a jump;
 //! * **one step ahead** (kept beside it, `lr_arx`): the ARX
 //!   `PV(t) = a₁PV(t−1) + a₂PV(t−2) + b₁MV(t−1−d) + b₂MV(t−2−d) + c` (an ARX represents the
 //!   integrator, so levels use PV here), `d` from 0 to 3. Its autoregressive part models an
@@ -156,6 +159,10 @@ struct Target {
     /// vector `k` is `Σ_j coef[k][j] raw[j]` on the rows.
     coef: Vec<Vec<f64>>,
     start: usize,
+    /// The sign the process gain must have (`+1` or `−1`), `0` for either: a fit whose gain
+    /// has the other sign is the controller's answer read backwards, not the process
+    /// ([`process_gain_sign`]).
+    sign: f64,
 }
 
 impl Target {
@@ -221,6 +228,7 @@ impl Target {
                 .collect(),
             coef,
             start,
+            sign: 0.0,
         }
     }
 }
@@ -388,7 +396,8 @@ fn oe_variants(tg: &Target, sums: &PassSums, x: &dyn Fn(usize) -> f64) -> [f64; 
             .map(|c| c.iter().zip(&rv).map(|(a, b)| a * b).sum::<f64>().powi(2))
             .sum();
         let vxx = sxx - proj;
-        let rss = if vxx > 1e-12 * tg.yy.max(f64::MIN_POSITIVE) {
+        // The gain `K = sxy / vxx` of the wrong sign explains nothing (see `Target::sign`).
+        let rss = if vxx > 1e-12 * tg.yy.max(f64::MIN_POSITIVE) && sxy * tg.sign >= 0.0 {
             tg.yy - sxy * sxy / vxx
         } else {
             tg.yy
@@ -590,6 +599,45 @@ pub struct Comparison {
     pub s_above: f64,
 }
 
+/// The sign of the process gain (OP up, PV up: `+1`), from the controller's own answer: a PI
+/// controller moves OP against PV in the same sample (`ΔOP(t) = −Kc ΔPV(t) − Ki (PV(t) − SP)`,
+/// so `Δ²OP(t) = −Kc Δ²PV(t) − Ki ΔPV(t)`, and `Kc`, `Ki` have the process gain's sign in a
+/// stable loop), while the process answers OP a sample or more later. Second differences keep
+/// the same-sample answer and drop what is smooth over a few samples: a process following a
+/// smoothly moving OP shows in the first differences at lag 0 too, not in the second. So
+/// `−sign Σ Δ²OP(t) Δ²PV(t)` when the correlation of the two is significant at 95 %
+/// (`|r| >= 1.96/√N`); else `0` (either sign: open-loop data, or OP that does not answer PV).
+pub fn process_gain_sign(pv: &[f64], op: &[f64]) -> f64 {
+    let n = pv.len().min(op.len());
+    if n < 4 {
+        return 0.0;
+    }
+    let d2 = |x: &[f64]| -> Vec<f64> {
+        x[..n]
+            .windows(3)
+            .map(|w| w[2] - 2.0 * w[1] + w[0])
+            .collect()
+    };
+    let (dp, du) = (d2(pv), d2(op));
+    let (mp, mu) = (mean(&dp), mean(&du));
+    let (mut spu, mut spp, mut suu) = (0.0, 0.0, 0.0);
+    for (p, u) in dp.iter().zip(&du) {
+        let (p, u) = (p - mp, u - mu);
+        spu += p * u;
+        spp += p * p;
+        suu += u * u;
+    }
+    if spp <= 0.0 || suu <= 0.0 {
+        return 0.0;
+    }
+    let r = spu / (spp * suu).sqrt();
+    if r.abs() >= 1.96 / (dp.len() as f64).sqrt() {
+        -r.signum()
+    } else {
+        0.0
+    }
+}
+
 /// Likelihood-ratio margin of the S region: χ²₁ at 95 %.
 pub const REGION_LR: f64 = 3.84;
 
@@ -619,7 +667,8 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
     let z: Vec<f64> = pv.iter().map(|v| v - zm).collect();
     let om = mean(op);
     let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
-    let tg = Target::new(&y, start, omegas);
+    let mut tg = Target::new(&y, start, omegas);
+    tg.sign = process_gain_sign(pv, op);
     let arx_tg = ArxTarget::new(&z, start);
     let arx0 = best_arx(&arx_tg, &u0);
     let (fits, mut profile) = valve_fits(&tg, &arx_tg, &u0, range, true)?.0;

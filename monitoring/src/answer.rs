@@ -364,12 +364,12 @@ impl Answer {
 /// door and box-car archives keep a point only when PV has moved by more than their deviation,
 /// so the PV read back lacks its small moves, as a deadband's MV lacks OP's. On the simulated
 /// populations of `cargo xtask detect-calibrate` the verdict `stiction` is wrong (a free valve)
-/// about twice as often when PV is compressed (docs/DETECTION.md, Failures). `None` for
+/// 1.5 to 3 times as often when PV is compressed (docs/DETECTION.md, Failures). `None` for
 /// any other verdict or an uncompressed PV.
 pub fn compression_caution(verdict: Verdict, pv: Option<datasets::Compression>) -> Option<String> {
     let c = pv.filter(|_| verdict == Verdict::Stiction)?;
     Some(format!(
-        "PV reads back from compressed storage ({:.0} % of its samples on {} straight segments): compression drops PV's small moves as a deadband drops OP's, and free valves are called sticky about twice as often on such records; confirm on an uncompressed export",
+        "PV reads back from compressed storage ({:.0} % of its samples on {} straight segments): compression drops PV's small moves as a deadband drops OP's, and free valves are called sticky more often on such records; confirm on an uncompressed export",
         100.0 * c.share,
         c.segments
     ))

@@ -325,3 +325,34 @@ fn four_valves(op: &[f64]) -> Vec<Vec<f64>> {
         })
         .collect()
 }
+
+/// A PI loop on a first-order process of gain `gain` (the controller's gains of its sign),
+/// with measurement noise and a free valve: `(PV, OP)`.
+fn closed_loop(gain: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = 1500;
+    let e = noise(n, 0.2, 11);
+    let (kc, ki) = (0.5 / gain, 0.1 / gain);
+    let (mut x, mut pv, mut op) = (0.0, vec![0.0; n], vec![50.0; n]);
+    let mut err_prev = 0.0;
+    for t in 1..n {
+        x = 0.9 * x + 0.1 * gain * (op[t - 1] - 50.0);
+        pv[t] = x + e[t];
+        let sp = if (t / 300) % 2 == 0 { 0.0 } else { 2.0 };
+        let err = sp - pv[t];
+        op[t] = op[t - 1] + kc * (err - err_prev) + ki * err;
+        err_prev = err;
+    }
+    (pv, op)
+}
+
+#[test]
+fn the_process_gain_sign_is_read_from_the_controller_answer() {
+    let (pv, op) = closed_loop(0.8);
+    assert_eq!(process_gain_sign(&pv, &op), 1.0);
+    let (pv, op) = closed_loop(-0.8);
+    assert_eq!(process_gain_sign(&pv, &op), -1.0);
+    // open loop: OP a smooth triangle that PV follows a sample later, no controller to read
+    let (y, op) = process(true);
+    assert_eq!(process_gain_sign(&y, &op), 0.0);
+    assert_eq!(process_gain_sign(&[1.0, 2.0], &[3.0, 4.0]), 0.0);
+}
