@@ -619,18 +619,8 @@ pub fn process_gain_sign(pv: &[f64], op: &[f64]) -> f64 {
             .collect()
     };
     let (dp, du) = (d2(pv), d2(op));
-    let (mp, mu) = (mean(&dp), mean(&du));
-    let (mut spu, mut spp, mut suu) = (0.0, 0.0, 0.0);
-    for (p, u) in dp.iter().zip(&du) {
-        let (p, u) = (p - mp, u - mu);
-        spu += p * u;
-        spp += p * p;
-        suu += u * u;
-    }
-    if spp <= 0.0 || suu <= 0.0 {
-        return 0.0;
-    }
-    let r = spu / (spp * suu).sqrt();
+    // 0 when either difference is constant
+    let r = crate::signal::ccf(&dp, &du, 0)[0];
     if r.abs() >= 1.96 / (dp.len() as f64).sqrt() {
         -r.signum()
     } else {
