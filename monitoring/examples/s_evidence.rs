@@ -8,7 +8,10 @@
 //! * contradictions: verdict `stiction` with S <= 0.2 %, or `no-stiction` with S >= 1.6 %;
 //! * on sticky loops called `stiction`: the median |log2(S / true S)| and the share within a
 //!   factor 2 of the truth; the share whose true S lies in the range reported;
-//! * on healthy loops called `no-stiction`: the share with S >= 1.6 %.
+//! * on healthy loops called `no-stiction`: the share with S >= 1.6 %;
+//! * the maintenance call a single registration would get from `trend` (S reported at or above
+//!   the 1.6 % threshold), by the detector's verdict: how many of those loops are sticky with a
+//!   true S of 1.6 % or more, sticky with less, healthy, or cannot be judged.
 //!
 //! `cargo run --release -p monitoring --example s_evidence -- [LOOPS] [SEED]` (defaults 120
 //! loops per population, seed 9_000_001).
@@ -155,4 +158,46 @@ fn main() {
     table("self-regulating", &selfreg);
     let level: Vec<&Case> = cases.iter().filter(|c| c.family == Family::Level).collect();
     table("integrating", &level);
+    maintenance(&all);
+}
+
+/// Loops whose reported S (the kept rule) reaches the maintenance threshold, by verdict: what
+/// they truly are.
+fn maintenance(cases: &[&Case]) {
+    const THRESHOLD: f64 = grid_search::MAINTENANCE_S;
+    println!("reported S >= {THRESHOLD} % (the kept rule), by verdict: sticky S >= {THRESHOLD} / sticky S < {THRESHOLD} / healthy / cannot judge");
+    for v in [
+        Verdict::Stiction,
+        Verdict::Inconclusive,
+        Verdict::NoStiction,
+    ] {
+        let mut n = [0usize; 4];
+        let mut all = 0;
+        for c in cases {
+            let a = &c.answers[2];
+            if a.verdict != v {
+                continue;
+            }
+            all += 1;
+            if !a.s.is_some_and(|s| s >= THRESHOLD) {
+                continue;
+            }
+            n[match c.label {
+                Label::Sticky | Label::NoTrace if c.truth >= THRESHOLD => 0,
+                Label::Sticky | Label::NoTrace => 1,
+                Label::Healthy => 2,
+                Label::CannotJudge => 3,
+            }] += 1;
+        }
+        println!(
+            "  {:13} {:>4} of {:>4} loops: {} / {} / {} / {}",
+            v.as_str(),
+            n.iter().sum::<usize>(),
+            all,
+            n[0],
+            n[1],
+            n[2],
+            n[3]
+        );
+    }
 }

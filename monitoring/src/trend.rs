@@ -227,38 +227,53 @@ pub const DETECT_WINDOW: usize = 3;
 
 /// The maintenance verdict of [`maintenance`] with the detector's word on the valve's latest
 /// usable registrations (`latest`: `(file, verdict)` of up to [`DETECT_WINDOW`] of them, in
-/// time order): when the verdict is *schedule maintenance* but the detector calls every one of
-/// them it can judge `no-stiction` (at least one; `inconclusive` ones do not count), the valve
-/// is only watched, and the reason says so. Every other verdict is kept as it is.
+/// time order): *schedule maintenance* stands only when the detector calls at least one of
+/// them `stiction`. When it calls every one it can judge `no-stiction` (at least one), or can
+/// judge none of them, the valve is only watched, and the reason says which. A level of S is
+/// no maintenance call by itself: on simulated loops, a single record the detector leaves
+/// `inconclusive` with a reported S at the threshold is a valve that sticks that much about
+/// one time in three (`cargo run --release -p monitoring --example s_evidence`; docs/DETECTION.md).
+/// Without any detector verdict (rows written before the detector ran) the call is S's alone,
+/// as is every other verdict.
 pub fn with_detection(
     verdict: Maintenance,
     reason: String,
     latest: &[(String, Verdict)],
 ) -> (Maintenance, String) {
-    let conclusive: Vec<&(String, Verdict)> = latest
-        .iter()
-        .filter(|(_, v)| *v != Verdict::Inconclusive)
-        .collect();
-    let healthy =
-        !conclusive.is_empty() && conclusive.iter().all(|(_, v)| *v == Verdict::NoStiction);
-    if verdict != Maintenance::Schedule || !healthy {
+    if verdict != Maintenance::Schedule
+        || latest.is_empty()
+        || latest.iter().any(|(_, v)| *v == Verdict::Stiction)
+    {
         return (verdict, reason);
     }
-    let files: Vec<&str> = conclusive.iter().map(|(f, _)| f.as_str()).collect();
-    let others = latest.len() - conclusive.len();
-    (
-        Maintenance::Watch,
+    let conclusive: Vec<&str> = latest
+        .iter()
+        .filter(|(_, v)| *v != Verdict::Inconclusive)
+        .map(|(f, _)| f.as_str())
+        .collect();
+    let plural = |n: usize| if n == 1 { "" } else { "s" };
+    let why = if conclusive.is_empty() {
+        let files: Vec<&str> = latest.iter().map(|(f, _)| f.as_str()).collect();
+        format!(
+            "{reason}, but the stiction detector cannot judge the latest usable registration{} \
+             ({}: inconclusive): S alone is no maintenance call, watch",
+            plural(files.len()),
+            files.join(", ")
+        )
+    } else {
+        let others = latest.len() - conclusive.len();
         format!(
             "{reason}, but the stiction detector finds no stiction in the latest usable \
              registration{} ({}{}): no maintenance call on S alone, watch",
-            if conclusive.len() == 1 { "" } else { "s" },
-            files.join(", "),
+            plural(conclusive.len()),
+            conclusive.join(", "),
             match others {
                 0 => String::new(),
                 n => format!("; {n} more inconclusive"),
             }
-        ),
-    )
+        )
+    };
+    (Maintenance::Watch, why)
 }
 
 /// Default maintenance threshold on S, % of valve span (see `docs/PLANT_DATA.md`).
@@ -744,9 +759,9 @@ impl ValveTrend {
             "schedule maintenance when the level (median S of the usable registrations, mean over \
              combinations) >= {t} %; watch when it is below but the latest usable S or the \
              {h}-day projection of the Theil-Sen trend reaches {t} %, or the level >= {half} %; \
-             healthy otherwise; no maintenance call (watch instead) when the stiction detector \
-             calls the latest usable registrations (up to {w}) no-stiction, every one it can \
-             judge; undetermined when a usable registration's OP has no known valve span (its S \
+             healthy otherwise; no maintenance call (watch instead) unless the stiction detector \
+             calls at least one of the latest usable registrations (up to {w}) stiction; \
+             undetermined when a usable registration's OP has no known valve span (its S \
              is in % of the OP range seen)",
             t = self.options.threshold,
             h = self.options.horizon,
@@ -841,7 +856,7 @@ mod tests {
     }
 
     #[test]
-    fn the_detector_vetoes_a_maintenance_call_only_when_it_finds_the_valve_healthy() {
+    fn a_maintenance_call_needs_the_detector_to_find_stiction() {
         let (schedule, why) = maintenance(Some(1.2), Some(1.2), None, 1.0, 90.0);
         assert_eq!(schedule, Maintenance::Schedule);
         let regs = |v: &[Verdict]| -> Vec<(String, Verdict)> {
@@ -859,14 +874,23 @@ mod tests {
             reason.contains("V_0.csv, V_2.csv; 1 more inconclusive"),
             "{reason}"
         );
-        // A sticky, a mixed or an undecided record keeps the call.
-        for v in [&[S][..], &[N, S], &[I, I], &[]] {
+        // A sticky or a mixed record keeps the call, and so does a valve without any
+        // detector verdict.
+        for v in [&[S][..], &[N, S], &[I, S, I], &[]] {
             assert_eq!(
                 with_detection(schedule, why.clone(), &regs(v)),
                 (schedule, why.clone()),
                 "{v:?}"
             );
         }
+        // Records the detector cannot judge make no call on S alone.
+        let (m, reason) = with_detection(schedule, why.clone(), &regs(&[I, I]));
+        assert_eq!(m, Maintenance::Watch);
+        assert!(reason.starts_with(&why), "{reason}");
+        assert!(
+            reason.contains("cannot judge the latest usable registrations (V_0.csv, V_1.csv"),
+            "{reason}"
+        );
         // Every other verdict is kept as it is.
         let (watch, w) = maintenance(Some(0.6), Some(0.6), Some(0.0), 1.0, 90.0);
         assert_eq!(
