@@ -108,6 +108,7 @@ fn main() {
         families: families.clone(),
         sample_time: [2.0, 30.0],
         samples: [300, 3000],
+        proportional: 0.0,
     };
     let sets = [
         ("training", base(1)),

@@ -7,8 +7,10 @@
 //!   level loops, `Ts` 2-30 s, `N` 300-3000 samples, 960 loops; half sticky valves, half free.
 //! * **Validation populations**, each with its own seeds, none used for fitting: the training
 //!   ranges again (`in range`), and settings outside them: `N = 400`, `N = 4000`, `Ts = 1 s`,
-//!   `Ts = 60 s` (the training families otherwise) and the family left out of training
-//!   (`composition`: slow second-order loops with long dead time, the training's `Ts` and `N`).
+//!   `Ts = 60 s` (the training families otherwise), the family left out of training
+//!   (`composition`: slow second-order loops with long dead time, the training's `Ts` and `N`)
+//!   and the controller left out of training (`P-only`: the training ranges under
+//!   proportional-only controllers).
 //! * **Figures**, per loop kind (self-regulating, integrating) and overall: the score's ROC AUC
 //!   (sticky against free), the verdict right on the conclusive (a conclusive verdict on a loop
 //!   whose OP barely moves counts as wrong: it cannot be judged), the share of sticky and free
@@ -146,6 +148,7 @@ fn training_set(seed: u64) -> Set {
             families: TRAIN_FAMILIES.to_vec(),
             sample_time: TRAIN_TS,
             samples: TRAIN_N,
+            proportional: 0.0,
         },
     }
 }
@@ -158,6 +161,7 @@ fn validation_sets() -> Vec<Set> {
         families: TRAIN_FAMILIES.to_vec(),
         sample_time: TRAIN_TS,
         samples: TRAIN_N,
+        proportional: 0.0,
     };
     // The training ranges but for every record's length, or every record's sampling time.
     let length = |name: &'static str, n: usize, seed: u64| Set {
@@ -188,6 +192,13 @@ fn validation_sets() -> Vec<Set> {
             spec: PopulationSpec {
                 families: vec![Family::Composition],
                 ..base(6_000_001)
+            },
+        },
+        Set {
+            name: "P-only (left out)",
+            spec: PopulationSpec {
+                proportional: 1.0,
+                ..base(7_000_001)
             },
         },
     ]

@@ -141,38 +141,38 @@ impl Plant {
     /// eigenvalues of its companion matrix.
     pub fn closed_loop_roots(&self, kc: f64, ki: f64) -> Result<Vec<[f64; 2]>, DataError> {
         self.validate()?;
-        let p = self.characteristic_polynomial(kc, ki);
-        let n = p.len() - 1;
-        if n == 0 {
-            return Ok(Vec::new());
+        roots(&self.characteristic_polynomial(kc, ki))
+    }
+
+    /// Coefficients of the closed-loop characteristic polynomial under a proportional-only
+    /// controller (`KI = 0`): `A(q) + Kc q^-delay B(q)`. The velocity form's polynomial is this
+    /// times `(1 - q^-1)`, a root at 1 that the controller's difference and its sum cancel (OP
+    /// is a bias plus `Kc` times the error), so stability is decided on this one.
+    pub fn proportional_polynomial(&self, kc: f64) -> Vec<f64> {
+        let len = self.a.len().max(self.delay + self.b.len());
+        let mut p = vec![0.0; len];
+        for (i, &ai) in self.a.iter().enumerate() {
+            p[i] += ai;
         }
-        if p[0] == 0.0 || p.iter().any(|v| !v.is_finite()) {
-            return Err(DataError::InvalidParameter {
-                name: "controller".into(),
-                value: p[0],
-                expected: "a closed loop with a finite, proper characteristic polynomial".into(),
-            });
+        for (i, &bi) in self.b.iter().enumerate() {
+            p[self.delay + i] += bi * kc;
         }
-        let companion = nalgebra::DMatrix::<f64>::from_fn(n, n, |i, j| {
-            if i == 0 {
-                -p[j + 1] / p[0]
-            } else if i == j + 1 {
-                1.0
-            } else {
-                0.0
-            }
-        });
-        Ok(companion
-            .complex_eigenvalues()
-            .iter()
-            .map(|z| [z.re, z.im])
-            .collect())
+        while p.len() > 1 && p.last() == Some(&0.0) {
+            p.pop();
+        }
+        p
     }
 
     /// Check B3: every closed-loop root strictly inside the unit circle. Returns the largest
     /// root modulus, or [`DataError::Unstable`].
+    /// A proportional-only controller (`KI = 0`) is judged on [`Plant::proportional_polynomial`].
     pub fn check_stability(&self, kc: f64, ki: f64) -> Result<f64, DataError> {
-        let roots = self.closed_loop_roots(kc, ki)?;
+        let roots = if ki == 0.0 {
+            self.validate()?;
+            roots(&self.proportional_polynomial(kc))?
+        } else {
+            self.closed_loop_roots(kc, ki)?
+        };
         let max_modulus = roots
             .iter()
             .map(|[re, im]| re.hypot(*im))
@@ -188,6 +188,36 @@ impl Plant {
             })
         }
     }
+}
+
+/// Roots (in `z`) of the polynomial `p` in powers of `q^-1`, as `[re, im]` pairs, from the
+/// eigenvalues of its companion matrix.
+fn roots(p: &[f64]) -> Result<Vec<[f64; 2]>, DataError> {
+    let n = p.len() - 1;
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    if p[0] == 0.0 || p.iter().any(|v| !v.is_finite()) {
+        return Err(DataError::InvalidParameter {
+            name: "controller".into(),
+            value: p[0],
+            expected: "a closed loop with a finite, proper characteristic polynomial".into(),
+        });
+    }
+    let companion = nalgebra::DMatrix::<f64>::from_fn(n, n, |i, j| {
+        if i == 0 {
+            -p[j + 1] / p[0]
+        } else if i == j + 1 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    Ok(companion
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| [z.re, z.im])
+        .collect())
 }
 
 #[cfg(test)]
@@ -219,6 +249,30 @@ mod tests {
         for (got, want) in m.iter().zip([0.184, 0.4, 0.816, 1.0]) {
             assert!((got - want).abs() < 2e-3, "{m:?}");
         }
+    }
+
+    #[test]
+    fn a_proportional_controller_is_judged_without_the_velocity_forms_root_at_one() {
+        let paper = Plant::paper();
+        // The velocity form's polynomial has the root at 1 whatever the gain.
+        let m = paper
+            .closed_loop_roots(0.5, 0.0)
+            .unwrap()
+            .iter()
+            .map(|[re, im]| re.hypot(*im))
+            .fold(0.0_f64, f64::max);
+        assert!((m - 1.0).abs() < 1e-9, "{m}");
+        assert!(paper.check_stability(0.5, 0.0).unwrap() < 1.0);
+        // A + Kc q^-d B: unstable once the loop gain is too high for the delay.
+        let delayed = Plant {
+            delay: 5,
+            ..Plant::paper()
+        };
+        assert!(delayed.check_stability(0.2, 0.0).is_ok());
+        assert!(matches!(
+            delayed.check_stability(20.0, 0.0),
+            Err(DataError::Unstable { .. })
+        ));
     }
 
     #[test]

@@ -16,7 +16,10 @@
 //! * **Sampling and length**: `Ts` log-uniform in [`PopulationSpec::sample_time`], `N`
 //!   log-uniform in [`PopulationSpec::samples`].
 //! * **Tuning**: SIMC/IMC-like PI with the closed-loop time constant a factor 0.3-4 of the
-//!   process's (aggressive to sluggish), scaled down until the closed loop is stable.
+//!   process's (aggressive to sluggish), scaled down until the closed loop is stable. A share
+//!   [`PopulationSpec::proportional`] of the loops (none by default) runs the same gain without
+//!   integral action: a proportional-only controller, as averaging level control and some
+//!   pressure loops use, whose OP is a static function of PV and SP.
 //! * **Noise**: white noise through `(1 + c₁ q⁻¹)` at PV (the plant's `C = A (1 + c₁ q⁻¹)`),
 //!   `c₁` in [-0.3, 0.9], σ 0.02-0.5 % of span.
 //! * **Excitation**: each with its own chance — set-point moves (random walk), load steps,
@@ -175,6 +178,11 @@ pub struct PopulationSpec {
     pub sample_time: [f64; 2],
     /// Record length range, samples (log-uniform; equal ends: fixed).
     pub samples: [usize; 2],
+    /// The share of loops under a proportional-only controller (the PI's gain, no integral
+    /// action), drawn from a stream of its own: every other draw of a loop is the same
+    /// whatever this share. 0 (the default) for PI controllers only.
+    #[serde(default)]
+    pub proportional: f64,
 }
 
 impl PopulationSpec {
@@ -185,6 +193,7 @@ impl PopulationSpec {
             families: Family::ALL.to_vec(),
             sample_time: [1.0, 60.0],
             samples: [200, 5000],
+            proportional: 0.0,
         }
     }
 
@@ -570,6 +579,26 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
         index,
     )?;
 
+    // A proportional-only controller, drawn from a stream of its own so that the share leaves
+    // every other draw of the loop as it is; the PI's gain, reduced until stable.
+    let proportional = spec.proportional > 0.0
+        && chance(
+            &mut ChaCha8Rng::seed_from_u64(seed ^ 0x5052_4F50_4F52_5449),
+            spec.proportional,
+        );
+    let (kc, ki, tuning) = if proportional {
+        let mut kc = kc;
+        for _ in 0..80 {
+            if plant.check_stability(kc, 0.0).is_ok() {
+                break;
+            }
+            kc *= 0.8;
+        }
+        (kc, 0.0, "P-only")
+    } else {
+        (kc, ki, tuning)
+    };
+
     // Noise and excitation (PV in % of span; disturbances in % of valve travel through B(1)).
     let (noise, setpoint, disturbances, parts) = excitation(&mut rng, quiet, ts, samples, b1);
 
@@ -755,12 +784,58 @@ mod tests {
     }
 
     #[test]
+    fn a_share_of_proportional_controllers_leaves_the_other_loops_as_they_were() {
+        let pi = PopulationSpec::wide(21);
+        let half = PopulationSpec {
+            proportional: 0.5,
+            ..PopulationSpec::wide(21)
+        };
+        let (mut p_only, mut same) = (0, 0);
+        for i in 0..40 {
+            let (a, b) = (pi.generate(i).unwrap(), half.generate(i).unwrap());
+            assert!(!a.what.contains("P-only"), "{}", a.what);
+            if b.what.contains("P-only") {
+                p_only += 1;
+                // OP is the bias plus Kc times the error: its moves are PV's and SP's, scaled
+                let (dp, ds, du) = (
+                    b.sim.pv[11] - b.sim.pv[10],
+                    b.sim.sp[11] - b.sim.sp[10],
+                    b.sim.op[11] - b.sim.op[10],
+                );
+                let (dp2, ds2, du2) = (
+                    b.sim.pv[21] - b.sim.pv[20],
+                    b.sim.sp[21] - b.sim.sp[20],
+                    b.sim.op[21] - b.sim.op[20],
+                );
+                let logged_as_seen = !b.what.contains('|')
+                    || !b.what.rsplit('|').next().is_some_and(|h| {
+                        h.contains("swinging") || h.contains("quantised") || h.contains("frozen")
+                    });
+                if logged_as_seen && ds == 0.0 && ds2 == 0.0 && dp.abs() > 1e-9 && dp2.abs() > 1e-9
+                {
+                    assert!(
+                        (du / dp - du2 / dp2).abs() < 1e-6 * (du / dp).abs().max(1.0),
+                        "{}",
+                        b.what
+                    );
+                }
+            } else {
+                same += 1;
+                assert_eq!(a.what, b.what);
+                assert_eq!(a.sim.pv, b.sim.pv);
+            }
+        }
+        assert!(p_only >= 10 && same >= 10, "{p_only} P-only, {same} PI");
+    }
+
+    #[test]
     fn a_frozen_transmitter_cannot_be_judged() {
         let spec = PopulationSpec {
             seed: 11,
             families: vec![Family::Flow],
             sample_time: [5.0, 5.0],
             samples: [300, 300],
+            proportional: 0.0,
         };
         let frozen: Vec<PopulationLoop> = (0..200)
             .map(|i| spec.generate(i).unwrap())
@@ -818,6 +893,7 @@ mod tests {
             families: vec![Family::Flow, Family::Level],
             sample_time: [2.0, 30.0],
             samples: [300, 3000],
+            proportional: 0.0,
         };
         let loops: Vec<PopulationLoop> = (0..120).map(|i| spec.generate(i).unwrap()).collect();
         let mut no_trace = 0;
@@ -844,6 +920,7 @@ mod tests {
             families: vec![Family::Level],
             sample_time: [60.0, 60.0],
             samples: [400, 400],
+            proportional: 0.0,
         };
         for i in 0..6 {
             let l = spec.generate(i).unwrap();
