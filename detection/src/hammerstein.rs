@@ -67,8 +67,11 @@ use stiction_models::{InitialState, Kano, StictionModel};
 /// `inconclusive` (measured on the training population; `cargo xtask detect-calibrate`,
 /// docs/decisions/2026-11-28-model-family-and-grid-top.md).
 const S_GRID: [f64; 16] = [
-    0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0,
+    0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, LARGEST_S,
 ];
+/// The largest band of the grid, in OP units: an S fitted there says the band is at least
+/// about this wide, not how wide.
+pub const LARGEST_S: f64 = 25.0;
 /// Delays tried for every valve: the one-step ARX uses MV from `t−1−d`, `d` up to this; the
 /// output-error model delays of 1 to `MAX_DELAY + 1` samples in half samples. Both span 1-4
 /// samples.

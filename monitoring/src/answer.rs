@@ -275,10 +275,15 @@ impl Answer {
             }
             _ => None,
         };
-        let caution = match (caution, compression_caution(verdict, a.pv_compression)) {
-            (Some(a), Some(b)) => Some(format!("{a}; {b}")),
-            (a, b) => a.or(b),
-        };
+        let cautions: Vec<String> = [
+            caution,
+            edge_caution(chosen, a.span_unknown),
+            compression_caution(verdict, a.pv_compression),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let caution = (!cautions.is_empty()).then(|| cautions.join("; "));
         Answer {
             verdict,
             score: det.score(),
@@ -375,6 +380,21 @@ pub fn compression_caution(verdict: Verdict, pv: Option<datasets::Compression>) 
     ))
 }
 
+/// What limits an S the detector's output-error fit found at its grid's largest band
+/// ([`detection::hammerstein::LARGEST_S`]): the valve's band may be wider (a valve stuck over
+/// most of the record). `None` for any other S.
+fn edge_caution(chosen: Option<(Estimate, SFrom)>, span_unknown: bool) -> Option<String> {
+    let largest = detection::hammerstein::LARGEST_S;
+    let unit = if span_unknown { "" } else { " %" };
+    chosen
+        .filter(|(e, f)| *f == SFrom::OutputError && e.s >= largest)
+        .map(|_| {
+            format!(
+                "S is the largest band the detector's fit tries ({largest:.0}{unit}): the valve's band may be wider"
+            )
+        })
+}
+
 /// The S a registration reports ([`reported`]): the S that explains the detector's verdict,
 /// the hull of both fits' regions and which fit it comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -444,6 +464,22 @@ mod tests {
 
     fn est(s: f64) -> Option<Estimate> {
         Some(Estimate { s, range: [s, s] })
+    }
+
+    /// An output-error S at the grid's largest band is a lower bound, and the answer says so;
+    /// no other S gets that caution.
+    #[test]
+    fn an_s_at_the_grids_largest_band_is_said_to_be_a_lower_bound() {
+        let top = detection::hammerstein::LARGEST_S;
+        let at = |s: f64, f: SFrom| Some((Estimate { s, range: [s, s] }, f));
+        let c = edge_caution(at(top, SFrom::OutputError), false).unwrap();
+        assert!(c.contains("(25 %)") && c.contains("may be wider"), "{c}");
+        assert!(edge_caution(at(top, SFrom::OutputError), true)
+            .unwrap()
+            .contains("(25)"));
+        assert_eq!(edge_caution(at(20.0, SFrom::OutputError), false), None);
+        assert_eq!(edge_caution(at(30.0, SFrom::OneStep), false), None);
+        assert_eq!(edge_caution(None, false), None);
     }
 
     /// A repair simulated with the one-step valve goes with the answer only where that fit
