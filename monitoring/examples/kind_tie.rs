@@ -109,6 +109,7 @@ fn main() {
         sample_time: [2.0, 30.0],
         samples: [300, 3000],
         proportional: 0.0,
+        transport_delay: [0.0, 0.0],
     };
     let sets = [
         ("training", base(1)),

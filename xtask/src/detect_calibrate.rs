@@ -9,8 +9,9 @@
 //!   ranges again (`in range`), and settings outside them: `N = 400`, `N = 4000`, `Ts = 1 s`,
 //!   `Ts = 60 s` (the training families otherwise), the family left out of training
 //!   (`composition`: slow second-order loops with long dead time, the training's `Ts` and `N`)
-//!   and the controller left out of training (`P-only`: the training ranges under
-//!   proportional-only controllers).
+//!   the controller left out of training (`P-only`: the training ranges under
+//!   proportional-only controllers) and long dead times (`dead time 10-60 s`: the training
+//!   ranges with a transport delay of 10-60 s added to every process).
 //! * **Figures**, per loop kind (self-regulating, integrating) and overall: the score's ROC AUC
 //!   (sticky against free), the verdict right on the conclusive (a conclusive verdict on a loop
 //!   whose OP barely moves counts as wrong: it cannot be judged), the share of sticky and free
@@ -149,6 +150,7 @@ fn training_set(seed: u64) -> Set {
             sample_time: TRAIN_TS,
             samples: TRAIN_N,
             proportional: 0.0,
+            transport_delay: [0.0, 0.0],
         },
     }
 }
@@ -162,6 +164,7 @@ fn validation_sets() -> Vec<Set> {
         sample_time: TRAIN_TS,
         samples: TRAIN_N,
         proportional: 0.0,
+        transport_delay: [0.0, 0.0],
     };
     // The training ranges but for every record's length, or every record's sampling time.
     let length = |name: &'static str, n: usize, seed: u64| Set {
@@ -199,6 +202,13 @@ fn validation_sets() -> Vec<Set> {
             spec: PopulationSpec {
                 proportional: 1.0,
                 ..base(7_000_001)
+            },
+        },
+        Set {
+            name: "dead time 10-60 s (left out)",
+            spec: PopulationSpec {
+                transport_delay: [10.0, 60.0],
+                ..base(8_000_001)
             },
         },
     ]

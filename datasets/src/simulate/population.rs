@@ -15,6 +15,8 @@
 //!   rounded to whole samples, at most [`MAX_DELAY`]).
 //! * **Sampling and length**: `Ts` log-uniform in [`PopulationSpec::sample_time`], `N`
 //!   log-uniform in [`PopulationSpec::samples`].
+//! * **Transport delay**: a dead time added to every process, uniform in
+//!   [`PopulationSpec::transport_delay`] (none by default).
 //! * **Tuning**: SIMC/IMC-like PI with the closed-loop time constant a factor 0.3-4 of the
 //!   process's (aggressive to sluggish), scaled down until the closed loop is stable. A share
 //!   [`PopulationSpec::proportional`] of the loops (none by default) runs the same gain without
@@ -183,6 +185,12 @@ pub struct PopulationSpec {
     /// whatever this share. 0 (the default) for PI controllers only.
     #[serde(default)]
     pub proportional: f64,
+    /// A dead time added to every loop's process, seconds, uniform in this range (drawn from
+    /// a stream of its own, like [`PopulationSpec::proportional`]): a transport delay between
+    /// the valve and the measurement (a long line, an analyser's sample system). `[0, 0]`
+    /// (the default) for the families' own dead times only.
+    #[serde(default)]
+    pub transport_delay: [f64; 2],
 }
 
 impl PopulationSpec {
@@ -194,6 +202,7 @@ impl PopulationSpec {
             sample_time: [1.0, 60.0],
             samples: [200, 5000],
             proportional: 0.0,
+            transport_delay: [0.0, 0.0],
         }
     }
 
@@ -552,6 +561,15 @@ fn generate(spec: &PopulationSpec, index: usize) -> Result<PopulationLoop, DataE
 
     // Process, in continuous time (seconds), discretised at `ts`.
     let (taus, dead, gain) = process(&mut rng, family);
+    let dead = dead
+        + match spec.transport_delay {
+            [lo, hi] if hi > 0.0 => uniform(
+                &mut ChaCha8Rng::seed_from_u64(seed ^ 0x5452_414E_5350_4F52),
+                lo,
+                hi,
+            ),
+            _ => 0.0,
+        };
     let delay = ((dead / ts).round() as usize).min(MAX_DELAY);
     let (lags, lag_gain) = lag_poly(ts, &taus);
     let (a, b1) = if family.integrating() {
@@ -788,6 +806,7 @@ mod tests {
         let pi = PopulationSpec::wide(21);
         let half = PopulationSpec {
             proportional: 0.5,
+            transport_delay: [0.0, 0.0],
             ..PopulationSpec::wide(21)
         };
         let (mut p_only, mut same) = (0, 0);
@@ -829,6 +848,31 @@ mod tests {
     }
 
     #[test]
+    fn a_transport_delay_lengthens_every_dead_time_by_its_samples() {
+        let delay = |l: &PopulationLoop| -> usize {
+            let w = l.what.split("delay=").nth(1).unwrap();
+            w.split(' ').next().unwrap().parse().unwrap()
+        };
+        for i in 0..12 {
+            let plain = PopulationSpec::wide(31).generate(i).unwrap();
+            let late = PopulationSpec {
+                transport_delay: [30.0, 30.0],
+                ..PopulationSpec::wide(31)
+            }
+            .generate(i)
+            .unwrap();
+            assert_eq!(plain.sample_time, late.sample_time);
+            let added = (30.0 / late.sample_time).round() as usize;
+            let (a, b) = (delay(&plain), delay(&late));
+            assert!(
+                b == MAX_DELAY || b + 1 >= a + added && b <= a + added + 1,
+                "{a} + {added} samples -> {b}: {}",
+                late.what
+            );
+        }
+    }
+
+    #[test]
     fn a_frozen_transmitter_cannot_be_judged() {
         let spec = PopulationSpec {
             seed: 11,
@@ -836,6 +880,7 @@ mod tests {
             sample_time: [5.0, 5.0],
             samples: [300, 300],
             proportional: 0.0,
+            transport_delay: [0.0, 0.0],
         };
         let frozen: Vec<PopulationLoop> = (0..200)
             .map(|i| spec.generate(i).unwrap())
@@ -894,6 +939,7 @@ mod tests {
             sample_time: [2.0, 30.0],
             samples: [300, 3000],
             proportional: 0.0,
+            transport_delay: [0.0, 0.0],
         };
         let loops: Vec<PopulationLoop> = (0..120).map(|i| spec.generate(i).unwrap()).collect();
         let mut no_trace = 0;
@@ -921,6 +967,7 @@ mod tests {
             sample_time: [60.0, 60.0],
             samples: [400, 400],
             proportional: 0.0,
+            transport_delay: [0.0, 0.0],
         };
         for i in 0..6 {
             let l = spec.generate(i).unwrap();
