@@ -136,10 +136,19 @@ impl Integrating {
     }
 }
 
+/// The ISA-5.1 letters that follow a tag's first letter in a level loop's tag: modifiers
+/// (`D` differential, `Q` totalise, `H`/`L` high/low, `S` safety) and readout or output
+/// functions (`A` alarm, `C` control, `E` element, `G` glass, `I` indicate, `K` control
+/// station, `R` record, `S` switch, `T` transmit, `V` valve, `X` unclassified, `Y` relay or
+/// compute, `Z` driver). Letters a level tag does not use (`O` orifice, `P` test point, and
+/// the user's choices) keep words such as `loop`, `line` and `load` from reading as tags.
+const TAG_FUNCTION_LETTERS: &str = "ACDEGHIKLQRSTVXYZ";
+
 /// Whether `valve` reads as an ISA-5.1 tag of a level loop: a tag has a number (`LIC101`,
-/// `2111LIC31102B`) and its function letters are a run of two to four letters, the first `L`.
-/// A name that is not a tag (`loop`, `line_a`, `level`) is not a level loop: the default,
-/// self-regulating, is then kept rather than guessed from a word's first letter.
+/// `2111LIC31102B`) and its letters are a run of two to four, the first `L` and the others
+/// function letters ([`TAG_FUNCTION_LETTERS`]). A name that is not a tag (`loop001`,
+/// `line_a7`, `level`) is not a level loop: the default, self-regulating, is then kept rather
+/// than guessed from a word's first letter.
 pub fn is_level_tag(valve: &str) -> bool {
     if !valve.chars().any(|c| c.is_ascii_digit()) {
         return false;
@@ -148,8 +157,13 @@ pub fn is_level_tag(valve: &str) -> bool {
         .chars()
         .skip_while(|c| !c.is_ascii_alphabetic())
         .take_while(|c| c.is_ascii_alphabetic())
+        .map(|c| c.to_ascii_uppercase())
         .collect();
-    (2..=4).contains(&letters.len()) && letters.starts_with(['L', 'l'])
+    (2..=4).contains(&letters.len())
+        && letters.starts_with('L')
+        && letters[1..]
+            .chars()
+            .all(|c| TAG_FUNCTION_LETTERS.contains(c))
 }
 
 #[cfg(test)]
@@ -171,7 +185,15 @@ mod tests {
 
     #[test]
     fn level_tags_and_words() {
-        for tag in ["2111LIC31102B", "LIC101", "LT-12", "lic7"] {
+        for tag in [
+            "2111LIC31102B",
+            "LIC101",
+            "LT-12",
+            "lic7",
+            "LCV-3",
+            "LDIC20",
+            "LSH_4",
+        ] {
             assert!(is_level_tag(tag), "{tag}");
         }
         for name in [
@@ -182,6 +204,11 @@ mod tests {
             "FIC7",
             "L1",
             "LOOPING1",
+            "loop001",
+            "loop_17",
+            "line_a7",
+            "load3",
+            "log2",
         ] {
             assert!(!is_level_tag(name), "{name}");
         }
