@@ -145,8 +145,7 @@ fn population() -> PopulationSpec {
         ],
         sample_time: [1.0, 60.0],
         samples: [400, 2000],
-        proportional: 0.0,
-        transport_delay: [0.0, 0.0],
+        ..PopulationSpec::default()
     }
 }
 

@@ -18,8 +18,7 @@ fn the_calibrated_score_holds_on_a_fresh_simulated_population() {
         families: vec![Family::Flow, Family::Pressure, Family::Level],
         sample_time: [2.0, 30.0],
         samples: [300, 1200],
-        proportional: 0.0,
-        transport_delay: [0.0, 0.0],
+        ..PopulationSpec::default()
     };
     let mut scored = Vec::new();
     let (mut right, mut conclusive, mut inconclusive) = (0usize, 0usize, 0usize);

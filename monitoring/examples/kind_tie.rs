@@ -108,8 +108,7 @@ fn main() {
         families: families.clone(),
         sample_time: [2.0, 30.0],
         samples: [300, 3000],
-        proportional: 0.0,
-        transport_delay: [0.0, 0.0],
+        ..PopulationSpec::default()
     };
     let sets = [
         ("training", base(1)),

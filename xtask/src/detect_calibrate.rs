@@ -149,8 +149,7 @@ fn training_set(seed: u64) -> Set {
             families: TRAIN_FAMILIES.to_vec(),
             sample_time: TRAIN_TS,
             samples: TRAIN_N,
-            proportional: 0.0,
-            transport_delay: [0.0, 0.0],
+            ..PopulationSpec::default()
         },
     }
 }
@@ -163,8 +162,7 @@ fn validation_sets() -> Vec<Set> {
         families: TRAIN_FAMILIES.to_vec(),
         sample_time: TRAIN_TS,
         samples: TRAIN_N,
-        proportional: 0.0,
-        transport_delay: [0.0, 0.0],
+        ..PopulationSpec::default()
     };
     // The training ranges but for every record's length, or every record's sampling time.
     let length = |name: &'static str, n: usize, seed: u64| Set {

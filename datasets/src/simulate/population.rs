@@ -193,6 +193,14 @@ pub struct PopulationSpec {
     pub transport_delay: [f64; 2],
 }
 
+impl Default for PopulationSpec {
+    /// [`PopulationSpec::wide`] with seed 0: every family, the full ranges, PI controllers, no
+    /// transport delay.
+    fn default() -> Self {
+        PopulationSpec::wide(0)
+    }
+}
+
 impl PopulationSpec {
     /// The full ranges: every family, `Ts` 1-60 s, `N` 200-5000.
     pub fn wide(seed: u64) -> PopulationSpec {

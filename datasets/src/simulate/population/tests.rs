@@ -29,7 +29,6 @@ fn a_share_of_proportional_controllers_leaves_the_other_loops_as_they_were() {
     let pi = PopulationSpec::wide(21);
     let half = PopulationSpec {
         proportional: 0.5,
-        transport_delay: [0.0, 0.0],
         ..PopulationSpec::wide(21)
     };
     let (mut p_only, mut same) = (0, 0);
@@ -101,8 +100,7 @@ fn a_frozen_transmitter_cannot_be_judged() {
         families: vec![Family::Flow],
         sample_time: [5.0, 5.0],
         samples: [300, 300],
-        proportional: 0.0,
-        transport_delay: [0.0, 0.0],
+        ..PopulationSpec::default()
     };
     let frozen: Vec<PopulationLoop> = (0..200)
         .map(|i| spec.generate(i).unwrap())
@@ -160,8 +158,7 @@ fn a_population_labels_its_traceless_sticky_loops_and_keeps_their_s() {
         families: vec![Family::Flow, Family::Level],
         sample_time: [2.0, 30.0],
         samples: [300, 3000],
-        proportional: 0.0,
-        transport_delay: [0.0, 0.0],
+        ..PopulationSpec::default()
     };
     let loops: Vec<PopulationLoop> = (0..120).map(|i| spec.generate(i).unwrap()).collect();
     let mut no_trace = 0;
@@ -188,8 +185,7 @@ fn fixed_settings_are_kept_and_a_quiet_op_cannot_be_judged() {
         families: vec![Family::Level],
         sample_time: [60.0, 60.0],
         samples: [400, 400],
-        proportional: 0.0,
-        transport_delay: [0.0, 0.0],
+        ..PopulationSpec::default()
     };
     for i in 0..6 {
         let l = spec.generate(i).unwrap();
