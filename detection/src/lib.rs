@@ -561,15 +561,10 @@ impl<'a> Registration<'a> {
 }
 
 /// Whether OP moves enough to show a stiction band: its 1st-to-99th-percentile span at least
-/// [`BARELY_MOVES`] and at least [`MIN_OP_STEPS`] steps of its quantisation (the smallest
-/// non-zero change between samples).
+/// [`BARELY_MOVES`] and at least [`MIN_OP_STEPS`] steps of its quantisation.
 fn moves_enough(op: &[f64]) -> Result<(), DetectionError> {
     let span = signal::percentile_span(op);
-    let quantum = op
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|&d| d > 1e-12 * span)
-        .fold(f64::INFINITY, f64::min);
+    let quantum = quantisation_step(op, span);
     if span < BARELY_MOVES {
         return Err(DetectionError::BarelyMoves {
             span,
@@ -586,4 +581,48 @@ fn moves_enough(op: &[f64]) -> Result<(), DetectionError> {
         });
     }
     Ok(())
+}
+
+/// OP's quantisation step: the smallest gap between two of the distinct values it takes
+/// (gaps below `1e-12 · span` are rounding, not steps). OP walking over a logged lattice of
+/// step `q` leaves gaps of `q`. The smallest change between successive samples is no estimate
+/// of it: an OP that swings between its limits every sample (a loop on the edge of
+/// instability) never changes by less than most of its range, yet takes hundreds of values.
+fn quantisation_step(op: &[f64], span: f64) -> f64 {
+    let mut values: Vec<f64> = op.iter().copied().filter(|v| v.is_finite()).collect();
+    values.sort_by(f64::total_cmp);
+    values
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|&d| d > 1e-12 * span)
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// OP on a lattice of a quarter of its span is too coarse to judge; an OP that swings
+    /// between its limits every sample and takes hundreds of values between them is not, though
+    /// no change between two samples is smaller than most of its range.
+    #[test]
+    fn the_quantisation_step_is_the_lattice_not_the_smallest_move() {
+        let coarse: Vec<f64> = (0..400).map(|k| 25.0 * ((k % 5) as f64)).collect();
+        assert!(matches!(
+            moves_enough(&coarse),
+            Err(DetectionError::BarelyMoves { .. })
+        ));
+        let swinging: Vec<f64> = (0..400)
+            .map(|k| {
+                let inner = 0.37 * (k as f64) % 17.0;
+                if k % 2 == 0 {
+                    inner
+                } else {
+                    100.0 - inner
+                }
+            })
+            .collect();
+        assert!(moves_enough(&swinging).is_ok());
+        assert!((quantisation_step(&coarse, 100.0) - 25.0).abs() < 1e-12);
+    }
 }
