@@ -668,9 +668,16 @@ fn locate_columns(
                     .map(|n| format!("{n:?}"))
                     .collect::<Vec<_>>()
                     .join(" or ");
+                // A name the user gave is wrong as given; a default name is only the reader's
+                // guess, and the option tells it another (the CLI's flag, Python's keyword).
+                let hint = if w.explicit {
+                    String::new()
+                } else {
+                    format!("; name yours with --{}", w.label.to_lowercase())
+                };
                 return Err(DataError::MissingColumn {
                     file: file.to_string(),
-                    column: format!("{} ({tried})", w.label),
+                    column: format!("{} ({tried}{hint})", w.label),
                     found: header.to_vec(),
                 });
             }

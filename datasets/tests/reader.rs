@@ -139,11 +139,11 @@ fn error_messages() {
         (b"PV,OP\n1,\xff\n", "loop.csv: row 2: invalid UTF-8 at byte 8"),
         (
             b"a,OP\n1,2\n",
-            r#"loop.csv: no column PV ("pv") in the header (found: a, OP)"#,
+            r#"loop.csv: no column PV ("pv"; name yours with --pv) in the header (found: a, OP)"#,
         ),
         (
             b"PV,b\n1,2\n",
-            r#"loop.csv: no column OP ("op") in the header (found: PV, b)"#,
+            r#"loop.csv: no column OP ("op"; name yours with --op) in the header (found: PV, b)"#,
         ),
         (b"PV,OP\n1,2\n3\n", "loop.csv: row 3: 1 cells, the header has 2"),
         (b"PV,OP\n1,2\n3,4,5\n", "loop.csv: row 3: 3 cells, the header has 2"),
