@@ -59,6 +59,7 @@ pub mod bicoherence;
 pub mod curve_fit;
 pub mod figures;
 pub mod hammerstein;
+pub mod held;
 pub mod horch;
 pub mod kind;
 pub mod logistic;

@@ -118,3 +118,40 @@ fn only_a_stiction_verdict_on_a_compressed_pv_is_cautioned() {
     assert!(compression_caution(Verdict::Inconclusive, Some(c)).is_none());
     assert!(compression_caution(Verdict::Stiction, None).is_none());
 }
+
+/// A PV held between updates every 5 samples (an analyser's cycle) is found, and the
+/// detector's `stiction` on it carries the caution of [`monitoring::answer::held_caution`];
+/// the live PV of the same loop does not.
+#[test]
+fn a_stiction_verdict_on_a_held_pv_carries_a_caution() {
+    let live = simulated(None).to_loop_data();
+    let mut held = live.clone();
+    let pv: Vec<f64> = live.pv.clone().expect("test data");
+    held.pv = Some((0..pv.len()).map(|i| pv[i / 5 * 5]).collect());
+    let answer = |d: &datasets::LoopData| {
+        let a = monitoring::analyse(d, None, monitoring::Integrating::Auto);
+        let view = a.detect(d);
+        (a.pv_held, monitoring::Answer::new(&a, &view.detected, None))
+    };
+    let (none, plain) = answer(&live);
+    assert!(none.is_none(), "{none:?}");
+    assert!(!plain.line().contains("PV changes only"), "{}", plain.line());
+    let (found, cautioned) = answer(&held);
+    assert_eq!(found.map(|h| h.period), Some(5), "{found:?}");
+    assert_eq!(
+        cautioned.verdict,
+        detection::Verdict::Stiction,
+        "{}",
+        cautioned.line()
+    );
+    assert!(
+        cautioned
+            .line()
+            .contains("caution: PV changes only every 5 samples"),
+        "{}",
+        cautioned.line()
+    );
+    use monitoring::answer::held_caution;
+    assert!(held_caution(detection::Verdict::NoStiction, found).is_none());
+    assert!(held_caution(detection::Verdict::Stiction, None).is_none());
+}
