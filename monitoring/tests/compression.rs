@@ -135,7 +135,11 @@ fn a_stiction_verdict_on_a_held_pv_carries_a_caution() {
     };
     let (none, plain) = answer(&live);
     assert!(none.is_none(), "{none:?}");
-    assert!(!plain.line().contains("PV changes only"), "{}", plain.line());
+    assert!(
+        !plain.line().contains("PV changes only"),
+        "{}",
+        plain.line()
+    );
     let (found, cautioned) = answer(&held);
     assert_eq!(found.map(|h| h.period), Some(5), "{found:?}");
     assert_eq!(
