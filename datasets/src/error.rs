@@ -154,7 +154,8 @@ pub enum DataError {
     /// A time cell is neither a number of seconds nor a supported timestamp.
     #[error(
         "{file}: row {row}, column {column}: {text:?} is not a time (seconds, or a timestamp \
-         YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm] or YYYY-MM-DD HH:MM:SS[.fff], one kind per column)"
+         YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm], YYYY-MM-DD HH:MM[:SS[.fff]] or DD.MM.YYYY \
+         HH:MM[:SS[.fff]], one kind per column)"
     )]
     BadTime {
         /// File name.

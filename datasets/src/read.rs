@@ -348,7 +348,9 @@ pub fn read_csv(
         for col in &mut columns {
             let text = &record[col.index];
             let value = match col.role {
-                Role::Time => parse_time(text, &mut time_kind),
+                Role::Time => {
+                    parse_time(text, &mut time_kind, delimiter == b';', &mut decimal_commas)
+                }
                 Role::Mode => parse_mode(text),
                 _ => parse_number(text, delimiter == b';', &mut decimal_commas),
             };
@@ -605,7 +607,7 @@ pub fn read_columns(
                 });
             }
             let value = match col.role {
-                Role::Time => parse_time(text, &mut time_kind),
+                Role::Time => parse_time(text, &mut time_kind, false, &mut decimal_commas),
                 Role::Mode => parse_mode(text),
                 _ => parse_number(text, false, &mut decimal_commas),
             };
@@ -629,7 +631,8 @@ fn locate_columns(
     for w in &wanted {
         let found = header
             .iter()
-            .position(|h| w.names.iter().any(|n| h.to_lowercase() == *n));
+            .position(|h| w.names.iter().any(|n| h.to_lowercase() == *n))
+            .or_else(|| tag_suffixed(header, w, notes));
         if let Some(index) = found {
             let others: Vec<usize> = header
                 .iter()
@@ -699,6 +702,41 @@ fn locate_columns(
     Ok(columns)
 }
 
+/// A historian's export names its columns by tag and parameter (`FIC101.PV`, `FIC101_OP`,
+/// `FIC101 SP`): where no column has the role's own name, the one column whose name ends in
+/// it after a separator (`.`, `_`, `:`, `-`, `/` or a space) takes the role, with a note; none
+/// or several such columns leave the role unfound (several: name the one with the flag). Not
+/// for a name the user gave, nor for MV (some vendors' `MV` is the controller's output, not
+/// the valve's position) or time (`_t` may be a temperature).
+fn tag_suffixed(header: &[String], w: &Wanted, notes: &mut Vec<Note>) -> Option<usize> {
+    if w.explicit || matches!(w.role, Role::Mv | Role::Time) {
+        return None;
+    }
+    let ends_in = |h: &str| {
+        let h = h.trim().to_lowercase();
+        w.names.iter().any(|n| {
+            h.len() > n.len()
+                && h.ends_with(n.as_str())
+                && h[..h.len() - n.len()].ends_with(['.', '_', ':', '-', '/', ' '])
+        })
+    };
+    let mut matching = header.iter().enumerate().filter(|(_, h)| ends_in(h));
+    let (index, name) = matching.next()?;
+    if matching.next().is_some() {
+        return None;
+    }
+    notes.push(Note::new(
+        NoteKind::Columns,
+        format!(
+            "{}: read from column {} ({name:?}), whose name ends in it; name another with --{}",
+            w.label,
+            index + 1,
+            w.label.to_lowercase()
+        ),
+    ));
+    Some(index)
+}
+
 fn wanted_columns(opts: &ReadOptions) -> Vec<Wanted> {
     let mk = |role, label, given: &Option<String>, default: &[&str], required| Wanted {
         role,
@@ -711,7 +749,13 @@ fn wanted_columns(opts: &ReadOptions) -> Vec<Wanted> {
         explicit: given.is_some(),
     };
     vec![
-        mk(Role::Time, "time", &opts.time, &["t", "time"], false),
+        mk(
+            Role::Time,
+            "time",
+            &opts.time,
+            &["t", "time", "timestamp"],
+            false,
+        ),
         mk(Role::Sp, "SP", &opts.sp, &["sp"], false),
         mk(Role::Pv, "PV", &opts.pv, &["pv"], opts.require_pv),
         mk(Role::Op, "OP", &opts.op, &["op"], true),

@@ -63,6 +63,19 @@ fn delimiters_comma_semicolon_tab() {
     assert_eq!(d.pv.as_deref(), Some(&[1.5, 2.0, 1.0][..]));
     assert_eq!(d.op, vec![2.0, 3.25, 2.0]);
     assert_eq!(d.notes, vec!["read 2 cell(s) with a decimal comma"]);
+    // ... in the time column too (seconds, or a stamp's fraction of a second), and day-first
+    // stamps with dots, as a spreadsheet in such a locale writes them
+    let d = read("t;PV;OP\n0,0;1;2\n0,5;2;3\n1,0;1;2\n").unwrap();
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 0.5, 1.0][..]));
+    assert_eq!(d.notes, vec!["read 3 cell(s) with a decimal comma"]);
+    let d = read(
+        "t;PV;OP\n29.11.2026 04:20:00;1;2\n29.11.2026 04:20:10;2;3\n29.11.2026 04:20:20,5;1;2\n",
+    )
+    .unwrap();
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 10.0, 20.5][..]));
+    let d = read("t,PV,OP\n2026-11-29 04:20,1,2\n2026-11-29 04:21,2,3\n2026-11-29 04:22,1,2\n")
+        .unwrap();
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 60.0, 120.0][..]));
 }
 
 #[test]
@@ -133,7 +146,8 @@ fn pv_is_optional_when_the_caller_says_so() {
 
 #[test]
 fn error_messages() {
-    let cases: Vec<(&[u8], &str)> = vec![
+    let cases: Vec<(&[u8], &str)> =
+        vec![
         (b"", "loop.csv: empty file (no header row)"),
         (b"\n \n", "loop.csv: empty file (no header row)"),
         (b"PV,OP\n1,\xff\n", "loop.csv: row 2: invalid UTF-8 at byte 8"),
@@ -158,13 +172,14 @@ fn error_messages() {
         (
             b"t,PV,OP\n0,1,2\nnoon,2,3\n",
             "loop.csv: row 3, column t: \"noon\" is not a time (seconds, or a timestamp \
-             YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm] or YYYY-MM-DD HH:MM:SS[.fff], one kind per column)",
+             YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm], YYYY-MM-DD HH:MM[:SS[.fff]] or DD.MM.YYYY \
+             HH:MM[:SS[.fff]], one kind per column)",
         ),
         (
             b"t,PV,OP\n0,1,2\n2024-01-01T00:00:00,2,3\n",
             "loop.csv: row 3, column t: \"2024-01-01T00:00:00\" is not a time (seconds, or a \
-             timestamp YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm] or YYYY-MM-DD HH:MM:SS[.fff], one \
-             kind per column)",
+             timestamp YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm], YYYY-MM-DD HH:MM[:SS[.fff]] or \
+             DD.MM.YYYY HH:MM[:SS[.fff]], one kind per column)",
         ),
         (
             b"PV,OP\n1,2\n2,\nNaN,3\n1,nan\n2,3\n",
@@ -592,4 +607,36 @@ fn a_constant_column_is_refused_unless_the_caller_accepts_it() {
         d.notes,
         vec!["column OP: constant (2.0) over all 3 rows; kept"]
     );
+}
+
+/// A historian's export names columns by tag and parameter: the one column whose name ends in
+/// the role's name after a separator takes the role, with a note; several leave it unfound.
+#[test]
+fn tag_suffixed_columns_take_their_role() {
+    let d = read(
+        "Timestamp,FIC101.SP,FIC101.PV,FIC101_OP\n\
+         2024-01-01 00:00:00,1,2,3\n2024-01-01 00:00:10,1,2.5,3.5\n2024-01-01 00:00:20,1,2,3\n",
+    )
+    .unwrap();
+    assert_eq!(d.pv.as_deref(), Some(&[2.0, 2.5, 2.0][..]));
+    assert_eq!(d.op, vec![3.0, 3.5, 3.0]);
+    assert_eq!(d.sp.as_deref(), Some(&[1.0, 1.0, 1.0][..]));
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 10.0, 20.0][..]));
+    assert!(
+        d.notes
+            .iter()
+            .any(|n| *n == r#"PV: read from column 3 ("FIC101.PV"), whose name ends in it; name another with --pv"#),
+        "{:?}",
+        d.notes
+    );
+    // two loops' PVs: no guess
+    assert_eq!(
+        message(read("FIC101.PV,TIC7.PV,OP\n1,2,3\n2,3,4\n1,2,3\n")),
+        r#"loop.csv: no column PV ("pv"; name yours with --pv) in the header (found: FIC101.PV, TIC7.PV, OP)"#
+    );
+    // a name that merely ends in the letters is no tag's parameter; MV is never guessed
+    let d = read("PV,HOOP,FIC1.MV\n1,2,3\n2,3,4\n1,2,3\n");
+    assert!(d.is_err(), "{d:?}");
+    let d = read("PV,OP,FIC1.MV\n1,2,3\n2,3,4\n1,2,3\n").unwrap();
+    assert_eq!(d.mv, None);
 }

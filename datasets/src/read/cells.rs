@@ -91,11 +91,30 @@ pub(crate) fn parse_mode(text: &str) -> Cell {
     }
 }
 
-pub(crate) fn parse_time(text: &str, kind: &mut Option<TimeKind>) -> Cell {
+/// A time cell: seconds (with a decimal comma where the file's delimiter is `;`, counted in
+/// `decimal_commas` as the values' are), or a timestamp ([`parse_timestamp`]); one kind per
+/// column.
+pub(crate) fn parse_time(
+    text: &str,
+    kind: &mut Option<TimeKind>,
+    decimal_comma: bool,
+    decimal_commas: &mut usize,
+) -> Cell {
     if is_gap(text) {
         return Cell::Gap;
     }
-    match text.parse::<f64>() {
+    let seconds = text.parse::<f64>().or_else(|e| {
+        if decimal_comma && text.matches(',').count() == 1 && !text.contains('.') {
+            let v = text.replace(',', ".").parse::<f64>();
+            if v.is_ok() {
+                *decimal_commas += 1;
+            }
+            v
+        } else {
+            Err(e)
+        }
+    });
+    match seconds {
         Ok(v) if v.is_nan() => return Cell::Gap,
         Ok(v) => {
             return match kind {
@@ -122,16 +141,33 @@ pub(crate) fn parse_time(text: &str, kind: &mut Option<TimeKind>) -> Cell {
     }
 }
 
-/// Nanoseconds since the epoch (UTC; timestamps without an offset are taken as UTC).
+/// Nanoseconds since the epoch (UTC; timestamps without an offset are taken as UTC): RFC 3339,
+/// `YYYY-MM-DD[T ]HH:MM:SS[.fff]`, `YYYY-MM-DD HH:MM`, `YYYY/MM/DD HH:MM:SS[.fff]`, and the
+/// day-first `DD.MM.YYYY HH:MM[:SS[.fff]]` that spreadsheets write in locales with a decimal
+/// comma (the dots make the order unambiguous; a slash-separated date is not read, since
+/// `03/04/2024` is March or April by locale); the seconds' fraction after a `.` or a `,`.
 pub(crate) fn parse_timestamp(text: &str) -> Option<i64> {
     use chrono::{DateTime, NaiveDateTime};
     if let Ok(dt) = DateTime::parse_from_rfc3339(text) {
         return dt.timestamp_nanos_opt();
     }
-    for fmt in ["%Y-%m-%dT%H:%M:%S%.f", "%Y-%m-%d %H:%M:%S%.f"] {
+    const FORMATS: [&str; 7] = [
+        "%Y-%m-%dT%H:%M:%S%.f",
+        "%Y-%m-%d %H:%M:%S%.f",
+        "%Y-%m-%d %H:%M",
+        "%Y/%m/%d %H:%M:%S%.f",
+        "%d.%m.%Y %H:%M:%S%.f",
+        "%d.%m.%Y %H:%M",
+        "%Y-%m-%dT%H:%M",
+    ];
+    for fmt in FORMATS {
         if let Ok(dt) = NaiveDateTime::parse_from_str(text, fmt) {
             return dt.and_utc().timestamp_nanos_opt();
         }
+    }
+    // ISO 8601 allows a comma before the fraction of a second, and decimal-comma locales write it
+    if text.matches(',').count() == 1 {
+        return parse_timestamp(&text.replace(',', "."));
     }
     None
 }
