@@ -60,48 +60,34 @@ fn a_compressed_pv_is_a_doubt() {
     assert!(flagged, "warning and verdict: {doubts:?}");
 }
 
+/// The one answer on `d` (the loop kind decided from the record), with the analysis it rests on.
+fn answer_on(d: &datasets::LoopData) -> (monitoring::Analysis, monitoring::Answer) {
+    let a = monitoring::analyse(d, None, monitoring::Integrating::Auto);
+    let view = a.detect(d);
+    let answer = monitoring::Answer::new(&a, &view.detected, None);
+    (a, answer)
+}
+
+/// `answer` is `stiction`, and its line holds `caution` exactly when `cautioned`.
+fn assert_stiction(answer: &monitoring::Answer, caution: &str, cautioned: bool) {
+    let line = answer.line();
+    assert_eq!(answer.verdict, detection::Verdict::Stiction, "{line}");
+    assert_eq!(line.contains(caution), cautioned, "{line}");
+}
+
 /// The detector's `stiction` on a compressed PV carries the caution of
 /// [`monitoring::answer::compression_caution`], in every command's one answer; the raw PV of
 /// the same loop does not.
 #[test]
 fn a_stiction_verdict_on_a_compressed_pv_carries_a_caution() {
-    let answer = |compression: Option<f64>| {
-        let d = simulated(compression).to_loop_data();
-        let a = monitoring::analyse(&d, None, monitoring::Integrating::Auto);
-        let view = a.detect(&d);
-        (
-            a.pv_compression,
-            monitoring::Answer::new(&a, &view.detected, None),
-        )
-    };
-    let (raw, plain) = answer(None);
-    assert!(raw.is_none(), "{raw:?}");
-    assert_eq!(
-        plain.verdict,
-        detection::Verdict::Stiction,
-        "{}",
-        plain.line()
-    );
-    assert!(
-        !plain.line().contains("compressed storage"),
-        "{}",
-        plain.line()
-    );
-    let (found, cautioned) = answer(Some(0.6));
+    let caution = "caution: PV reads back from compressed storage";
+    let (a, plain) = answer_on(&simulated(None).to_loop_data());
+    assert!(a.pv_compression.is_none(), "{:?}", a.pv_compression);
+    assert_stiction(&plain, caution, false);
+    let (a, cautioned) = answer_on(&simulated(Some(0.6)).to_loop_data());
+    let found = a.pv_compression;
     assert!(found.is_some_and(|c| c.share > 0.5), "{found:?}");
-    assert_eq!(
-        cautioned.verdict,
-        detection::Verdict::Stiction,
-        "{}",
-        cautioned.line()
-    );
-    assert!(
-        cautioned
-            .line()
-            .contains("caution: PV reads back from compressed storage"),
-        "{}",
-        cautioned.line()
-    );
+    assert_stiction(&cautioned, caution, true);
 }
 
 #[test]
@@ -124,38 +110,18 @@ fn only_a_stiction_verdict_on_a_compressed_pv_is_cautioned() {
 /// the live PV of the same loop does not.
 #[test]
 fn a_stiction_verdict_on_a_held_pv_carries_a_caution() {
+    let caution = "caution: PV changes only every 5 samples";
     let live = simulated(None).to_loop_data();
     let mut held = live.clone();
     let pv: Vec<f64> = live.pv.clone().expect("test data");
     held.pv = Some((0..pv.len()).map(|i| pv[i / 5 * 5]).collect());
-    let answer = |d: &datasets::LoopData| {
-        let a = monitoring::analyse(d, None, monitoring::Integrating::Auto);
-        let view = a.detect(d);
-        (a.pv_held, monitoring::Answer::new(&a, &view.detected, None))
-    };
-    let (none, plain) = answer(&live);
-    assert!(none.is_none(), "{none:?}");
-    assert!(
-        !plain.line().contains("PV changes only"),
-        "{}",
-        plain.line()
-    );
-    let (found, cautioned) = answer(&held);
-    assert_eq!(found.map(|h| h.period), Some(5), "{found:?}");
-    assert_eq!(
-        cautioned.verdict,
-        detection::Verdict::Stiction,
-        "{}",
-        cautioned.line()
-    );
-    assert!(
-        cautioned
-            .line()
-            .contains("caution: PV changes only every 5 samples"),
-        "{}",
-        cautioned.line()
-    );
+    let (a, plain) = answer_on(&live);
+    assert!(a.pv_held.is_none(), "{:?}", a.pv_held);
+    assert_stiction(&plain, caution, false);
+    let (a, cautioned) = answer_on(&held);
+    assert_eq!(a.pv_held.map(|h| h.period), Some(5), "{:?}", a.pv_held);
+    assert_stiction(&cautioned, caution, true);
     use monitoring::answer::held_caution;
-    assert!(held_caution(detection::Verdict::NoStiction, found).is_none());
+    assert!(held_caution(detection::Verdict::NoStiction, a.pv_held).is_none());
     assert!(held_caution(detection::Verdict::Stiction, None).is_none());
 }
