@@ -631,13 +631,13 @@ fn locate_columns(
     for w in &wanted {
         let found = header
             .iter()
-            .position(|h| w.names.iter().any(|n| h.to_lowercase() == *n))
+            .position(|h| w.names.iter().any(|n| is_named(h, n)))
             .or_else(|| tag_suffixed(header, w, notes));
         if let Some(index) = found {
             let others: Vec<usize> = header
                 .iter()
                 .enumerate()
-                .filter(|(i, h)| *i != index && w.names.iter().any(|n| h.to_lowercase() == *n))
+                .filter(|(i, h)| *i != index && w.names.iter().any(|n| is_named(h, n)))
                 .map(|(i, _)| i + 1)
                 .collect();
             if !others.is_empty() {
@@ -702,6 +702,27 @@ fn locate_columns(
     Ok(columns)
 }
 
+/// Whether the header cell `h` is the column named `n` (lower case): as written, or without
+/// its unit ([`bare_name`]).
+fn is_named(h: &str, n: &str) -> bool {
+    h.trim().to_lowercase() == n || bare_name(h) == n
+}
+
+/// A column's name as matched against a role's: lower case, without surrounding blanks and
+/// without a trailing unit in brackets or parentheses (`PV [m3/h]`, `OP (%)`).
+fn bare_name(h: &str) -> String {
+    let h = h.trim().to_lowercase();
+    let open = match h.chars().last() {
+        Some(')') => '(',
+        Some(']') => '[',
+        _ => return h,
+    };
+    match h.rfind(open) {
+        Some(i) if !h[..i].trim().is_empty() => h[..i].trim().to_string(),
+        _ => h,
+    }
+}
+
 /// A historian's export names its columns by tag and parameter (`FIC101.PV`, `FIC101_OP`,
 /// `FIC101 SP`): where no column has the role's own name, the one column whose name ends in
 /// it after a separator (`.`, `_`, `:`, `-`, `/` or a space) takes the role, with a note; none
@@ -713,7 +734,7 @@ fn tag_suffixed(header: &[String], w: &Wanted, notes: &mut Vec<Note>) -> Option<
         return None;
     }
     let ends_in = |h: &str| {
-        let h = h.trim().to_lowercase();
+        let h = bare_name(h);
         w.names.iter().any(|n| {
             h.len() > n.len()
                 && h.ends_with(n.as_str())

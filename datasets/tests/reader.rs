@@ -629,6 +629,18 @@ fn tag_suffixed_columns_take_their_role() {
         "{:?}",
         d.notes
     );
+    // units after the name
+    let d = read("t [s],PV [m3/h],OP (%)\n0,1,2\n10,2,3\n20,1,2\n").unwrap();
+    assert_eq!(d.pv.as_deref(), Some(&[1.0, 2.0, 1.0][..]));
+    assert_eq!(d.t.as_deref(), Some(&[0.0, 10.0, 20.0][..]));
+    let d = read("Timestamp,FIC101.PV (t/h),FIC101.OP [%]\n0,1,2\n10,2,3\n20,1,2\n").unwrap();
+    assert_eq!(d.op, vec![2.0, 3.0, 2.0]);
+    let opts = ReadOptions {
+        pv: Some("PV [m3/h]".into()),
+        ..ReadOptions::default()
+    };
+    let d = read_with("PV [m3/h],OP\n1,2\n2,3\n1,2\n", &opts).unwrap();
+    assert_eq!(d.pv.as_deref(), Some(&[1.0, 2.0, 1.0][..]));
     // two loops' PVs: no guess
     assert_eq!(
         message(read("FIC101.PV,TIC7.PV,OP\n1,2,3\n2,3,4\n1,2,3\n")),
