@@ -99,14 +99,14 @@ pub(crate) fn stick_slip(op: &[f64], y: &[f64], window: usize) -> Option<(f64, u
     // of 1e-17 left by the sums would count as the proxy having moved — a residue that any
     // change of PV's units changes.
     let rounding = |x: &[f64]| 1e-9 * x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let sigma_dy = (noise_scale(&y[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt())
-        .max(rounding(&y[..n]));
+    let sigma_dy =
+        (noise_scale(&y[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt()).max(rounding(&y[..n]));
     // The free valve's gain from the windows where the proxy clearly moved (a stuck valve's
     // windows would pull a least-squares gain towards 0).
     // OP must have moved in such a window too (a gain from a window where only a disturbance
     // moved the proxy would be arbitrary).
-    let sigma_dx = (noise_scale(&op[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt())
-        .max(rounding(&op[..n]));
+    let sigma_dx =
+        (noise_scale(&op[..n]) * (2.0 / (2 * SMOOTH + 1) as f64).sqrt()).max(rounding(&op[..n]));
     let moved: Vec<f64> = windows
         .iter()
         .filter(|(dx, dy)| dy.abs() > 3.0 * sigma_dy && dx.abs() > 3.0 * sigma_dx && *dx != 0.0)
