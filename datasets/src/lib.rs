@@ -25,6 +25,7 @@
 #![deny(missing_docs)]
 
 mod error;
+pub mod held;
 pub mod limits;
 mod mat;
 mod note;

@@ -59,7 +59,6 @@ pub mod bicoherence;
 pub mod curve_fit;
 pub mod figures;
 pub mod hammerstein;
-pub mod held;
 pub mod horch;
 pub mod kind;
 pub mod logistic;
@@ -589,6 +588,9 @@ fn moves_enough(op: &[f64]) -> Result<(), DetectionError> {
 /// step `q` leaves gaps of `q`. The smallest change between successive samples is no estimate
 /// of it: an OP that swings between its limits every sample (a loop on the edge of
 /// instability) never changes by less than most of its range, yet takes hundreds of values.
+/// Not `datasets::quantisation::step`, the reader's lattice test: `datasets` is a crate of the
+/// same layer, and that step is only defined for a lattice (none for fewer than four distinct
+/// values), where this guard needs a step for every OP, two or three values included.
 fn quantisation_step(op: &[f64], span: f64) -> f64 {
     let mut values: Vec<f64> = op.iter().copied().filter(|v| v.is_finite()).collect();
     values.sort_by(f64::total_cmp);

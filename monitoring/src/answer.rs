@@ -37,9 +37,9 @@ pub struct Analysis {
     /// PV read back from a historian's compressed storage ([`datasets::compression`], as the
     /// reader notes it): `None` when PV is not.
     pub pv_compression: Option<datasets::Compression>,
-    /// PV held between updates every few samples ([`detection::held`]: an analyser's cycle, or
+    /// PV held between updates every few samples ([`datasets::held`]: an analyser's cycle, or
     /// a historian's step retrieval): `None` when PV is live.
-    pub pv_held: Option<detection::held::Held>,
+    pub pv_held: Option<datasets::held::Held>,
 }
 
 /// The [`Analysis`] of the record `d` read from `file` (`None` for a made-up record): the
@@ -68,7 +68,7 @@ impl Analysis {
                 .as_deref()
                 .and_then(datasets::compression)
                 .filter(datasets::Compression::detected),
-            pv_held: d.pv.as_deref().and_then(detection::held::held_period),
+            pv_held: d.pv.as_deref().and_then(datasets::held::held_period),
             kind,
         }
     }
@@ -386,11 +386,11 @@ pub fn compression_caution(verdict: Verdict, pv: Option<datasets::Compression>) 
 }
 
 /// The caution a `stiction` verdict carries on a PV held between updates every `k` samples
-/// ([`detection::held`]): between two updates PV repeats itself exactly while OP moves, as PV
+/// ([`datasets::held`]): between two updates PV repeats itself exactly while OP moves, as PV
 /// does behind a stuck valve. On 60 loops of a simulator written apart from ours, PV held over
 /// 10 samples made 12 of 35 `stiction` verdicts free valves, against 4 of 22 on the live PV
 /// (docs/DETECTION.md, Failures). `None` for any other verdict or a live PV.
-pub fn held_caution(verdict: Verdict, held: Option<detection::held::Held>) -> Option<String> {
+pub fn held_caution(verdict: Verdict, held: Option<datasets::held::Held>) -> Option<String> {
     let h = held.filter(|_| verdict == Verdict::Stiction)?;
     Some(format!(
         "PV changes only every {} samples and repeats itself between (an analyser's cycle, or a historian's values held between the ones it stored), as PV does behind a stuck valve; free valves are called sticky more often on such records: confirm on a live export",

@@ -3,7 +3,8 @@
 //! than it stored. Between two updates the logged PV repeats itself exactly while OP moves,
 //! which is what a stuck valve looks like to the tests that compare OP's motion with PV's
 //! (the stick-slip test's stuck windows, the Hammerstein fit's deadband). `monitoring`'s one
-//! answer carries a caution on a `stiction` verdict for such a record.
+//! answer carries a caution on a `stiction` verdict for such a record. A property of the logged
+//! column, beside [`crate::quantisation`] and [`crate::compression`].
 //!
 //! A held PV is recognised by the *phase* of its changes, not by how often it repeats: nearly
 //! all the samples where PV changes fall on one residue class modulo `k`. Noise on a finely
@@ -53,15 +54,6 @@ pub fn held_period(pv: &[f64]) -> Option<Held> {
     })
 }
 
-/// `x` read at the update slots of `held`.
-pub fn at_updates(x: &[f64], held: Held) -> Vec<f64> {
-    x.iter()
-        .skip(held.phase)
-        .step_by(held.period)
-        .copied()
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,8 +90,6 @@ mod tests {
                 Some(Held { period, phase }),
                 "held {period} from {phase}"
             );
-            let read = at_updates(&held, Held { period, phase });
-            assert_eq!(read[1], pv[phase + period]);
         }
         // coarse quantisation of a live PV: repeats, but no common period of the changes
         let coarse: Vec<f64> = pv.iter().map(|v| (v * 8.0).round() / 8.0).collect();
