@@ -458,7 +458,7 @@ fn exercise(case: &Case) -> (bool, bool, Option<String>) {
         .iter()
         .fold(0u64, |h, &b| h.wrapping_mul(31).wrapping_add(b as u64));
     let mismatch = match (&r, &det) {
-        (Ok(q), Some(det)) if h % 8 == 0 => oracle(&d, pv, (q.s, q.j), det, case.step),
+        (Ok(q), Some(det)) if h % 8 == 0 => oracle(&d, pv, (q.s, q.j), &q.interval, det, case.step),
         _ => None,
     };
     (true, r.is_ok(), mismatch)
