@@ -13,7 +13,8 @@
 //!   OP into MV, from two starts (at rest after moving down, after moving up: the paper's
 //!   unknown initial state), the better kept; the free valve is `MV = OP`;
 //! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
-//!   ΔPV (the level's rate) for an integrating one — against `K·x(t) + c` plus nuisance
+//!   ΔPV (the level's rate) for an integrating one, through the noise filter of
+//!   [`rate_noise_filter`] — against `K·x(t) + c` plus nuisance
 //!   sines and cosines, at the oscillation's frequency when the loop oscillates regularly and
 //!   at OP's dominant frequency ([`dominant_frequency`]) always, and at OP's next tone when it
 //!   is strong and not a harmonic of those ([`second_frequency`]): an external oscillation
@@ -59,6 +60,7 @@ use arx::{arx_from_products, arx_products_lanes, best_arx, ArxTarget, ARX_LAGS};
 #[cfg(test)]
 use first_pass::Arrays;
 use first_pass::{first_pass_arrays, Avx, FirstPass, FirstSums};
+use rate::rate_noise_filter;
 use stiction_models::{InitialState, Kano, StictionModel};
 
 /// The stiction band S of the grid, in OP units. Its top, 25, is the largest band of the
@@ -885,6 +887,11 @@ impl DetectionTest for Hammerstein {
         if let Some(w2) = second_frequency(op, &omegas) {
             omegas.push(w2);
         }
+        let (y, rate_filter) = if reg.is_integrating() {
+            rate_noise_filter(&y, op, &omegas)
+        } else {
+            (y, 0.0)
+        };
         let Some(c) = compare(&y, pv, op, &omegas) else {
             return Ok(TestOutcome::new(
                 "hammerstein",
@@ -951,6 +958,7 @@ impl DetectionTest for Hammerstein {
             ("S_lower", c.s_lower),
             ("S_above", c.s_above),
             ("rows", c.rows as f64),
+            ("rate_filter", rate_filter),
         ];
         Ok(out)
     }
@@ -968,5 +976,6 @@ inventory::submit! {
 
 mod arx;
 mod first_pass;
+mod rate;
 #[cfg(test)]
 mod tests;

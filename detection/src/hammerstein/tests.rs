@@ -152,23 +152,25 @@ fn the_one_pass_fits_equal_the_direct_ones() {
 
 /// A valve stickier than the grid's largest band: the best fit is pinned at the edge, and
 /// the test says so and gives no statistic (the score reads no evidence from it).
+/// A triangle of `period` samples rising at `slope` per sample, plus white noise of `sigma`.
+fn noisy_triangle(n: usize, period: usize, slope: f64, sigma: f64, seed: u64) -> Vec<f64> {
+    let e = noise(n, sigma, seed);
+    let half = period / 2;
+    (0..n)
+        .map(|k| {
+            let t = k % period;
+            let up = if t < half { t } else { period - t };
+            up as f64 * slope + e[k]
+        })
+        .collect()
+}
+
 #[test]
 fn an_optimum_on_the_grid_edge_is_no_evidence() {
     // OP ramps up and down over 60 % in slow steps with noise; the valve's band is 32 %, above
     // the grid's largest (25).
     let n = 1800;
-    let e = noise(n, 0.4, 5);
-    let op: Vec<f64> = (0..n)
-        .map(|k| {
-            let t = (k % 600) as f64;
-            let tri = if t < 300.0 {
-                t / 5.0
-            } else {
-                (600.0 - t) / 5.0
-            };
-            tri + e[k]
-        })
-        .collect();
+    let op = noisy_triangle(n, 600, 0.2, 0.4, 5);
     let fit = |s: f64| {
         let valve = Kano::params().s(s).j(1.0).check().unwrap();
         let mv = valve.simulate(&op, &InitialState::default()).unwrap();
@@ -355,4 +357,43 @@ fn the_process_gain_sign_is_read_from_the_controller_answer() {
     let (y, op) = process(true);
     assert_eq!(process_gain_sign(&y, &op), 0.0);
     assert_eq!(process_gain_sign(&[1.0, 2.0], &[3.0, 4.0]), 0.0);
+}
+
+/// A level's rate: OP (a slow triangle with noise) through a lag, and either the transmitter's
+/// noise differenced (`e(t) − e(t−1)`, the level measured noisily) or a load's noise as it is.
+fn level_rate(transmitter_noise: bool) -> (Vec<f64>, Vec<f64>) {
+    let n = 1500;
+    let op = noisy_triangle(n, 300, 1.0 / 15.0, 0.5, 11);
+    let e = noise(n, 0.3, 5);
+    let mut lagged = 0.0;
+    let mut rate = vec![0.0; n];
+    for t in 1..n {
+        lagged = 0.8 * lagged + 0.2 * (op[t - 1] - 5.0);
+        let v = if transmitter_noise {
+            e[t] - e[t - 1]
+        } else {
+            e[t]
+        };
+        rate[t] = 0.05 * lagged + v;
+    }
+    (rate, op)
+}
+
+#[test]
+fn the_rate_filter_undoes_the_difference_of_the_transmitter_noise_only() {
+    // differenced transmitter noise: a filter towards an integrator (0.8 here: the valve's one
+    // lag absorbs the filter's only in part, which holds b below the noise's own 1)
+    let (rate, op) = level_rate(true);
+    let (_, b) = rate_noise_filter(&rate, &op, &[]);
+    assert!(b >= 0.5, "transmitter noise on the level: b = {b}");
+    // a load's noise, white in the rate: no filter
+    let (rate, op) = level_rate(false);
+    let (filtered, b) = rate_noise_filter(&rate, &op, &[]);
+    assert_eq!(b, 0.0, "load noise in the rate: b = {b}");
+    // with b = 0 the output is the rate, centred
+    let m = mean(&rate);
+    assert!(filtered
+        .iter()
+        .zip(&rate)
+        .all(|(f, r)| (f - (r - m)).abs() < 1e-12));
 }
