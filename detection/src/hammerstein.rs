@@ -14,10 +14,10 @@
 //!   unknown initial state), the better kept; the free valve is `MV = OP`;
 //! * **output error** (the statistic): the process output `y` — PV for a self-regulating loop,
 //!   ΔPV (the level's rate) for an integrating one, through the noise filter of
-//!   [`rate_noise_filter`] — against `K·x(t) + c` plus nuisance
+//!   `rate::rate_noise_filter` — against `K·x(t) + c` plus nuisance
 //!   sines and cosines, at the oscillation's frequency when the loop oscillates regularly and
 //!   at OP's dominant frequency ([`dominant_frequency`]) always, and at OP's next tone when it
-//!   is strong and not a harmonic of those ([`second_frequency`]): an external oscillation
+//!   is strong and not a harmonic of those (`second_frequency`): an external oscillation
 //!   that OP compensates would otherwise be "explained" by a deadband filtering the
 //!   compensation out of OP; `x` is MV through a
 //!   first-order lag `x(t) = p·x(t−1) + (1−p)·MV(t−d)`, the pole `p` on a grid refined by a

@@ -38,7 +38,7 @@ fn stat(o: &TestOutcome) -> Option<f64> {
     o.statistic.filter(|v| v.is_finite())
 }
 
-/// Rows a likelihood ratio of the score is expressed for ([`per_rows`]).
+/// Rows a likelihood ratio of the score is expressed for (`per_rows`).
 pub const REFERENCE_ROWS: f64 = 500.0;
 
 /// A likelihood ratio `N ln(RSS₀/RSS₁)` as the score reads it: per row (the mean

@@ -9,7 +9,7 @@
 //!   flow) does. Both papers look for stretches where OP changes and the valve's proxy does
 //!   not; Yamashita's index is the share of OP's motion during which the proxy is steady.
 //!   Our version, noise-aware where the papers threshold raw differences: OP and the proxy
-//!   `y` are cut into windows in the loop's own time ([`window`]): an eighth of the
+//!   `y` are cut into windows in the loop's own time (`window`): an eighth of the
 //!   oscillation's period when the loop oscillates regularly; without a regular oscillation,
 //!   the same share of OP's correlation time (the lag where OP's autocovariance falls below
 //!   1/e: an eighth of a sinusoid's period is 0.66 of its correlation time), so a record
@@ -28,7 +28,7 @@
 //!   `ρ = Σ_stuck |ΔOP| / Σ_informative |ΔOP|`. Verdict: stiction above 0.1, no stiction
 //!   below 0.05, inconclusive between or with fewer than ten informative windows (our
 //!   thresholds). Without a regular oscillation the window doubles, up to a tenth of the
-//!   record, until ten are informative ([`stick_slip_scaled`]).
+//!   record, until ten are informative (`stick_slip_scaled`).
 //! * **Area ratio** — Singhal & Salsbury, "A simple method for detecting valve stiction in
 //!   oscillating control loops", Journal of Process Control 15 (2005) 371-382. In a
 //!   self-regulating PI loop oscillating through stiction the control error builds up while
