@@ -3,9 +3,9 @@
 
 use super::{best_oe_many, mean, Target, MAX_DELAY};
 
-/// The poles `b` of the integrating loop's noise filter ([`rate_noise_filter`]). A finer or
-/// longer set (0.98 and 0.99 added) scored the training population's 5-fold cross-validated
-/// AUC 0.868 against 0.869 (`cargo xtask detect-calibrate`, 2026-11-29).
+/// The poles `b` of the integrating loop's noise filter ([`rate_noise_filter`]), chosen by the
+/// training population's cross-validated AUC against a longer set
+/// (`docs/decisions/2026-11-29-level-rate-filter.md`).
 const RATE_FILTER_POLES: [f64; 5] = [0.0, 0.5, 0.8, 0.9, 0.95];
 
 /// An integrating loop's output for the output-error fit: its rate `ΔPV` through the monic
@@ -44,14 +44,17 @@ pub(super) fn rate_noise_filter(y: &[f64], op: &[f64], omegas: &[f64]) -> (Vec<f
         let m = mean(&out);
         out.iter().map(|v| v - m).collect()
     };
-    let mut best = (f64::INFINITY, 0.0);
+    let mut best = (f64::INFINITY, Vec::new(), 0.0);
     for b in RATE_FILTER_POLES {
         let yb = filt(b);
-        let tg = Target::new(&yb, start, omegas);
-        let rss = best_oe_many(&tg, &[&u0])[0].0;
+        let rss = best_oe_many(&Target::new(&yb, start, omegas), &[&u0])[0].0;
         if rss < best.0 {
-            best = (rss, b);
+            best = (rss, yb, b);
         }
     }
-    (filt(best.1), best.1)
+    if best.1.is_empty() {
+        // no residual compared (a NaN throughout): the rate as it is, centred
+        return (filt(0.0), 0.0);
+    }
+    (best.1, best.2)
 }

@@ -150,8 +150,6 @@ fn the_one_pass_fits_equal_the_direct_ones() {
     }
 }
 
-/// A valve stickier than the grid's largest band: the best fit is pinned at the edge, and
-/// the test says so and gives no statistic (the score reads no evidence from it).
 /// A triangle of `period` samples rising at `slope` per sample, plus white noise of `sigma`.
 fn noisy_triangle(n: usize, period: usize, slope: f64, sigma: f64, seed: u64) -> Vec<f64> {
     let e = noise(n, sigma, seed);
@@ -165,6 +163,8 @@ fn noisy_triangle(n: usize, period: usize, slope: f64, sigma: f64, seed: u64) ->
         .collect()
 }
 
+/// A valve stickier than the grid's largest band: the best fit is pinned at the edge, and
+/// the test says so and gives no statistic (the score reads no evidence from it).
 #[test]
 fn an_optimum_on_the_grid_edge_is_no_evidence() {
     // OP ramps up and down over 60 % in slow steps with noise; the valve's band is 32 %, above
