@@ -60,6 +60,8 @@ use arx::{arx_from_products, arx_products_lanes, best_arx, ArxTarget, ARX_LAGS};
 #[cfg(test)]
 use first_pass::Arrays;
 use first_pass::{first_pass_arrays, Avx, FirstPass, FirstSums};
+pub use floor::{floor, Floor};
+use floor::{inputs, Inputs};
 use rate::rate_noise_filter;
 use stiction_models::{InitialState, Kano, StictionModel};
 
@@ -636,35 +638,66 @@ pub fn process_gain_sign(pv: &[f64], op: &[f64]) -> f64 {
 /// Likelihood-ratio margin of the S region: χ²₁ at 95 %.
 pub const REGION_LR: f64 = 3.84;
 
+/// What [`compare`] fits every valve against: the output-error target, PV about its mean (the
+/// one-step ARX's output), OP about its mean (the free valve's input), OP's range (the grid's
+/// S stops there) and the regression rows.
+struct Setup {
+    tg: Target,
+    z: Vec<f64>,
+    u0: Vec<f64>,
+    range: f64,
+    rows: usize,
+}
+
+impl Setup {
+    /// `None` when the record is too short or OP's range is below twice the smallest S.
+    fn new(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Setup> {
+        let n = y.len().min(op.len()).min(pv.len());
+        let (y, pv, op) = (&y[..n], &pv[..n], &op[..n]);
+        let start = MAX_DELAY + 2;
+        if n < start + 20 {
+            return None;
+        }
+        let (lo, hi) = op
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        let range = hi - lo;
+        if range < 2.0 * S_GRID[0] {
+            return None;
+        }
+        let ym = mean(y);
+        let y: Vec<f64> = y.iter().map(|v| v - ym).collect();
+        let zm = mean(pv);
+        let z: Vec<f64> = pv.iter().map(|v| v - zm).collect();
+        let om = mean(op);
+        let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
+        let mut tg = Target::new(&y, start, omegas);
+        tg.sign = process_gain_sign(pv, op);
+        Some(Setup {
+            tg,
+            z,
+            u0,
+            range,
+            rows: n - start,
+        })
+    }
+}
+
 /// Compare the best sticky Kano valve of the grid with a free valve: the output-error models
 /// on `y` (PV, or ΔPV for an integrating loop), the one-step ARX models on PV itself (`pv`, an
 /// ARX represents an integrator), both against `op` (all aligned). `None` when OP's range is
 /// below twice the smallest S or a residual vanishes.
 pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comparison> {
-    let n = y.len().min(op.len()).min(pv.len());
-    let (y, pv, op) = (&y[..n], &pv[..n], &op[..n]);
-    let start = MAX_DELAY + 2;
-    if n < start + 20 {
-        return None;
-    }
-    let (lo, hi) = op
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let range = hi - lo;
-    if range < 2.0 * S_GRID[0] {
-        return None;
-    }
-    let ym = mean(y);
-    let y: Vec<f64> = y.iter().map(|v| v - ym).collect();
-    let zm = mean(pv);
-    let z: Vec<f64> = pv.iter().map(|v| v - zm).collect();
-    let om = mean(op);
-    let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
-    let mut tg = Target::new(&y, start, omegas);
-    tg.sign = process_gain_sign(pv, op);
-    let arx_tg = ArxTarget::new(&z, start);
+    let Setup {
+        tg,
+        z,
+        u0,
+        range,
+        rows,
+    } = Setup::new(y, pv, op, omegas)?;
+    let arx_tg = ArxTarget::new(&z, tg.start);
     let arx0 = best_arx(&arx_tg, &u0);
     let (fits, mut profile) = valve_fits(&tg, &arx_tg, &u0, range, true)?.0;
     let oe0 = fits[0].oe;
@@ -679,7 +712,6 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
             arx1 = (f.arx, f.s);
         }
     }
-    let rows = n - start;
     let positive = |v: f64| v > 0.0 && v.is_finite();
     if !(positive(oe0) && positive(best.0) && positive(arx0) && positive(arx1.0)) {
         return None;
@@ -857,41 +889,14 @@ impl DetectionTest for Hammerstein {
         "hammerstein"
     }
     fn run(&self, reg: &Registration<'_>) -> Result<TestOutcome, DetectionError> {
-        reg.prepared()?;
-        let px = reg.valve_proxy();
-        let (proxy, y, op, pv) = (px.name, px.y, px.op, px.pv);
-        // With a regular oscillation, a sine and a cosine at its frequency are nuisance
-        // regressors of the output-error fit: an external oscillation is then no longer
-        // "explained" by a deadband that filters OP's compensation of it, and a limit cycle's
-        // evidence must come from its shape beyond the fundamental.
-        let o = reg.prepared()?.oscillation;
-        let omega = o
-            .period
-            .filter(|_| o.is_regular())
-            .map(|p| 2.0 * std::f64::consts::PI / p);
-        let mut omegas: Vec<f64> = omega.into_iter().collect();
-        // OP's dominant frequency too: an external oscillation that the controller compensates
-        // shows in OP even when the control error does not oscillate regularly (a wandering
-        // set point, a slow plant), and a deadband that filters the compensation out of OP
-        // would otherwise explain PV better than the free valve does.
-        if let Some(w) = dominant_frequency(op) {
-            let resolution = 2.0 * std::f64::consts::PI / op.len() as f64;
-            if omegas.iter().all(|&v| (v - w).abs() > resolution) {
-                omegas.push(w);
-            }
-        }
-        // And OP's next tone, when it is not a harmonic of those: an external disturbance of
-        // several tones (the reference paper's two sines) leaves the free valve a second
-        // oscillation to miss, which a small deadband would otherwise "explain"; a limit
-        // cycle's OP has harmonics, which stay evidence.
-        if let Some(w2) = second_frequency(op, &omegas) {
-            omegas.push(w2);
-        }
-        let (y, rate_filter) = if reg.is_integrating() {
-            rate_noise_filter(&y, op, &omegas)
-        } else {
-            (y, 0.0)
-        };
+        let Inputs {
+            proxy,
+            y,
+            pv,
+            op,
+            omegas,
+            rate_filter,
+        } = inputs(reg)?;
         let Some(c) = compare(&y, pv, op, &omegas) else {
             return Ok(TestOutcome::new(
                 "hammerstein",
@@ -976,6 +981,7 @@ inventory::submit! {
 
 mod arx;
 mod first_pass;
+mod floor;
 mod rate;
 #[cfg(test)]
 mod tests;

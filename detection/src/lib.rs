@@ -297,13 +297,15 @@ pub fn registry() -> Vec<&'static TestEntry> {
 /// Run every registered test on `reg`, in registry order. A test that cannot judge the
 /// registration (a [`DetectionError`]) gives an `inconclusive` outcome saying why.
 pub fn run_all(reg: &Registration<'_>) -> Vec<TestOutcome> {
-    registry()
-        .into_iter()
-        .map(|e| match e.test.run(reg) {
-            Ok(o) => finite_or_inconclusive(o),
-            Err(err) => TestOutcome::from_error(e.name, &err),
-        })
-        .collect()
+    registry().into_iter().map(|e| run_entry(e, reg)).collect()
+}
+
+/// Run one registered test on `reg`, as [`run_all`] runs each.
+pub(crate) fn run_entry(e: &TestEntry, reg: &Registration<'_>) -> TestOutcome {
+    match e.test.run(reg) {
+        Ok(o) => finite_or_inconclusive(o),
+        Err(err) => TestOutcome::from_error(e.name, &err),
+    }
 }
 
 /// An outcome whose statistic or values are not finite numbers (the data overflowed a sum, a

@@ -231,55 +231,20 @@ pub fn detect_with(reg: &Registration<'_>, model: &Model) -> Detection {
 /// half, every second row) never gets the opposite verdict of the whole: the part's own
 /// verdict is one of those checked here.
 pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection {
-    if d.verdict == Verdict::Inconclusive {
-        return d;
+    match d.verdict {
+        Verdict::Inconclusive => d,
+        Verdict::Stiction => parts::settle_stiction(reg, model, d),
+        Verdict::NoStiction => settle_on(d, &parts(reg), model),
     }
-    settle_on(d, &parts(reg), model)
 }
 
 /// The parts of a record [`settle`] judges, each with what [`combine`] judges it on (`None`:
 /// the part cannot be built, e.g. too short for a registration).
 pub fn parts(reg: &Registration<'_>) -> [(&'static str, Option<Evidence>); 3] {
-    let n = reg.len();
-    let h = n / 2;
-    let every_second = |x: &[f64]| -> Vec<f64> { x.iter().step_by(2).copied().collect() };
-    let (pv2, op2) = (every_second(reg.pv()), every_second(reg.op()));
-    let sp2 = reg.sp().map(every_second);
-    let part = |pv: &[f64], op: &[f64], sp: Option<&[f64]>, ts: f64| -> Option<Evidence> {
-        let r = Registration::new(pv, op, ts)
-            .ok()?
-            .integrating(reg.is_integrating());
-        let r = match sp {
-            Some(sp) => r.with_sp(sp).ok()?,
-            None => r,
-        };
-        Some(Evidence::of(&r, run_all(&r)))
-    };
-    let ts = reg.sample_time();
-    [
-        (
-            "its first half",
-            part(
-                &reg.pv()[..h],
-                &reg.op()[..h],
-                reg.sp().map(|s| &s[..h]),
-                ts,
-            ),
-        ),
-        (
-            "its second half",
-            part(
-                &reg.pv()[h..],
-                &reg.op()[h..],
-                reg.sp().map(|s| &s[h..]),
-                ts,
-            ),
-        ),
-        (
-            "every second sample",
-            part(&pv2, &op2, sp2.as_deref(), 2.0 * ts),
-        ),
-    ]
+    parts::Part::of(reg).map(|p| {
+        let e = p.registration(reg).map(|r| Evidence::of(&r, run_all(&r)));
+        (p.what, e)
+    })
 }
 
 /// [`settle`] on parts already judged ([`parts`]) under `model`.
@@ -295,14 +260,7 @@ pub fn settle_on(d: Detection, parts: &[(&str, Option<Evidence>)], model: &Model
     };
     match parts.iter().find(|(_, e)| says_opposite(e)) {
         None => d,
-        Some((what, _)) => Detection {
-            verdict: Verdict::Inconclusive,
-            reason: format!(
-                "{}, but {what} alone says {opposite}: the evidence does not hold across the record",
-                d.reason
-            ),
-            ..d
-        },
+        Some((what, _)) => parts::contradicted(d, what, opposite),
     }
 }
 
@@ -430,6 +388,8 @@ fn decide(e: Evidence, model: &Model) -> Detection {
         tests,
     }
 }
+
+mod parts;
 
 fn degenerate_reason(e: &DetectionError) -> String {
     format!("the data cannot be judged: {e}")

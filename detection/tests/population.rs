@@ -69,3 +69,44 @@ const FLOOR_RIGHT: f64 = 0.65;
 /// Measured: 34.9 % inconclusive (a verdict stands only when the record's halves and every
 /// second sample do not say the opposite, `detection::score::settle`).
 const CEILING_INCONCLUSIVE: f64 = 0.45;
+
+/// The parts' check of a `stiction` verdict runs a part's Hammerstein test only when a floor
+/// under its evidence cannot rule out the part's `no-stiction` (`detection::score::settle`);
+/// its verdict and reason must be those of judging every part in full
+/// (`detection::score::settle_on` on `detection::score::parts`). The population holds records
+/// whose part contradicts the whole, so a check that skips too much fails here.
+#[test]
+fn the_fast_parts_check_is_the_full_one() {
+    use detection::run_all;
+    use detection::score::{combine, parts, settle, settle_on, Model};
+    let spec = PopulationSpec {
+        seed: 9_000_003,
+        families: vec![Family::Flow, Family::Pressure, Family::Level],
+        sample_time: [2.0, 30.0],
+        samples: [300, 1200],
+        ..PopulationSpec::default()
+    };
+    let model = Model::calibrated();
+    let (mut stiction, mut contradicted) = (0, 0);
+    for i in 0..64 {
+        let l = spec.generate(i).unwrap();
+        let reg = Registration::new(&l.sim.pv, &l.sim.op, l.sample_time)
+            .unwrap()
+            .integrating(l.integrating)
+            .with_sp(&l.sim.sp)
+            .unwrap();
+        let whole = combine(&reg, run_all(&reg), &model);
+        if whole.verdict != Verdict::Stiction {
+            continue;
+        }
+        stiction += 1;
+        let full = settle_on(whole.clone(), &parts(&reg), &model);
+        contradicted += usize::from(full.verdict == Verdict::Inconclusive);
+        assert_eq!(settle(&reg, &model, whole), full, "loop {i}");
+    }
+    println!("{stiction} stiction verdicts, {contradicted} of them contradicted by a part");
+    assert!(
+        stiction >= 10 && contradicted >= 1,
+        "{stiction}, {contradicted}"
+    );
+}

@@ -1,0 +1,167 @@
+//! The parts of a record that [`super::settle`] judges, and the check of a `stiction` verdict
+//! that runs a part's Hammerstein test only when a floor under its evidence cannot rule out
+//! the part's `no-stiction`.
+//!
+//! A part contradicts a `stiction` verdict only by saying `no-stiction`, which needs its
+//! score at most [`Model::no_stiction_at`]. Every input of the score but the Hammerstein
+//! test's is computed; the Hammerstein test's two features grow with its likelihood ratios
+//! (weights at least 0), and [`crate::hammerstein::floor`] bounds those from below with the
+//! free valve and the whole record's best valve alone (one pass of the test's lanes instead
+//! of the grid's dozen or more). When the score with the floor's features is above the
+//! threshold, the part cannot say `no-stiction` and its Hammerstein test is not run; else it
+//! is, and the part is judged as [`super::parts`] judges it. The verdict is the one
+//! [`super::settle_on`] gives on [`super::parts`] (tests `the_fast_parts_check_is_the_full_one`
+//! in `tests/population.rs`); a part's evidence itself is not reported.
+
+use super::{features, Detection, Evidence, Model, FEATURES};
+use crate::{hammerstein, registry, run_entry, Registration, TestOutcome, Verdict};
+
+/// One part of a record: what it is, and its data.
+pub(super) struct Part {
+    pub(super) what: &'static str,
+    pv: Vec<f64>,
+    op: Vec<f64>,
+    sp: Option<Vec<f64>>,
+    ts: f64,
+}
+
+impl Part {
+    /// The first half, the second half and every second sample (at twice the sampling time).
+    pub(super) fn of(reg: &Registration<'_>) -> [Part; 3] {
+        let n = reg.len();
+        let h = n / 2;
+        let every_second = |x: &[f64]| -> Vec<f64> { x.iter().step_by(2).copied().collect() };
+        let ts = reg.sample_time();
+        let slice = |what, r: std::ops::Range<usize>| Part {
+            what,
+            pv: reg.pv()[r.clone()].to_vec(),
+            op: reg.op()[r.clone()].to_vec(),
+            sp: reg.sp().map(|s| s[r].to_vec()),
+            ts,
+        };
+        [
+            slice("its first half", 0..h),
+            slice("its second half", h..n),
+            Part {
+                what: "every second sample",
+                pv: every_second(reg.pv()),
+                op: every_second(reg.op()),
+                sp: reg.sp().map(every_second),
+                ts: 2.0 * ts,
+            },
+        ]
+    }
+
+    /// The part as a registration of the same loop kind as `whole` (`None`: it cannot be one).
+    pub(super) fn registration(&self, whole: &Registration<'_>) -> Option<Registration<'_>> {
+        let r = Registration::new(&self.pv, &self.op, self.ts)
+            .ok()?
+            .integrating(whole.is_integrating());
+        match &self.sp {
+            Some(sp) => r.with_sp(sp).ok(),
+            None => Some(r),
+        }
+    }
+}
+
+/// `d` made `inconclusive` because `what` alone says `opposite`.
+pub(super) fn contradicted(d: Detection, what: &str, opposite: Verdict) -> Detection {
+    Detection {
+        verdict: Verdict::Inconclusive,
+        reason: format!(
+            "{}, but {what} alone says {opposite}: the evidence does not hold across the record",
+            d.reason
+        ),
+        ..d
+    }
+}
+
+/// [`super::settle`] of a `stiction` verdict `d`.
+pub(super) fn settle_stiction(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection {
+    let hammer = d.tests.iter().find(|t| t.name == "hammerstein");
+    // the whole record's best valve (output error), where its test gave one
+    let hint: Vec<(f64, f64)> = hammer
+        .and_then(|t| Some((t.value("S")?, t.value("J")?)))
+        .into_iter()
+        .collect();
+    for part in Part::of(reg) {
+        let Some(r) = part.registration(reg) else {
+            continue;
+        };
+        if says_no_stiction(&r, model, &hint) {
+            return contradicted(d, part.what, Verdict::NoStiction);
+        }
+    }
+    d
+}
+
+/// Whether the part `r` alone says `no-stiction` under `model`, its Hammerstein test run only
+/// when a floor under its evidence does not rule that out.
+fn says_no_stiction(r: &Registration<'_>, model: &Model, hint: &[(f64, f64)]) -> bool {
+    let entries = registry();
+    let mut tests: Vec<TestOutcome> = Vec::with_capacity(entries.len());
+    let mut hammer_at = None;
+    for (i, e) in entries.iter().enumerate() {
+        if e.name == "hammerstein" {
+            hammer_at = Some(i);
+        } else {
+            tests.push(run_entry(e, r));
+        }
+    }
+    let Some(at) = hammer_at else {
+        return Evidence::of(r, tests).judge(model).verdict == Verdict::NoStiction;
+    };
+    if cannot_say_no_stiction(r, model, &tests, hint) {
+        return false;
+    }
+    tests.insert(at, run_entry(entries[at], r));
+    Evidence::of(r, tests).judge(model).verdict == Verdict::NoStiction
+}
+
+/// Whether the part `r`, with `tests` (every test but the Hammerstein one), cannot say
+/// `no-stiction` whatever the Hammerstein test gives at or above its floor.
+fn cannot_say_no_stiction(
+    r: &Registration<'_>,
+    model: &Model,
+    tests: &[TestOutcome],
+    hint: &[(f64, f64)],
+) -> bool {
+    let e = Evidence::of(r, tests.to_vec());
+    if e.degenerate.is_some() {
+        // the part cannot be judged: `inconclusive`, whatever the test gives
+        return true;
+    }
+    let hammer_features: Vec<usize> = FEATURES
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| f.test == "hammerstein")
+        .map(|(i, _)| i)
+        .collect();
+    // a negative weight would read a floor under the ratio as a ceiling on the score
+    if hammer_features
+        .iter()
+        .any(|&i| model.weights.get(i).is_none_or(|w| w.is_nan() || *w < 0.0))
+    {
+        return false;
+    }
+    let Ok(Some(f)) = hammerstein::floor(r, hint) else {
+        return false;
+    };
+    let mut floor = TestOutcome::new("hammerstein", Some(f.lr), Verdict::Inconclusive, "");
+    floor.values = vec![("lr_arx", f.lr_arx), ("rows", f.rows as f64)];
+    let mut with = tests.to_vec();
+    with.push(floor);
+    let mut x = features(&with);
+    let lift: f64 = hammer_features
+        .iter()
+        .map(|&i| model.weights[i] * x[i])
+        .sum();
+    if f.edge && lift > 0.0 {
+        // an optimum on the grid's edge gives no statistic: the features' neutral 0
+        for &i in &hammer_features {
+            x[i] = 0.0;
+        }
+    }
+    // a margin far above the rounding of the score's sum
+    model.score(&x) > model.no_stiction_at + 1e-9
+}
