@@ -1,6 +1,6 @@
 //! The `stiction` command line: quantify control-valve stiction from logged loop data.
 //!
-//! The binary's `main` only calls [`run`]. A third party who adds stiction models in its own
+//! The binary's `main` only calls [`run`](fn@run). A third party who adds stiction models in its own
 //! crate builds its own binary with the same three lines plus `use my_models as _;`, so that
 //! the linker keeps the crate and its `inventory` registrations (see
 //! `examples/custom-model`). Tests call [`run_from`] with in-memory streams.

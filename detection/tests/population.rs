@@ -61,12 +61,12 @@ fn the_calibrated_score_holds_on_a_fresh_simulated_population() {
     );
 }
 
-/// Measured with the calibrated weights: AUC 0.730 over 43 loops (the validation
-/// populations of `cargo xtask detect-calibrate`: 0.816 over 480).
+/// Measured with the calibrated weights: AUC 0.825 over 43 loops (the validation
+/// populations of `cargo xtask detect-calibrate`: 0.832 over 640).
 const FLOOR_AUC: f64 = 0.65;
-/// Measured: 75.0 % of the 28 conclusive.
+/// Measured: 80.8 % of the 26 conclusive.
 const FLOOR_RIGHT: f64 = 0.65;
-/// Measured: 34.9 % inconclusive (a verdict stands only when the record's halves and every
+/// Measured: 39.5 % inconclusive (a verdict stands only when the record's halves and every
 /// second sample do not say the opposite, `detection::score::settle`).
 const CEILING_INCONCLUSIVE: f64 = 0.45;
 

@@ -46,7 +46,7 @@ pub fn options_for(
     Ok(options)
 }
 
-/// Options of [`diagnose`].
+/// Options of [`diagnose`](crate::diagnose).
 ///
 /// | field | default | meaning |
 /// |-------|---------|---------|
@@ -71,7 +71,7 @@ pub struct DiagnoseOptions {
     /// Causes not tested.
     pub disabled: Vec<String>,
     /// Whether the baseline's orders `n` and `m` are chosen from the data (see
-    /// [`OrderSelection`]); off when the user gave the orders.
+    /// [`OrderSelection`](crate::OrderSelection)); off when the user gave the orders.
     pub select_orders: bool,
 }
 

@@ -18,7 +18,7 @@ use crate::{
 /// noise that a longer regression absorbs; the stiction estimate carries that bias (a deadband
 /// that stands in for missing lag). So after the causes are found at the given orders, the
 /// baseline is fitted again with `n` and `m` each raised by one, and the raised orders are kept
-/// for the final refit ([`Diagnosis::refined`]) when they gain on validation data by the
+/// for the final refit ([`Diagnosis::refined`](crate::Diagnosis::refined)) when they gain on validation data by the
 /// likelihood-ratio rule of an extension adding two parameters
 /// ([`DiagnoseOptions::threshold`]). The causes are not judged at the raised orders: an AR(3)
 /// absorbs part of a sinusoidal or drifting disturbance, which then gains nothing as a cause;

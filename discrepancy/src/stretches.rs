@@ -171,7 +171,7 @@ impl Stretches {
     }
 }
 
-/// Where the process changed: the sample `k` (a multiple of [`CHANGE_STEP`], at least
+/// Where the process changed: the sample `k` (a multiple of `CHANGE_STEP`, 25 samples, at least
 /// [`MIN_STRETCH`] samples from either end) at which the model's linear part identified
 /// separately on `[0, k)` and `[k, N)` leaves the smallest total one-step prediction error,
 /// with the valve of `model` run from each of its four initial states (In.3's starts; the

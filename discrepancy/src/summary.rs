@@ -55,7 +55,7 @@ pub struct Finding {
     pub window_from: Option<usize>,
 }
 
-/// The result of [`diagnose`].
+/// The result of [`diagnose`](crate::diagnose).
 #[derive(Debug, Serialize)]
 pub struct Diagnosis {
     /// The baseline (summary).

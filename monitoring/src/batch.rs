@@ -4,7 +4,7 @@
 //! * [`run_file`] reads and searches one file with every combination of a [`BatchOptions`]
 //!   and returns its [`Row`]s. It never fails and never panics: a file the reader refuses, a
 //!   failed search or a bug becomes a row with status `error` and its one-line error.
-//! * [`run`] does it for many files in parallel, resumably: with a JSONL file, the rows already
+//! * [`run`](fn@run) does it for many files in parallel, resumably: with a JSONL file, the rows already
 //!   there for the same file (full path and SHA-256 of its bytes) and the same options are kept, a
 //!   torn line (an interrupted run) is dropped and its file computed again, and each new file's
 //!   rows are appended as soon as it is done.
@@ -578,7 +578,7 @@ pub fn read_jsonl(path: &Path) -> Result<(Vec<Row>, Vec<usize>), MonitoringError
     Ok((rows, torn))
 }
 
-/// What [`run`] did.
+/// What [`run`](fn@run) did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BatchRun {
     /// Every row (kept from the JSONL and computed now), sorted by file, stiction model and
@@ -656,7 +656,7 @@ pub struct Resume {
 /// Which of `files` a run with `opts` still has to compute, given the rows already in `jsonl`;
 /// rewrites `jsonl` with the kept rows only (dropping torn lines and stale rows), so the new
 /// rows can be appended to it as they are computed. Without `jsonl`, everything is to do.
-/// [`run`] and the Python package's distributed fleet both resume through it.
+/// [`run`](fn@run) and the Python package's distributed fleet both resume through it.
 pub fn resume(
     files: &[PathBuf],
     opts: &BatchOptions,

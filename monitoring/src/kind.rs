@@ -146,7 +146,7 @@ const TAG_FUNCTION_LETTERS: &str = "ACDEGHIKLQRSTVXYZ";
 
 /// Whether `valve` reads as an ISA-5.1 tag of a level loop: a tag has a number (`LIC101`,
 /// `2111LIC31102B`) and its letters are a run of two to four, the first `L` and the others
-/// function letters ([`TAG_FUNCTION_LETTERS`]). A name that is not a tag (`loop001`,
+/// function letters (`ACDEGHIKLQRSTVXYZ`). A name that is not a tag (`loop001`,
 /// `line_a7`, `level`) is not a level loop: the default, self-regulating, is then kept rather
 /// than guessed from a word's first letter.
 pub fn is_level_tag(valve: &str) -> bool {

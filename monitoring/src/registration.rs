@@ -400,7 +400,7 @@ pub struct Plan<'a> {
 }
 
 /// Read and search one registration with every combination of `plan`, and run the detection
-/// crate on the record as read ([`detect_loop`], kept in [`Registration::detection`]). Never fails and never
+/// crate on the record as read ([`detect_loop`](crate::detect::detect_loop), kept in [`Registration::detection`]). Never fails and never
 /// panics: a problem is recorded in the registration — a panic too (the registration runs
 /// isolated, so one bad file cannot end a batch or a trend). A PV or OP that identification
 /// refuses as constant or flat over most of the record is read as `detect` reads it: the

@@ -383,7 +383,7 @@ fn run_case_counted(o: &Options, case: &Case) -> Result<Result<(bool, bool, usiz
 }
 
 /// The reader, then (when it accepts the data) the search as the CLI runs it, the detector, and
-/// for one accepted case in eight the differential oracle ([`oracle`]): `(read, searched,
+/// for one accepted case in eight the differential oracle ([`oracle`](fn@oracle)): `(read, searched,
 /// mismatch)`.
 fn exercise(case: &Case) -> (bool, bool, Option<String>) {
     let opts = ReadOptions {

@@ -149,7 +149,8 @@ fn test(rest: &[String]) -> Result<()> {
     phase(
         2,
         5,
-        "clippy on every target, warnings are errors (the workspace lints), and the tidy rules",
+        "clippy on every target and the API docs, warnings are errors (the workspace lints, \
+         rustdoc's links), and the tidy rules",
     );
     let clippy_available = cargo()
         .args(["clippy", "--version"])
@@ -168,6 +169,19 @@ fn test(rest: &[String]) -> Result<()> {
     } else {
         eprintln!("xtask: clippy is not installed; skipping the lint check");
     }
+    // The API docs: a link to an item that does not exist, or that a reader of the public
+    // docs cannot see, is an error (the Python extension's crate needs libpython to build).
+    status(
+        cargo()
+            .args([
+                "doc",
+                "--no-deps",
+                "--workspace",
+                "--exclude",
+                "stiction-python",
+            ])
+            .env("RUSTDOCFLAGS", "-D warnings"),
+    )?;
     tidy_rules()?;
     phase(
         3,
