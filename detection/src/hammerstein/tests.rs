@@ -397,3 +397,61 @@ fn the_rate_filter_undoes_the_difference_of_the_transmitter_noise_only() {
         .zip(&rate)
         .all(|(f, r)| (f - (r - m)).abs() < 1e-12));
 }
+
+/// [`floor`]: over the free valve and the grid's best valves it is the test's own ratios (the
+/// minimum over a subset that holds the argmin is the minimum), and over any other valve of
+/// the grid at most them; integrating (the filtered rate) and self-regulating alike.
+#[test]
+fn a_floor_from_some_valves_is_at_most_the_test_and_the_best_valve_gives_it() {
+    for (sticky, integrating) in [(true, false), (false, false), (true, true)] {
+        let (y, op) = process(sticky);
+        // a level's PV is the running sum of the process output
+        let pv: Vec<f64> = if integrating {
+            y.iter()
+                .scan(0.0, |s, v| {
+                    *s += v;
+                    Some(*s)
+                })
+                .collect()
+        } else {
+            y
+        };
+        let reg = Registration::new(&pv, &op, 1.0)
+            .unwrap()
+            .integrating(integrating);
+        let out = Hammerstein.run(&reg).unwrap();
+        let lr = out.statistic.unwrap();
+        let lr_arx = out.value("lr_arx").unwrap();
+        // the output-error argmin, and the one-step argmin (its S; its J is one of three)
+        let best = (out.value("S").unwrap(), out.value("J").unwrap());
+        let s_arx = out.value("S_arx").unwrap();
+        let valves = [best, (s_arx, 0.0), (s_arx, 0.5 * s_arx), (s_arx, s_arx)];
+        let f = floor(&reg, &valves).unwrap().unwrap();
+        assert_eq!(
+            (f.lr, f.lr_arx),
+            (lr, lr_arx),
+            "sticky {sticky}, integrating {integrating}"
+        );
+        assert_eq!(floor(&reg, &[best]).unwrap().unwrap().lr, lr);
+        assert_eq!(f.rows as f64, out.value("rows").unwrap());
+        assert!(!f.edge, "OP spans 10, below the grid's top");
+        let mut below = 0;
+        for &s in S_GRID.iter().filter(|&&s| s <= 10.0) {
+            for j in [0.0, 0.5 * s, s] {
+                let f = floor(&reg, &[(s, j)]).unwrap().unwrap();
+                assert!(
+                    f.lr <= lr && f.lr_arx <= lr_arx,
+                    "{s}, {j}: {f:?} against {lr}, {lr_arx}"
+                );
+                below += usize::from(f.lr < lr);
+            }
+        }
+        // (a free valve's record: every sticky valve explains it no better, all ratios 0)
+        assert!(
+            below > 0 || !sticky,
+            "some valve explains less than the best"
+        );
+        // a valve outside the grid (S not a node, or above OP's range) is no floor at all
+        assert_eq!(floor(&reg, &[(2.7, 0.0), (12.0, 0.0)]).unwrap(), None);
+    }
+}
