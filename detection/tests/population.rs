@@ -11,15 +11,20 @@ use common::auc;
 use datasets::simulate::population::{Family, Label, PopulationSpec};
 use detection::{detect, Registration, Verdict};
 
-#[test]
-fn the_calibrated_score_holds_on_a_fresh_simulated_population() {
-    let spec = PopulationSpec {
-        seed: 9_000_001,
+/// A simulated population of the training ranges under a seed of its own (never fitted on).
+fn fresh(seed: u64) -> PopulationSpec {
+    PopulationSpec {
+        seed,
         families: vec![Family::Flow, Family::Pressure, Family::Level],
         sample_time: [2.0, 30.0],
         samples: [300, 1200],
         ..PopulationSpec::default()
-    };
+    }
+}
+
+#[test]
+fn the_calibrated_score_holds_on_a_fresh_simulated_population() {
+    let spec = fresh(9_000_001);
     let mut scored = Vec::new();
     let (mut right, mut conclusive, mut inconclusive) = (0usize, 0usize, 0usize);
     for i in 0..48 {
@@ -79,13 +84,7 @@ const CEILING_INCONCLUSIVE: f64 = 0.45;
 fn the_fast_parts_check_is_the_full_one() {
     use detection::run_all;
     use detection::score::{combine, parts, settle, settle_on, Model};
-    let spec = PopulationSpec {
-        seed: 9_000_003,
-        families: vec![Family::Flow, Family::Pressure, Family::Level],
-        sample_time: [2.0, 30.0],
-        samples: [300, 1200],
-        ..PopulationSpec::default()
-    };
+    let spec = fresh(9_000_003);
     let model = Model::calibrated();
     let (mut stiction, mut contradicted) = (0, 0);
     for i in 0..64 {

@@ -120,12 +120,12 @@ pub fn floor(
     for &(s, j) in valves {
         let in_grid =
             S_GRID.iter().any(|&g| g == s && g <= range) && [0.0, 0.5 * s, s].contains(&j);
-        let Ok(valve) = Kano::params().s(s).j(j).check() else {
-            continue;
-        };
         if !in_grid {
             continue;
         }
+        let Ok(valve) = Kano::params().s(s).j(j).check() else {
+            continue;
+        };
         for init in [InitialState::down(), InitialState::up()] {
             if let Ok(mv) = valve.simulate(&u0, &init) {
                 mvs.push(mv);

@@ -126,8 +126,7 @@ fn cannot_say_no_stiction(
     tests: &[TestOutcome],
     hint: &[(f64, f64)],
 ) -> bool {
-    let e = Evidence::of(r, tests.to_vec());
-    if e.degenerate.is_some() {
+    if r.check().is_err() {
         // the part cannot be judged: `inconclusive`, whatever the test gives
         return true;
     }
