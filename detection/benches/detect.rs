@@ -8,6 +8,10 @@ use datasets::simulate::{Controller, Plant, PlantSpec, Scenario, Setpoint};
 use detection::{detect, find_test, Registration};
 use stiction_models::Kano;
 
+/// The CLI's allocator, so the figures are the command's (`cli/src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() {
     divan::main();
 }

@@ -10,6 +10,10 @@ use discrepancy::{diagnose, Baseline, DiagnoseOptions, Diagnosis};
 use grid_search::Problem;
 use stiction_models::Kano;
 
+/// The CLI's allocator, so the figures are the command's (`cli/src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() {
     divan::main();
 }

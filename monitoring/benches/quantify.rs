@@ -9,6 +9,10 @@ use datasets::simulate::Scenario;
 use datasets::LoopData;
 use monitoring::{analyse, Answer, Integrating};
 
+/// The CLI's allocator, so the figures are the command's (`cli/src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() {
     divan::main();
 }
