@@ -13,6 +13,12 @@
 
 use std::collections::BTreeMap;
 
+/// The CLI's allocator for the extension's own allocations (Python's stay with Python): the
+/// grid's surface, freed after every search, would otherwise go back to the kernel and be
+/// faulted in again (`docs/decisions/2026-11-29-allocator.md`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 mod audit;
 mod fleet;
 
