@@ -100,6 +100,68 @@ fn the_sse_is_the_direct_one() {
     }
 }
 
+/// Where the factor alone gives the RSS (a well-conditioned matrix, a residual not small
+/// against the output) the fit is the refined one's to round-off: coefficients within 1e-10
+/// of the largest, the RSS within 1e-12 of the output's sum of squares. A residual that is
+/// round-off (the exact orders on noise-free data) takes the pass.
+#[test]
+fn the_factor_sse_is_the_refined_one() {
+    let coefficients = |f: &LinearFit| match f.structure() {
+        Structure::Polynomial { a, b, .. } => a.iter().chain(b).copied().collect::<Vec<_>>(),
+        _ => panic!("ARX"),
+    };
+    let mut from_factor = 0;
+    for (noise, seed) in [(3.0, 7), (1.0, 8), (0.0, 9)] {
+        let (u, y) = crate::test_data::valve_loop(3000, seed, noise);
+        for (n, m, delay) in [(2, 2, 0), (1, 3, 2), (4, 1, 0), (3, 3, 5)] {
+            let arx = Arx::params().n(n).m(m).delay(delay).check().unwrap();
+            let sums = arx.output_sums(&y).unwrap();
+            for (from, to) in [(0, 2000), (137, 2000), (900, 1500)] {
+                let stats = WindowStats::of(&u[from..to]).unwrap();
+                let (fast, refined) = match (
+                    sums.identify(&u, from, to, &stats, false),
+                    sums.identify(&u, from, to, &stats, true),
+                ) {
+                    (Some(f), Some((r, _))) => (f, r),
+                    // a poorly conditioned window goes to the QR either way
+                    (None, None) => continue,
+                    (f, r) => panic!("{n} {m} {delay}: {f:?} / {r:?}"),
+                };
+                let (fast, passed) = fast;
+                from_factor += usize::from(!passed);
+                let (c1, c2) = (coefficients(&fast), coefficients(&refined));
+                let big = c2.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                for (p, q) in c1.iter().zip(&c2) {
+                    assert!((p - q).abs() <= 1e-10 * big, "{n} {m} {delay}: {p} vs {q}");
+                }
+                let rows = (to - from - fast.info().first_sample) as f64;
+                let (r1, r2) = (
+                    fast.info().residual_variance * rows,
+                    refined.info().residual_variance * rows,
+                );
+                let yw = &y[from + fast.info().first_sample..to];
+                let mean = yw.iter().sum::<f64>() / rows;
+                let y_ss: f64 = yw.iter().map(|v| (v - mean) * (v - mean)).sum();
+                assert!(
+                    (r1 - r2).abs() <= 1e-12 * y_ss,
+                    "{n} {m} {delay}: {r1} vs {r2}"
+                );
+                if r2 < 1e-6 * y_ss {
+                    // a residual that is round-off (the exact orders on noise-free data)
+                    assert!(
+                        passed,
+                        "{n} {m} {delay}: a round-off residual takes the pass"
+                    );
+                }
+            }
+        }
+    }
+    assert!(
+        from_factor >= 8,
+        "the factor gave the RSS in {from_factor} of 36 windows"
+    );
+}
+
 /// The fused passes: the AVX register and the plain array give the same bits, and both
 /// equal one dot product per product (the path of the larger orders) to round-off.
 #[test]
