@@ -24,11 +24,13 @@
 //!    factor) and the residual is not small against the output (`RSS >= 1e-6 · y_c'y_c`, the
 //!    centered output's sum of squares), `RSS = y_c'y_c - ‖z‖²` with `L z = D X'y`, from the
 //!    factor alone: the RSS is stationary at the solution, so the solve's error enters it
-//!    squared. Measured on the plant registrations and on simulated loops with and without
-//!    noise (ARX(2, 2), (1, 3) and (3, 3) delay 2; 24 669 windows; 2026-11-29): under that
-//!    bound the coefficients are within 6.4e-12 (relative to the largest) of the refined
-//!    ones below and the RSS within 1.1e-14 · y_c'y_c of theirs, so the fit in % within
-//!    1e-12 of a point (test `the_factor_sse_is_the_refined_one`). Otherwise, one fused
+//!    squared. Measured on simulated loops with and without noise (ARX(2, 2), (1, 3) and
+//!    (3, 3) delay 2; 24 669 node windows; `docs/decisions/2026-11-29-factor-sse.md`): under
+//!    that bound the coefficients were within 1.9e-12 (relative to the largest) of the
+//!    refined ones below, and the RSS, under any bound, within 1.1e-14 · y_c'y_c of theirs,
+//!    so the fit in % within 1e-12 of a point (test `the_factor_sse_is_the_refined_one`).
+//!    The bound keeps the coefficients, which the stability check and the validation error
+//!    read, as accurate as the refinement makes them. Otherwise, one fused
 //!    pass: the one-step residual `r` of the solution (with the intercept the centering
 //!    implies, so `Σ r ≈ 0`) from the data: `Σ r`, `Σ r²` and the products `X' r`. They give
 //!    one step of iterative refinement, so a residual small against the output (noise-free
