@@ -12,7 +12,8 @@
 //!   seen in the record (which is what the grid covers). The valve span cannot be measured
 //!   from the data, only assumed from the range seen; the assumption is always named in the
 //!   notes and `--op-range LO,HI` ([`OpRange::Given`]) states it.
-//! * Fraction: every OP in [-0.05, 1.05] → valve span 0-1, OP × 100.
+//! * Fraction: every OP in [-0.05, 1.05] → valve span 0-1, OP × 100 (the decimal point of
+//!   its shortest digits moved two places: `0.29` is 29, not 28.999999999999996).
 //! * Percent: every OP in [-10, 110] (controllers over-range by a few %) → unchanged.
 //! * Counts: every OP an integer in [0, 65535] and above 110 → the smallest of the usual
 //!   full scales ([`FULL_SCALES`]) that holds the largest OP; OP × 100 / full scale.
@@ -102,12 +103,38 @@ impl OpUnits {
     /// Map `x` (OP units) to % of valve span.
     pub fn to_percent(&self, x: f64) -> f64 {
         match self.span {
-            // Kept exact for the % case; `x * 100 / (hi - lo)` keeps counts and fractions
-            // consistent with a file holding `counts * 100 / full_scale`.
+            // a fraction: its decimal point moved two places, so a file holding OP / 100 in
+            // decimals gives the % file's OP bit for bit
+            Some((lo, hi)) if lo == 0.0 && hi == 1.0 => percent_of_fraction(x),
+            // Kept exact for the % case; `x * 100 / (hi - lo)` keeps counts consistent with a
+            // file holding `counts * 100 / full_scale`.
             Some((lo, hi)) if !(lo == 0.0 && hi == 100.0) => (x - lo) * 100.0 / (hi - lo),
             _ => x,
         }
     }
+}
+
+/// `100 x` as the decimal number `x` prints as (its shortest round-trip digits) with the
+/// point moved two places, rounded once: `0.29` gives 29 exactly, where `0.29 * 100.0` is
+/// 28.999999999999996. A record exported as a fraction (`29` written `0.29`) is read back
+/// to the same % it was written from, so a grid node that lands on OP's quantisation step
+/// meets the same OP either way (a fuzz finding, seed 57).
+fn percent_of_fraction(x: f64) -> f64 {
+    if !x.is_finite() {
+        return x * 100.0;
+    }
+    let mut buf = ryu::Buffer::new();
+    let digits = buf.format_finite(x);
+    let shifted = match digits.split_once(['e', 'E']) {
+        Some((mantissa, exp)) => exp
+            .parse::<i32>()
+            .ok()
+            .map(|e| format!("{mantissa}e{}", e + 2)),
+        None => Some(format!("{digits}e2")),
+    };
+    shifted
+        .and_then(|t| t.parse::<f64>().ok())
+        .unwrap_or(x * 100.0)
 }
 
 /// `x` to 5 significant digits, without trailing zeros (notes quote numbers people read;
@@ -300,6 +327,33 @@ mod tests {
         assert_eq!(sig(0.123456), "0.12346");
         assert_eq!(sig(16383.0), "16383");
         assert_eq!(sig(0.0), "0");
+    }
+
+    #[test]
+    fn fractions_become_the_percent_they_print_as() {
+        let u = op_units(&[0.14, 0.87], OpRange::Detect).unwrap();
+        assert_eq!(u.span, Some((0.0, 1.0)));
+        for (fraction, percent) in [
+            (0.15, 15.0),
+            (0.29, 29.0),
+            (1e-7, 1e-5),
+            (0.0, 0.0),
+            (-0.03, -3.0),
+            (1.0, 100.0),
+            (0.123456789, 12.3456789),
+        ] {
+            assert_eq!(u.to_percent(fraction), percent, "{fraction}");
+        }
+        // every % value with two decimals, exported as the fraction it prints as (its decimal
+        // point moved), comes back bit for bit; multiplying by 100 missed many of them
+        let mut products_off = 0;
+        for k in -500..=10500 {
+            let pct = f64::from(k) / 100.0;
+            let fraction: f64 = format!("{pct}e-2").parse().unwrap();
+            assert_eq!(u.to_percent(fraction), pct, "{pct} -> {fraction}");
+            products_off += usize::from(fraction * 100.0 != pct);
+        }
+        assert!(products_off > 1000, "{products_off}");
     }
 
     #[test]
