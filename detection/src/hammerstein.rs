@@ -56,7 +56,7 @@
 
 use crate::signal::mean;
 use crate::{DetectionError, DetectionTest, Registration, TestEntry, TestOutcome, Verdict};
-use arx::{arx_from_products, arx_products_lanes, best_arx, ArxTarget, ARX_LAGS};
+use arx::{arx_from_products, best_arx, cross_lanes, ArxTarget, NM};
 #[cfg(test)]
 use first_pass::Arrays;
 use first_pass::{first_pass_arrays, Avx, FirstPass, FirstSums};
@@ -523,12 +523,12 @@ fn best_oe_arx_many(
         u: &'a [[f64; LANES]],
         x: &'a mut [[f64; LANES]],
     }
-    type ArxProducts = [[[f64; ARX_LAGS]; 3]; LANES];
+    type ArxProducts = [[f64; NM]; LANES];
     impl faer::traits::pulp::WithSimd for Run<'_, '_> {
         type Output = ([(f64, f64); LANES], Option<ArxProducts>);
         #[inline(always)]
         fn with_simd<S: faer::traits::pulp::Simd>(self, simd: S) -> Self::Output {
-            let c = self.arx.map(|a| arx_products_lanes::<LANES>(a, self.u));
+            let c = self.arx.map(|a| cross_lanes::<LANES>(a, self.u));
             (best_oe_lanes(Avx(simd), self.tg, self.u, self.x), c)
         }
     }
@@ -748,7 +748,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
         delay: best.3,
         rows,
         reduction: 1.0 - 1.0 / ratio,
-        lr_arx: rows as f64 * (arx0 / arx1.0).max(1.0).ln(),
+        lr_arx: arx_tg.rows() as f64 * (arx0 / arx1.0).max(1.0).ln(),
         s_arx: arx1.1,
     })
 }

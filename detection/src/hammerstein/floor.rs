@@ -151,7 +151,7 @@ pub fn floor(
     }
     Ok(Some(Floor {
         lr: rows as f64 * (oe0 / oe1).max(1.0).ln(),
-        lr_arx: rows as f64 * (arx0 / arx1).max(1.0).ln(),
+        lr_arx: arx_tg.rows() as f64 * (arx0 / arx1).max(1.0).ln(),
         rows,
         edge: range >= LARGEST_S,
     }))

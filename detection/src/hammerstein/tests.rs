@@ -2,20 +2,28 @@
 //! processes.
 #![allow(clippy::unwrap_used)]
 
-use super::arx::{arx_all, arx_solve, P};
+use super::arx::{arx_all, arx_solve, ARX_START, NA, NB, P};
 use super::*;
 use crate::testing::noise;
 use nalgebra::{SMatrix, SVector};
 
-/// Residual sum of squares of `y(t)` on `[y(t−1), y(t−2), u(t−1−d), u(t−2−d), 1]`, `t` from
-/// `start` (the same rows for every model, so that the sums compare): the definition, which
-/// [`best_arx`] computes for every delay at once.
+/// Residual sum of squares of `y(t)` on `[y(t−1), …, y(t−NA), u(t−1−d), …, u(t−NB−d), 1]`,
+/// `t` from `start` (the same rows for every model, so that the sums compare): the definition,
+/// which [`best_arx`] computes for every delay at once.
 fn arx_rss(y: &[f64], u: &[f64], d: usize, start: usize) -> f64 {
+    let start = start.max(ARX_START);
     let mut gram = SMatrix::<f64, P, P>::zeros();
     let mut b = SVector::<f64, P>::zeros();
     let mut yy = 0.0;
     for t in start..y.len() {
-        let x = SVector::<f64, P>::from([y[t - 1], y[t - 2], u[t - 1 - d], u[t - 2 - d], 1.0]);
+        let mut x = SVector::<f64, P>::zeros();
+        for a in 0..NA {
+            x[a] = y[t - 1 - a];
+        }
+        for j in 0..NB {
+            x[NA + j] = u[t - 1 - d - j];
+        }
+        x[P - 1] = 1.0;
         gram.ger(1.0, &x, &x, 1.0);
         b.axpy(y[t], &x, 1.0);
         yy += y[t] * y[t];
@@ -147,6 +155,20 @@ fn the_one_pass_fits_equal_the_direct_ones() {
             (fast - direct).abs() <= 1e-9 * direct,
             "delay {d}: {fast} against {direct}"
         );
+    }
+    // Four valves' cross-correlations side by side give each valve's own fits bit for bit.
+    let lanes = super::arx::cross_lanes::<LANES>(&arx, &u);
+    for (l, f) in lanes.iter().enumerate() {
+        let side = super::arx::arx_from_products(&arx, &mvs[l], f);
+        let own = arx_all(&arx, &mvs[l]);
+        assert_eq!(side.map(f64::to_bits), own.map(f64::to_bits), "lane {l}");
+        for (d, fast) in own.into_iter().enumerate() {
+            let direct = arx_rss(&y, &mvs[l], d, start);
+            assert!(
+                (fast - direct).abs() <= 1e-9 * direct,
+                "lane {l}, delay {d}: {fast} against {direct}"
+            );
+        }
     }
 }
 
