@@ -112,11 +112,12 @@ pub fn floor(
         u0,
         range,
         rows,
+        phi,
     }) = Setup::new(&y, pv, op, &omegas)
     else {
         return Ok(None);
     };
-    let mut mvs: Vec<Vec<f64>> = vec![u0.clone()];
+    let mut mvs: Vec<Vec<f64>> = vec![super::whiten(&u0, &phi)];
     for &(s, j) in valves {
         let in_grid =
             S_GRID.iter().any(|&g| g == s && g <= range) && [0.0, 0.5 * s, s].contains(&j);
@@ -128,7 +129,7 @@ pub fn floor(
         };
         for init in [InitialState::down(), InitialState::up()] {
             if let Ok(mv) = valve.simulate(&u0, &init) {
-                mvs.push(mv);
+                mvs.push(super::whiten(&mv, &phi));
             }
         }
     }
@@ -136,7 +137,7 @@ pub fn floor(
         return Ok(None);
     }
     let arx_tg = ArxTarget::new(&z, tg.start);
-    let arx0 = best_arx(&arx_tg, &u0);
+    let arx0 = best_arx(&arx_tg, &mvs[0]);
     let refs: Vec<&[f64]> = mvs.iter().map(Vec::as_slice).collect();
     let fits = best_oe_arx_many(&tg, Some(&arx_tg), &refs);
     let oe0 = fits[0].0 .0;

@@ -190,11 +190,13 @@ fn noisy_triangle(n: usize, period: usize, slope: f64, sigma: f64, seed: u64) ->
 #[test]
 fn an_optimum_on_the_grid_edge_is_no_evidence() {
     // OP ramps up and down over 60 % in slow steps with noise; the valve's band is 32 %, above
-    // the grid's largest (25).
+    // the grid's largest (25), its slip half of it. (With a slip of 1 the noise model, fitted
+    // to the free valve's residual, takes up most of the band's effect and the best band is
+    // 2: see `noise_model`.)
     let n = 1800;
     let op = noisy_triangle(n, 600, 0.2, 0.4, 5);
     let fit = |s: f64| {
-        let valve = Kano::params().s(s).j(1.0).check().unwrap();
+        let valve = Kano::params().s(s).j(0.5 * s).check().unwrap();
         let mv = valve.simulate(&op, &InitialState::default()).unwrap();
         let w = noise(n, 0.05, 6);
         let mut y = vec![0.0; n];
@@ -265,8 +267,8 @@ fn valves_with_the_same_mv_share_their_fits_bit_for_bit() {
     let tg = Target::new(&y, start, &[0.0314]);
     let arx = ArxTarget::new(&y, start);
     let range = 10.0;
-    let ((own, own_profile), none) = valve_fits(&tg, &arx, &u0, range, false).unwrap();
-    let ((shared, profile), copies) = valve_fits(&tg, &arx, &u0, range, true).unwrap();
+    let ((own, own_profile), none) = valve_fits(&tg, &arx, &u0, range, &[], false).unwrap();
+    let ((shared, profile), copies) = valve_fits(&tg, &arx, &u0, range, &[], true).unwrap();
     assert_eq!(none, 0);
     // with J = S both starts give the same MV here: one shared valve per S of the grid
     let grid = S_GRID.iter().filter(|&&s| s <= range).count();
