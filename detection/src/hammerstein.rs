@@ -658,14 +658,23 @@ const NOISE_ORDER: usize = 8;
 /// `v` through the noise model's inverse `A(q) = 1 − Σ φᵢ q⁻ⁱ`: `v(t) − Σ φᵢ v(t−i)` (the
 /// terms before the record's start left out).
 fn whiten(v: &[f64], phi: &[f64]) -> Vec<f64> {
-    (0..v.len())
-        .map(|t| {
-            phi.iter()
-                .enumerate()
-                .take(t)
-                .fold(v[t], |a, (i, f)| a - f * v[t - 1 - i])
-        })
-        .collect()
+    let mut out = v.to_vec();
+    whiten_in_place(&mut out, phi);
+    out
+}
+
+/// [`whiten`] in place (from the last sample back, so every term reads the input).
+fn whiten_in_place(v: &mut [f64], phi: &[f64]) {
+    if phi.is_empty() {
+        return;
+    }
+    for t in (0..v.len()).rev() {
+        v[t] = phi
+            .iter()
+            .enumerate()
+            .take(t)
+            .fold(v[t], |a, (i, f)| a - f * v[t - 1 - i]);
+    }
 }
 
 /// The noise model of the output-error fits: the AR([`NOISE_ORDER`]) model `φ` of the free
@@ -707,32 +716,46 @@ fn noise_model(tg: &Target, u0: &[f64]) -> Vec<f64> {
         })
         .collect();
     let ry = &tg.ry[start..];
-    let mut best: (f64, Vec<f64>) = (tg.yy, ry.to_vec());
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    // Each candidate's residual sum of squares from dot products alone: `ry` is orthogonal to
+    // the basis, so `x`'s projection on it changes `Σ x²` only. The residual itself is
+    // formed once, for the best candidate.
+    let mut best: Option<(f64, f64, usize)> = None;
     let mut lag = vec![0.0; n];
+    let lagged = |lag: &mut Vec<f64>, p: f64, d: usize| {
+        lag[..=d.min(n - 1)].fill(u0[0]);
+        for t in d + 1..n {
+            lag[t] = p * lag[t - 1] + (1.0 - p) * u0[t - d];
+        }
+    };
     for &p in &POLES {
         for d in 1..=MAX_DELAY + 1 {
-            lag[..=d.min(n - 1)].fill(u0[0]);
-            for t in d + 1..n {
-                lag[t] = p * lag[t - 1] + (1.0 - p) * u0[t - d];
-            }
-            let mut x = lag[start..].to_vec();
-            for q in &basis {
-                let c: f64 = q.iter().zip(&x).map(|(a, b)| a * b).sum();
-                x.iter_mut().zip(q).for_each(|(v, qq)| *v -= c * qq);
-            }
-            let sxx: f64 = x.iter().map(|v| v * v).sum();
-            let sxy: f64 = x.iter().zip(ry).map(|(a, b)| a * b).sum();
+            lagged(&mut lag, p, d);
+            let x = &lag[start..];
+            let sxx = dot(x, x) - basis.iter().map(|q| dot(q, x).powi(2)).sum::<f64>();
+            let sxy = dot(x, ry);
             if sxx <= 0.0 || tg.sign * sxy < 0.0 {
                 continue;
             }
             let rss = tg.yy - sxy * sxy / sxx;
-            if rss < best.0 {
-                let k = sxy / sxx;
-                best = (rss, ry.iter().zip(&x).map(|(y, v)| y - k * v).collect());
+            if best.is_none_or(|b| rss < b.0) {
+                best = Some((rss, p, d));
             }
         }
     }
-    let r = best.1;
+    let r: Vec<f64> = match best {
+        None => ry.to_vec(),
+        Some((_, p, d)) => {
+            lagged(&mut lag, p, d);
+            let mut x = lag[start..].to_vec();
+            for q in &basis {
+                let c = dot(q, &x);
+                x.iter_mut().zip(q).for_each(|(v, qq)| *v -= c * qq);
+            }
+            let k = dot(&x, ry) / dot(&x, &x);
+            ry.iter().zip(&x).map(|(y, v)| y - k * v).collect()
+        }
+    };
     let mut g = nalgebra::SMatrix::<f64, NOISE_ORDER, NOISE_ORDER>::zeros();
     let mut b = nalgebra::SVector::<f64, NOISE_ORDER>::zeros();
     for t in NOISE_ORDER..r.len() {
@@ -933,7 +956,9 @@ fn valve_fits(
                     None if share => first = Some((k, mv.clone())),
                     None => {}
                 }
-                pending.push((k, whiten(&mv, phi)));
+                let mut mv = mv;
+                whiten_in_place(&mut mv, phi);
+                pending.push((k, mv));
                 if pending.len() == LANES {
                     flush(&mut pending, &mut fits);
                 }

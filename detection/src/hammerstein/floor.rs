@@ -128,8 +128,9 @@ pub fn floor(
             continue;
         };
         for init in [InitialState::down(), InitialState::up()] {
-            if let Ok(mv) = valve.simulate(&u0, &init) {
-                mvs.push(super::whiten(&mv, &phi));
+            if let Ok(mut mv) = valve.simulate(&u0, &init) {
+                super::whiten_in_place(&mut mv, &phi);
+                mvs.push(mv);
             }
         }
     }
