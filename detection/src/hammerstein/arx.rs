@@ -11,6 +11,9 @@
 //! docs/decisions/2026-11-29-one-step-orders.md): two outputs and two inputs gave 0.869 /
 //! 0.828 / 0.828, eight and four 0.876 / 0.844 / 0.844.
 
+// The sums index several lagged arrays at once: index loops say what is summed.
+#![allow(clippy::needless_range_loop)]
+
 use super::MAX_DELAY;
 use nalgebra::{SMatrix, SVector};
 
