@@ -639,14 +639,15 @@ impl Setup {
         let z: Vec<f64> = pv.iter().map(|v| v - zm).collect();
         let om = mean(op);
         let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
+        let sign = process_gain_sign(pv, op);
         let mut tg = Target::new(&y, start, omegas);
-        tg.sign = process_gain_sign(pv, op);
+        tg.sign = sign;
         // the noise model from the free valve, then every fit on the whitened output, from
         // the row where the model's lags are inside the record
         let phi = noise_model(&tg, &u0);
         let start = start + phi.len();
         let mut tg = Target::new(&whiten(&y, &phi), start, omegas);
-        tg.sign = process_gain_sign(pv, op);
+        tg.sign = sign;
         Some(Setup {
             tg,
             z: whiten(&z, &phi),

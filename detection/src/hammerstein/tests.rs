@@ -479,3 +479,41 @@ fn a_floor_from_some_valves_is_at_most_the_test_and_the_best_valve_gives_it() {
         assert_eq!(floor(&reg, &[(2.7, 0.0), (12.0, 0.0)]).unwrap(), None);
     }
 }
+
+/// The noise model of a free valve's residual is the disturbance's own AR model, and the
+/// whitening in place is the filter's definition.
+#[test]
+fn the_noise_model_is_the_disturbance_s_ar_model() {
+    let n = 3000;
+    let op = noisy_triangle(n, 300, 0.1, 0.5, 11);
+    let e = noise(n, 0.3, 12);
+    // y = the free valve through a lag, plus an AR(1) disturbance of pole 0.9
+    let (mut x, mut d) = (vec![0.0; n], vec![0.0; n]);
+    for t in 1..n {
+        x[t] = 0.7 * x[t - 1] + 0.3 * op[t - 1];
+        d[t] = 0.9 * d[t - 1] + e[t];
+    }
+    let centered = |v: &[f64]| -> Vec<f64> {
+        let m = mean(v);
+        v.iter().map(|a| a - m).collect()
+    };
+    let y = centered(&(0..n).map(|t| x[t] + d[t]).collect::<Vec<_>>());
+    let u0 = centered(&op);
+    let tg = Target::new(&y, MAX_DELAY + 2, &[]);
+    let phi = super::noise::noise_model(&tg, &u0);
+    assert_eq!(phi.len(), 8);
+    assert!((phi[0] - 0.9).abs() < 0.05, "{phi:?}");
+    assert!(phi[1..].iter().all(|v| v.abs() < 0.08), "{phi:?}");
+    // in place, from the last sample back, as the forward definition
+    let w = super::noise::whiten(&y, &phi);
+    for t in 0..n {
+        let direct = y[t]
+            - (0..phi.len().min(t))
+                .map(|i| phi[i] * y[t - 1 - i])
+                .sum::<f64>();
+        assert!(
+            (w[t] - direct).abs() <= 1e-9 * (1.0 + direct.abs()),
+            "t {t}"
+        );
+    }
+}
