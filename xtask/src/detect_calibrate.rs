@@ -70,7 +70,8 @@ usage: cargo xtask detect-calibrate [--train N] [--train-seed N] [--valid N] [--
   --dump DIR   also write the `in range` validation loops as CSV (t, SP, PV, OP) with an index.csv
   --cases FILE also write one CSV row per training and validation loop under the fitted model:
                population, description, label, score, verdict, reason and each test's
-               statistic and verdict, a sticky loop's oracle LR and PV's share on straight
+               statistic and verdict, the Hammerstein test's S, J, delay, region, one-step S
+               and the stick-slip window, a sticky loop's oracle LR and PV's share on straight
                segments when the reader calls it compressed (to see which loops a change moves)";
 
 /// One labelled registration.
