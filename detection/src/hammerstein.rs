@@ -36,6 +36,10 @@
 //!   integrator, so levels use PV here), `d` from 0 to 3 (`arx`). Its autoregressive part
 //!   models an external disturbance's own dynamics, which the output-error fit would read
 //!   through the valve model;
+//! * **a second lag**: every valve's position goes through a second first-order lag, its pole
+//!   the one of a few (0 to 0.9) whose free valve fits best (`noise::second_lag`), before the
+//!   fits' own lag: a process of two lags is otherwise a free valve's misfit that a deadband
+//!   takes up in part;
 //! * **the noise model**: both fits take the output and every valve's input through the
 //!   inverse of an AR(8) model of the free valve's output-error residual (`noise_model`),
 //!   so that a wandering load or a drift, most of PV's variance in many loops, is not what
@@ -66,7 +70,7 @@ use first_pass::Arrays;
 use first_pass::{first_pass_arrays, Avx, FirstPass, FirstSums};
 pub use floor::{floor, Floor};
 use floor::{inputs, Inputs};
-use noise::{noise_model, whiten, whiten_in_place};
+use noise::{input, input_in_place, noise_model, second_lag, whiten};
 use rate::rate_noise_filter;
 use stiction_models::{InitialState, Kano, StictionModel};
 pub use tones::dominant_frequency;
@@ -613,6 +617,8 @@ struct Setup {
     /// The noise model ([`noise_model`]): the output (`tg`, `z`) is whitened by it, every
     /// valve's input must be too ([`whiten`]).
     phi: Vec<f64>,
+    /// The second lag every valve's input goes through first ([`input`]).
+    lag2: f64,
 }
 
 impl Setup {
@@ -642,9 +648,10 @@ impl Setup {
         let sign = process_gain_sign(pv, op);
         let mut tg = Target::new(&y, start, omegas);
         tg.sign = sign;
-        // the noise model from the free valve, then every fit on the whitened output, from
-        // the row where the model's lags are inside the record
-        let phi = noise_model(&tg, &u0);
+        let lag2 = second_lag(&tg, &u0);
+        // the noise model from the free valve through that lag, then every fit on the
+        // whitened output, from the row where the model's lags are inside the record
+        let phi = noise_model(&tg, &input(&u0, &[], lag2));
         let start = start + phi.len();
         let mut tg = Target::new(&whiten(&y, &phi), start, omegas);
         tg.sign = sign;
@@ -655,6 +662,7 @@ impl Setup {
             range,
             rows: n - start,
             phi,
+            lag2,
         })
     }
 }
@@ -671,10 +679,11 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
         range,
         rows,
         phi,
+        lag2,
     } = Setup::new(y, pv, op, omegas)?;
     let arx_tg = ArxTarget::new(&z, tg.start);
-    let arx0 = best_arx(&arx_tg, &whiten(&u0, &phi));
-    let (fits, mut profile) = valve_fits(&tg, &arx_tg, &u0, range, &phi, true)?.0;
+    let arx0 = best_arx(&arx_tg, &input(&u0, &phi, lag2));
+    let (fits, mut profile) = valve_fits(&tg, &arx_tg, &u0, range, &phi, lag2, true)?.0;
     let oe0 = fits[0].oe;
     let mut best = (f64::INFINITY, 0.0, 0.0, 0.0);
     let mut arx1 = (f64::INFINITY, 0.0);
@@ -743,6 +752,7 @@ fn valve_fits(
     u0: &[f64],
     range: f64,
     phi: &[f64],
+    lag2: f64,
     share: bool,
 ) -> Option<((Vec<ValveFit>, Vec<(f64, f64)>), usize)> {
     // The valve's state at the start of the record is unknown: at rest after moving down or
@@ -756,7 +766,7 @@ fn valve_fits(
     // (the free valve first).
     let mut fits: Vec<ValveFit> = vec![ValveFit::default()];
     // the inputs waiting for a pass, with the index of their fit
-    let mut pending: Vec<(usize, Vec<f64>)> = vec![(0, whiten(u0, phi))];
+    let mut pending: Vec<(usize, Vec<f64>)> = vec![(0, input(u0, phi, lag2))];
     let flush = |pending: &mut Vec<(usize, Vec<f64>)>, fits: &mut [ValveFit]| {
         let inputs: Vec<&[f64]> = pending.iter().map(|(_, mv)| mv.as_slice()).collect();
         for (&(k, _), ((oe, d), arx)) in
@@ -802,7 +812,7 @@ fn valve_fits(
                     None => {}
                 }
                 let mut mv = mv;
-                whiten_in_place(&mut mv, phi);
+                input_in_place(&mut mv, phi, lag2);
                 pending.push((k, mv));
                 if pending.len() == LANES {
                     flush(&mut pending, &mut fits);
@@ -826,8 +836,9 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
 }
 
 /// How much better the valve position `mv` explains the output `y` (PV, or ΔPV for an
-/// integrating loop) than OP does, through this test's output-error model (constant only, no
-/// nuisance sines): `N ln(RSS_OP / RSS_MV)`, at least 0. For simulated loops, where the true
+/// integrating loop) than OP does, through this test's output-error model (its second lag and
+/// noise model chosen by OP, as the test's by the free valve; constant only, no nuisance
+/// sines): `N ln(RSS_OP / RSS_MV)`, at least 0. For simulated loops, where the true
 /// valve position is known, this is the evidence any PV-OP test of this model family could
 /// find at best: a sticky valve whose ratio is small never stuck visibly in the record (a valve
 /// dithered by OP's noise, or held still by a constant load). `None` when a residual vanishes
@@ -843,11 +854,14 @@ pub fn oracle_lr(y: &[f64], op: &[f64], mv: &[f64]) -> Option<f64> {
     let om = mean(&op[..n]);
     let u: Vec<f64> = op[..n].iter().map(|v| v - om).collect();
     let m: Vec<f64> = mv[..n].iter().map(|v| v - om).collect();
-    // the test's noise model, from OP (the free valve) as the test estimates it
-    let phi = noise_model(&Target::new(&y, start, &[]), &u);
+    // the test's second lag and noise model, from OP (the free valve) as the test estimates
+    // them
+    let raw = Target::new(&y, start, &[]);
+    let lag2 = second_lag(&raw, &u);
+    let phi = noise_model(&raw, &input(&u, &[], lag2));
     let start = start + phi.len();
     let tg = Target::new(&whiten(&y, &phi), start, &[]);
-    let fits = best_oe_many(&tg, &[&whiten(&u, &phi), &whiten(&m, &phi)]);
+    let fits = best_oe_many(&tg, &[&input(&u, &phi, lag2), &input(&m, &phi, lag2)]);
     let (r_op, r_mv) = (fits[0].0, fits[1].0);
     (r_op > 0.0 && r_mv > 0.0 && r_op.is_finite() && r_mv.is_finite())
         .then(|| (n - start) as f64 * (r_op / r_mv).max(1.0).ln())

@@ -112,7 +112,7 @@ pub const FEATURES: [Feature; 8] = [
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (the training
 /// population of `datasets::simulate::population`, 960 loops, seed 1, ridge 0.1, every weight
 /// at least 0; no plant registration in the fit).
-pub const INTERCEPT: f64 = 0.4535;
+pub const INTERCEPT: f64 = 0.4519;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]). Each
 /// feature is centred so that a positive value is its test's evidence for stiction, and the
 /// fit keeps every weight at least 0 ([`crate::logistic::fit_nonnegative`]): a feature whose
@@ -120,7 +120,7 @@ pub const INTERCEPT: f64 = 0.4535;
 /// at 0 (on the training population: `d2_kurtosis` and `ngi`; their tests still report their
 /// own verdicts).
 pub const WEIGHTS: [f64; 8] = [
-    0.6015, 0.0000, 4.1839, 0.0000, 0.7756, 0.8299, 4.4995, 0.9770,
+    0.6515, 0.0000, 4.3108, 0.0000, 0.8003, 0.9867, 4.4720, 1.4823,
 ];
 
 /// Score at or above which the verdict may be `stiction`: with [`NO_STICTION_AT`], the pair

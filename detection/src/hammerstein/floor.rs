@@ -113,11 +113,12 @@ pub fn floor(
         range,
         rows,
         phi,
+        lag2,
     }) = Setup::new(&y, pv, op, &omegas)
     else {
         return Ok(None);
     };
-    let mut mvs: Vec<Vec<f64>> = vec![super::whiten(&u0, &phi)];
+    let mut mvs: Vec<Vec<f64>> = vec![super::input(&u0, &phi, lag2)];
     for &(s, j) in valves {
         let in_grid =
             S_GRID.iter().any(|&g| g == s && g <= range) && [0.0, 0.5 * s, s].contains(&j);
@@ -129,7 +130,7 @@ pub fn floor(
         };
         for init in [InitialState::down(), InitialState::up()] {
             if let Ok(mut mv) = valve.simulate(&u0, &init) {
-                super::whiten_in_place(&mut mv, &phi);
+                super::input_in_place(&mut mv, &phi, lag2);
                 mvs.push(mv);
             }
         }

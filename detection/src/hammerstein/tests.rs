@@ -267,8 +267,8 @@ fn valves_with_the_same_mv_share_their_fits_bit_for_bit() {
     let tg = Target::new(&y, start, &[0.0314]);
     let arx = ArxTarget::new(&y, start);
     let range = 10.0;
-    let ((own, own_profile), none) = valve_fits(&tg, &arx, &u0, range, &[], false).unwrap();
-    let ((shared, profile), copies) = valve_fits(&tg, &arx, &u0, range, &[], true).unwrap();
+    let ((own, own_profile), none) = valve_fits(&tg, &arx, &u0, range, &[], 0.0, false).unwrap();
+    let ((shared, profile), copies) = valve_fits(&tg, &arx, &u0, range, &[], 0.0, true).unwrap();
     assert_eq!(none, 0);
     // with J = S both starts give the same MV here: one shared valve per S of the grid
     let grid = S_GRID.iter().filter(|&&s| s <= range).count();
@@ -515,5 +515,55 @@ fn the_noise_model_is_the_disturbance_s_ar_model() {
             (w[t] - direct).abs() <= 1e-9 * (1.0 + direct.abs()),
             "t {t}"
         );
+    }
+}
+
+/// A PI loop on a process of two lags (poles 0.9 and 0.9) through a Kano valve `(S, J)`, with
+/// set-point steps and measurement noise: `(PV, OP)`.
+fn two_lag_loop((s, j): (f64, f64), seed: u64) -> (Vec<f64>, Vec<f64>) {
+    let n = 1500;
+    let e = noise(n, 0.1, seed);
+    let (kc, ki) = (0.4, 0.03);
+    let valve = Kano::params().s(s).j(j).check().unwrap();
+    let mut state = valve.start(50.0, &InitialState::default()).unwrap();
+    let (mut x1, mut x2) = (0.0, 0.0);
+    let (mut pv, mut op) = (vec![0.0; n], vec![50.0; n]);
+    let mut err_prev = 0.0;
+    for t in 1..n {
+        let mv = state.position();
+        x1 = 0.9 * x1 + 0.1 * (mv - 50.0);
+        x2 = 0.9 * x2 + 0.1 * x1;
+        pv[t] = x2 + e[t];
+        let sp = if (t / 250) % 2 == 0 { 0.0 } else { 3.0 };
+        let err = sp - pv[t];
+        op[t] = op[t - 1] + kc * (err - err_prev) + ki * err;
+        err_prev = err;
+        state.step(op[t]);
+    }
+    (pv, op)
+}
+
+#[test]
+fn a_second_lag_is_the_process_s_and_no_deadband_takes_its_place() {
+    for seed in [21, 22, 23] {
+        // a free valve: the second lag found, no band explains what it does
+        let (pv, op) = two_lag_loop((0.0, 0.0), seed);
+        let om = mean(&op);
+        let u0: Vec<f64> = op.iter().map(|v| v - om).collect();
+        let ym = mean(&pv);
+        let y: Vec<f64> = pv.iter().map(|v| v - ym).collect();
+        let mut tg = Target::new(&y, MAX_DELAY + 2, &[]);
+        tg.sign = 1.0;
+        assert_eq!(second_lag(&tg, &u0), 0.9, "seed {seed}");
+        let c = compare(&pv, &pv, &op, &[]).unwrap();
+        assert!(c.lr < FREE_LR && c.lr_arx < FREE_LR, "seed {seed}: {c:?}");
+        // a sticky valve on the same process is still found
+        let (pv, op) = two_lag_loop((2.0, 1.0), seed);
+        let c = compare(&pv, &pv, &op, &[]).unwrap();
+        assert!(
+            c.lr > STICTION_LR && c.lr_arx > STICTION_LR_ARX,
+            "seed {seed}: {c:?}"
+        );
+        assert!((c.s - 2.0).abs() <= 1.0, "seed {seed}: {c:?}");
     }
 }
