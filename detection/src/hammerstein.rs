@@ -71,6 +71,7 @@ use first_pass::{first_pass_arrays, Avx, FirstPass, FirstSums};
 pub use floor::{floor, Floor};
 use floor::{inputs, Inputs};
 use noise::{input, input_in_place, noise_model, second_lag, whiten};
+pub use oracle::{oracle_lr, oracle_lr_integrating};
 use rate::rate_noise_filter;
 use stiction_models::{InitialState, Kano, StictionModel};
 pub use tones::dominant_frequency;
@@ -835,38 +836,6 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
-/// How much better the valve position `mv` explains the output `y` (PV, or ΔPV for an
-/// integrating loop) than OP does, through this test's output-error model (its second lag and
-/// noise model chosen by OP, as the test's by the free valve; constant only, no nuisance
-/// sines): `N ln(RSS_OP / RSS_MV)`, at least 0. For simulated loops, where the true
-/// valve position is known, this is the evidence any PV-OP test of this model family could
-/// find at best: a sticky valve whose ratio is small never stuck visibly in the record (a valve
-/// dithered by OP's noise, or held still by a constant load). `None` when a residual vanishes
-/// or the record is too short.
-pub fn oracle_lr(y: &[f64], op: &[f64], mv: &[f64]) -> Option<f64> {
-    let n = y.len().min(op.len()).min(mv.len());
-    let start = MAX_DELAY + 2;
-    if n < start + 20 {
-        return None;
-    }
-    let ym = mean(&y[..n]);
-    let y: Vec<f64> = y[..n].iter().map(|v| v - ym).collect();
-    let om = mean(&op[..n]);
-    let u: Vec<f64> = op[..n].iter().map(|v| v - om).collect();
-    let m: Vec<f64> = mv[..n].iter().map(|v| v - om).collect();
-    // the test's second lag and noise model, from OP (the free valve) as the test estimates
-    // them
-    let raw = Target::new(&y, start, &[]);
-    let lag2 = second_lag(&raw, &u);
-    let phi = noise_model(&raw, &input(&u, &[], lag2));
-    let start = start + phi.len();
-    let tg = Target::new(&whiten(&y, &phi), start, &[]);
-    let fits = best_oe_many(&tg, &[&input(&u, &phi, lag2), &input(&m, &phi, lag2)]);
-    let (r_op, r_mv) = (fits[0].0, fits[1].0);
-    (r_op > 0.0 && r_mv > 0.0 && r_op.is_finite() && r_mv.is_finite())
-        .then(|| (n - start) as f64 * (r_op / r_mv).max(1.0).ln())
-}
-
 /// Output-error likelihood ratio at or above which the test says stiction (with the one-step
 /// ratio at or above [`STICTION_LR_ARX`] and `S >= 0.5`).
 pub const STICTION_LR: f64 = 25.0;
@@ -978,6 +947,7 @@ mod arx;
 mod first_pass;
 mod floor;
 mod noise;
+mod oracle;
 mod rate;
 #[cfg(test)]
 mod tests;

@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use datasets::simulate::population::{Family, Label, PopulationSpec};
 use datasets::simulate::{Disturbance, PlantPreset, PlantSpec, Scenario};
-use detection::hammerstein::{oracle_lr, REGION_LR};
+use detection::hammerstein::{oracle_lr, oracle_lr_integrating, REGION_LR};
 use detection::score::{
     detect_with, features, parts, settle, settle_on, Evidence, Model, FEATURES, HIDDEN_S,
     NO_STICTION_AT, STICTION_AT,
@@ -224,8 +224,7 @@ fn population(set: &Set, n: usize, auto: bool) -> Result<(Vec<Case>, usize)> {
                 Err(_) => return Ok(None),
             };
             let oracle = if l.integrating {
-                let dpv: Vec<f64> = l.sim.pv.windows(2).map(|w| w[1] - w[0]).collect();
-                oracle_lr(&dpv, &l.sim.op[1..], &l.sim.mv[1..])
+                oracle_lr_integrating(&l.sim.pv, &l.sim.op, &l.sim.mv)
             } else {
                 oracle_lr(&l.sim.pv, &l.sim.op, &l.sim.mv)
             };

@@ -567,3 +567,30 @@ fn a_second_lag_is_the_process_s_and_no_deadband_takes_its_place() {
         assert!((c.s - 2.0).abs() <= 1.0, "seed {seed}: {c:?}");
     }
 }
+
+#[test]
+fn the_oracle_reads_a_level_through_the_rate_filter_as_the_test_does() {
+    // A level filled through a Kano valve (S = 3, J = 1) under a slow triangle of OP, measured
+    // by a noisy transmitter: its rate carries the transmitter's noise differenced.
+    let n = 1500;
+    let op = noisy_triangle(n, 300, 1.0 / 15.0, 0.5, 11);
+    let valve = Kano::params().s(3.0).j(1.0).check().unwrap();
+    let mv = valve.simulate(&op, &InitialState::default()).unwrap();
+    let e = noise(n, 0.3, 5);
+    let (mut level, mut lagged) = (0.0, 0.0);
+    let mut pv = vec![0.0; n];
+    for t in 1..n {
+        lagged = 0.8 * lagged + 0.2 * (mv[t - 1] - 5.0);
+        level += 0.01 * lagged;
+        pv[t] = level + e[t];
+    }
+    let rate: Vec<f64> = pv.windows(2).map(|w| w[1] - w[0]).collect();
+    let raw = oracle_lr(&rate, &op[1..], &mv[1..]).unwrap();
+    let filtered = oracle_lr_integrating(&pv, &op, &mv).unwrap();
+    // the raw rate weighs the differenced noise first and hides the valve (3.2); through the
+    // filter OP picks, as the test reads a level, the valve shows (8.9)
+    assert!(raw < REGION_LR, "raw rate: {raw}");
+    assert!(filtered > 2.0 * REGION_LR, "filtered rate: {filtered}");
+    // a free valve shows nothing either way
+    assert!(oracle_lr_integrating(&pv, &op, &op).unwrap() < 1e-9);
+}
