@@ -51,7 +51,7 @@ use files::{dump_cases, write_cases};
 use tables::{paper_benchmark, reasons, trace_and_oracle};
 
 const USAGE: &str = "\
-usage: cargo xtask detect-calibrate [--train N] [--train-seed N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE]
+usage: cargo xtask detect-calibrate [--train N] [--train-seed N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE] [--hold K]
 
   --train N    loops in the training population (default 960)
   --train-seed N
@@ -72,7 +72,10 @@ usage: cargo xtask detect-calibrate [--train N] [--train-seed N] [--valid N] [--
                population, description, label, score, verdict, reason and each test's
                statistic and verdict, the Hammerstein test's S, J, delay, region, one-step S
                and the stick-slip window, a sticky loop's oracle LR and PV's share on straight
-               segments when the reader calls it compressed (to see which loops a change moves)";
+               segments when the reader calls it compressed (to see which loops a change moves)
+  --hold K     every loop's PV held over K samples (at each sample the value of the last
+               multiple of K, as an analyser or a historian's step retrieval logs it), the
+               training population too: how much a held PV costs the detector";
 
 /// One labelled registration.
 #[derive(Clone)]
@@ -214,15 +217,21 @@ fn validation_sets() -> Vec<Set> {
 }
 
 /// The first `n` loops of `set` that simulate (a loop whose tuning cannot be stabilised is
-/// skipped and counted), evaluated.
-fn population(set: &Set, n: usize, auto: bool) -> Result<(Vec<Case>, usize)> {
+/// skipped and counted), evaluated; with `hold` above 1, PV held over `hold` samples first.
+fn population(set: &Set, n: usize, auto: bool, hold: usize) -> Result<(Vec<Case>, usize)> {
     let got: Vec<Option<Case>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let l = match set.spec.generate(i) {
+            let mut l = match set.spec.generate(i) {
                 Ok(l) => l,
                 Err(_) => return Ok(None),
             };
+            if hold > 1 {
+                let live = l.sim.pv.clone();
+                for (t, v) in l.sim.pv.iter_mut().enumerate() {
+                    *v = live[t - t % hold];
+                }
+            }
             let oracle = if l.integrating {
                 oracle_lr_integrating(&l.sim.pv, &l.sim.op, &l.sim.mv)
             } else {
@@ -804,6 +813,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     let mut dump: Option<PathBuf> = None;
     let mut cases_out: Option<PathBuf> = None;
     let mut auto = true;
+    let mut hold = 1usize;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
         let mut value = |name: &str| {
@@ -830,6 +840,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
             }
             "--dump" => dump = Some(PathBuf::from(value("--dump")?)),
             "--cases" => cases_out = Some(PathBuf::from(value("--cases")?)),
+            "--hold" => hold = whole(value(a)?, a)?,
             "--help" | "-h" => {
                 println!("{USAGE}");
                 return Ok(());
@@ -839,7 +850,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     }
     let started = std::time::Instant::now();
     let train_set = training_set(train_seed);
-    let (train, skipped) = population(&train_set, n_train, false)?;
+    let (train, skipped) = population(&train_set, n_train, false, hold)?;
     println!(
         "training population: {} loops ({skipped} skipped: no stabilising tuning) [{:.1} s]",
         train.len(),
@@ -847,7 +858,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     );
     let mut valid: Vec<(&str, Vec<Case>)> = Vec::new();
     for set in validation_sets() {
-        let (cases, skipped) = population(&set, n_valid, auto)?;
+        let (cases, skipped) = population(&set, n_valid, auto, hold)?;
         println!(
             "validation population {:24} {} loops ({skipped} skipped) [{:.1} s]",
             set.name,
