@@ -56,7 +56,7 @@ fn detect_751_samples(bencher: divan::Bencher) {
 }
 
 /// Every test, the score and the parts' check (its first half, its second half, every second
-/// sample) on a 3000-sample registration: what `quantify` adds to its grid.
+/// sample, the means of each two) on a 3000-sample registration: what `quantify` adds to its grid.
 #[divan::bench]
 fn detect_3000_samples(bencher: divan::Bencher) {
     bench_on(bencher, 3000, detect);

@@ -224,12 +224,13 @@ pub fn detect_with(reg: &Registration<'_>, model: &Model) -> Detection {
 }
 
 /// A conclusive verdict stands only when no part of the record says the opposite: its first
-/// half, its second half, and every second sample (at twice the sampling time), each judged
-/// on its own (tests and score, as [`combine`] judges a record). A part may be `inconclusive`
-/// (less data); a part that says `no-stiction` of a record called `stiction`, or the reverse,
-/// makes the verdict `inconclusive` with the reason. So a record exported in part (either
-/// half, every second row) never gets the opposite verdict of the whole: the part's own
-/// verdict is one of those checked here.
+/// half, its second half, every second sample and the means of each two samples (both at
+/// twice the sampling time), each judged on its own (tests and score, as [`combine`] judges a
+/// record). A part may be `inconclusive` (less data); a part that says `no-stiction` of a
+/// record called `stiction`, or the reverse, makes the verdict `inconclusive` with the reason.
+/// So a record exported in part (either half, every second row, averaged over each two rows)
+/// never gets the opposite verdict of the whole: the part's own verdict is one of those
+/// checked here.
 pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection {
     match d.verdict {
         Verdict::Inconclusive => d,
@@ -240,7 +241,7 @@ pub fn settle(reg: &Registration<'_>, model: &Model, d: Detection) -> Detection 
 
 /// The parts of a record [`settle`] judges, each with what [`combine`] judges it on (`None`:
 /// the part cannot be built, e.g. too short for a registration).
-pub fn parts(reg: &Registration<'_>) -> [(&'static str, Option<Evidence>); 3] {
+pub fn parts(reg: &Registration<'_>) -> [(&'static str, Option<Evidence>); 4] {
     parts::Part::of(reg).map(|p| {
         let e = p.registration(reg).map(|r| Evidence::of(&r, run_all(&r)));
         (p.what, e)

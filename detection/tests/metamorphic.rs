@@ -1,5 +1,6 @@
 //! The same verdict however the record was exported: the first half of the rows, the second
-//! half, every second row, the file renamed without its tag letters, PV and SP in other units
+//! half, every second row, the means of each two rows (an average retrieval at twice the
+//! interval), the file renamed without its tag letters, PV and SP in other units
 //! (scaled and offset), OP as a fraction of travel. Each variant is written as CSV and read as
 //! `stiction detect` reads it (the reader's units detection included) and judged as
 //! `stiction detect --integrating auto` judges it (`monitoring::detect_file`: the loop kind
@@ -44,6 +45,16 @@ fn variants(r: &Record) -> Vec<(&'static str, Record)> {
         .chars()
         .filter(|c| !c.is_ascii_alphabetic())
         .collect();
+    let means =
+        |x: &[f64]| -> Vec<f64> { x.chunks_exact(2).map(|c| 0.5 * (c[0] + c[1])).collect() };
+    let averaged = Record {
+        name: r.name.clone(),
+        // each mean stamped at the end of its interval, as a historian stamps an average
+        t: r.t.chunks_exact(2).map(|c| c[1]).collect(),
+        sp: r.sp.as_deref().map(means),
+        pv: means(&r.pv),
+        op: means(&r.op),
+    };
     vec![
         (
             "first half",
@@ -57,6 +68,7 @@ fn variants(r: &Record) -> Vec<(&'static str, Record)> {
             "every second row",
             pick((0..n).step_by(2).collect(), (1.0, 0.0), 1.0, r.name.clone()),
         ),
+        ("the means of each two rows", averaged),
         (
             "renamed without tag letters",
             pick(all.clone(), (1.0, 0.0), 1.0, format!("record{bare}")),
@@ -242,7 +254,7 @@ fn the_verdict_does_not_flip_with_the_export_on_simulated_loops() {
         })
         .collect();
     let (flipped, unread, runs) = flips(&records);
-    assert_eq!(runs, 24 * 6);
+    assert_eq!(runs, 24 * 7);
     assert_eq!(unread, 0);
     assert_eq!(flipped, 0);
 }
@@ -269,7 +281,7 @@ fn the_verdict_does_not_flip_with_the_export_on_the_plant_data() {
         });
     }
     let (flipped, unread, runs) = flips(&records);
-    assert_eq!(runs, records.len() * 6);
+    assert_eq!(runs, records.len() * 7);
     assert_eq!(unread, 0);
     assert_eq!(flipped, 0);
 }

@@ -619,7 +619,7 @@ const MIN_GAIN: f64 = 0.02;
 /// and leaving at least [`MIN_GAIN`] of the loops fewer inconclusive; 0.5/0.5 when none is.
 fn thresholds(cases: &[&&Case], model: &Model) -> Result<(f64, f64, f64)> {
     // What the rule judges, computed once per loop: the whole record's evidence and its parts'.
-    type Cached = (Evidence, [(&'static str, Option<Evidence>); 3], bool);
+    type Cached = (Evidence, [(&'static str, Option<Evidence>); 4], bool);
     let cached: Vec<Cached> = cases
         .par_iter()
         .map(|c| {

@@ -26,11 +26,16 @@ pub(super) struct Part {
 }
 
 impl Part {
-    /// The first half, the second half and every second sample (at twice the sampling time).
-    pub(super) fn of(reg: &Registration<'_>) -> [Part; 3] {
+    /// The first half, the second half, every second sample (at twice the sampling time) and
+    /// the means of each two samples (at twice the sampling time: a historian's average
+    /// retrieval at twice the interval; averaging a band's slips away is what an averaged
+    /// export does to the evidence, and it flipped records that every second sample did not).
+    pub(super) fn of(reg: &Registration<'_>) -> [Part; 4] {
         let n = reg.len();
         let h = n / 2;
         let every_second = |x: &[f64]| -> Vec<f64> { x.iter().step_by(2).copied().collect() };
+        let pair_means =
+            |x: &[f64]| -> Vec<f64> { x.chunks_exact(2).map(|c| 0.5 * (c[0] + c[1])).collect() };
         let ts = reg.sample_time();
         let slice = |what, r: std::ops::Range<usize>| Part {
             what,
@@ -47,6 +52,13 @@ impl Part {
                 pv: every_second(reg.pv()),
                 op: every_second(reg.op()),
                 sp: reg.sp().map(every_second),
+                ts: 2.0 * ts,
+            },
+            Part {
+                what: "the means of each two samples",
+                pv: pair_means(reg.pv()),
+                op: pair_means(reg.op()),
+                sp: reg.sp().map(pair_means),
                 ts: 2.0 * ts,
             },
         ]

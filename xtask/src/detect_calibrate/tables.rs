@@ -27,10 +27,15 @@ fn why_inconclusive(reason: &str) -> String {
     if !reason.contains("the two readings disagree") {
         if let Some(at) = reason.find(" alone says ") {
             let head = &reason[..at];
-            let part = ["its first half", "its second half", "every second sample"]
-                .into_iter()
-                .find(|p| head.ends_with(p))
-                .unwrap_or("a part");
+            let part = [
+                "its first half",
+                "its second half",
+                "every second sample",
+                "the means of each two samples",
+            ]
+            .into_iter()
+            .find(|p| head.ends_with(p))
+            .unwrap_or("a part");
             let says = reason[at + " alone says ".len()..]
                 .split(':')
                 .next()
