@@ -145,7 +145,7 @@ impl Target {
         let n = y.len();
         let mut raw: Vec<Vec<f64>> = vec![vec![1.0; n]];
         for &w in omegas {
-            let (s, c): (Vec<f64>, Vec<f64>) = (0..n).map(|t| (w * t as f64).sin_cos()).unzip();
+            let (s, c) = crate::signal::sin_cos_series(w, n);
             raw.push(s);
             raw.push(c);
         }

@@ -120,7 +120,7 @@ pub const INTERCEPT: f64 = 0.4519;
 /// at 0 (on the training population: `d2_kurtosis` and `ngi`; their tests still report their
 /// own verdicts).
 pub const WEIGHTS: [f64; 8] = [
-    0.6515, 0.0000, 4.3108, 0.0000, 0.8003, 0.9867, 4.4720, 1.4823,
+    0.6508, 0.0000, 4.3079, 0.0000, 0.8003, 0.9896, 4.4719, 1.4824,
 ];
 
 /// Score at or above which the verdict may be `stiction`: with [`NO_STICTION_AT`], the pair

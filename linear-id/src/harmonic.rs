@@ -331,7 +331,8 @@ pub fn fft(x: &mut [(f64, f64)], twiddles: Twiddles) {
     }
 }
 
-/// `|Σ r_t e^(iωt)|²` by the direct sums.
+/// `|Σ r_t e^(iωt)|²` by the direct sums: the reference of [`goertzel_power`].
+#[cfg(test)]
 fn direct_power(r: &[f64], w: f64) -> f64 {
     let (mut a, mut b) = (0.0, 0.0);
     for (t, v) in r.iter().enumerate() {
@@ -342,10 +343,11 @@ fn direct_power(r: &[f64], w: f64) -> f64 {
     a * a + b * b
 }
 
-/// `|Σ r_t e^(iωt)|²` by Goertzel's recursion: [`direct_power`] to a relative ~1e-10 on the
-/// periodogram's grid, without a sine and cosine per sample. One frequency at a time: the
-/// reference of [`goertzel_powers`], which computes the grid.
-#[cfg(test)]
+/// `|Σ r_t e^(iωt)|²` by Goertzel's recursion: the direct sums to a relative ~1e-10 at any
+/// frequency (the magnitude formula holds off the Fourier grid too), without a sine and
+/// cosine per sample. One frequency at a time: [`dominant_frequency`]'s refinement (it was
+/// the direct sums, a sine and a cosine per sample at each of 15 frequencies: most of the
+/// detector's `sincos`), and the reference of [`goertzel_powers`], which computes the grid.
 fn goertzel_power(r: &[f64], w: f64) -> f64 {
     let c = 2.0 * w.cos();
     let (mut s1, mut s2) = (0.0f64, 0.0f64);
@@ -400,7 +402,7 @@ pub fn dominant_frequency(x: &[f64], min_period: f64, max_period: f64) -> Option
     let r: Vec<f64> = (0..n)
         .map(|t| x[t] - xm - slope * (t as f64 - tm))
         .collect();
-    let power = |w: f64| direct_power(&r, w);
+    let power = |w: f64| goertzel_power(&r, w);
     // period N / k within [min_period, max_period]
     let k0 = (nf / max_period).ceil().max(1.0) as usize;
     let k1 = (nf / min_period).floor() as usize;
@@ -528,6 +530,15 @@ mod tests {
             let (direct, fast) = (grid(direct_power), grid(goertzel_power));
             for (d, g) in direct.iter().zip(&fast) {
                 assert!((d - g).abs() <= 1e-8 * d.abs().max(1e-300), "{d} vs {g}");
+            }
+            // off the grid too (the refinement's frequencies)
+            for k in 2..=375 {
+                let w = (k as f64 + 0.37) * step;
+                let (d, g) = (direct_power(&x, w), goertzel_power(&x, w));
+                assert!(
+                    (d - g).abs() <= 1e-8 * d.abs().max(1e-300),
+                    "{d} vs {g} at {w}"
+                );
             }
             // the lanes (373 frequencies: a last chunk of five) are each frequency's bits
             let ws: Vec<f64> = (2..=375).map(|k| k as f64 * step).collect();

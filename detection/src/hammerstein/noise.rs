@@ -131,9 +131,13 @@ pub(super) fn noise_model(tg: &Target, u0: &[f64]) -> Vec<f64> {
         }
     };
     for &p in &POLES {
+        debug_assert!(start > MAX_DELAY);
+        // The lag at delay `d` is the lag at delay 1 shifted by `d − 1` samples (the same
+        // start-up values, the same recursion): one pass per pole serves every delay, bit
+        // for bit (`start` is past every delay's start-up).
+        lagged(&mut lag, p, 1);
         for d in 1..=MAX_DELAY + 1 {
-            lagged(&mut lag, p, d);
-            let x = &lag[start..];
+            let x = &lag[start + 1 - d..n + 1 - d];
             let sxx = dot(x, x) - basis.iter().map(|q| dot(q, x).powi(2)).sum::<f64>();
             let sxy = dot(x, ry);
             if sxx <= 0.0 || tg.sign * sxy < 0.0 {
