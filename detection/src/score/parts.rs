@@ -44,23 +44,19 @@ impl Part {
             sp: reg.sp().map(|s| s[r].to_vec()),
             ts,
         };
+        // a part at twice the sampling time, each series through `f`
+        let coarse = |what, f: &dyn Fn(&[f64]) -> Vec<f64>| Part {
+            what,
+            pv: f(reg.pv()),
+            op: f(reg.op()),
+            sp: reg.sp().map(f),
+            ts: 2.0 * ts,
+        };
         [
             slice("its first half", 0..h),
             slice("its second half", h..n),
-            Part {
-                what: "every second sample",
-                pv: every_second(reg.pv()),
-                op: every_second(reg.op()),
-                sp: reg.sp().map(every_second),
-                ts: 2.0 * ts,
-            },
-            Part {
-                what: "the means of each two samples",
-                pv: pair_means(reg.pv()),
-                op: pair_means(reg.op()),
-                sp: reg.sp().map(pair_means),
-                ts: 2.0 * ts,
-            },
+            coarse("every second sample", &every_second),
+            coarse("the means of each two samples", &pair_means),
         ]
     }
 
