@@ -145,7 +145,7 @@ impl Target {
         let n = y.len();
         let mut raw: Vec<Vec<f64>> = vec![vec![1.0; n]];
         for &w in omegas {
-            let (s, c) = crate::signal::sin_cos_series(w, n);
+            let (s, c): (Vec<f64>, Vec<f64>) = crate::signal::sin_cos_series(w, n).unzip();
             raw.push(s);
             raw.push(c);
         }

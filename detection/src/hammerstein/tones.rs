@@ -36,9 +36,8 @@ pub(super) fn second_frequency(op: &[f64], omegas: &[f64]) -> Option<f64> {
         (w - v).abs() <= 2.0 * resolution || (k >= 2.0 && (w / v - k).abs() <= 0.1)
     });
     // Enough power: the residual's share at w (a pair's projection) at least 15 %.
-    let (sines, cosines) = crate::signal::sin_cos_series(w, n);
     let (mut a, mut b) = (0.0, 0.0);
-    for ((v, sn), cs) in tg.ry.iter().zip(&sines).zip(&cosines) {
+    for (v, (sn, cs)) in tg.ry.iter().zip(crate::signal::sin_cos_series(w, n)) {
         a += v * cs;
         b += v * sn;
     }
