@@ -306,7 +306,7 @@ fn oe_rss_fixed<F: FirstPass, const L: usize, const NR: usize>(
             nb: nb[l],
             full: lane_full,
         };
-        *o = oe_variants(tg, &sums, &|t| x[t][l]);
+        *o = oe_variants(tg, &sums, |t| x[t][l]);
     }
     out
 }
@@ -320,25 +320,29 @@ struct PassSums {
 }
 
 /// Every delay variant's residual from one input's pass sums and its lagged input `x`.
-fn oe_variants(tg: &Target, sums: &PassSums, x: &dyn Fn(usize) -> f64) -> [f64; VARIANTS] {
+///
+/// Generic in `x`: inlined, not called through a pointer at each of the window's end terms.
+#[inline(always)]
+fn oe_variants(tg: &Target, sums: &PassSums, x: impl Fn(usize) -> f64) -> [f64; VARIANTS] {
     let n = tg.ry.len();
     let start = tg.start;
     let nr = tg.raw.len();
     let (a, sq, nb, full) = (&sums.a, sums.sq, sums.nb, &sums.full);
     // Window sums of f(τ) for shift s: the full sum less the ends outside the window.
-    let window = |total: f64, s: usize, f: &dyn Fn(usize) -> f64| -> f64 {
-        total - (1..start - s).map(f).sum::<f64>() - (n - s..n).map(f).sum::<f64>()
-    };
+    #[inline(always)]
+    fn window(n: usize, start: usize, total: f64, s: usize, f: impl Fn(usize) -> f64) -> f64 {
+        total - (1..start - s).map(&f).sum::<f64>() - (n - s..n).map(&f).sum::<f64>()
+    }
     let mut q = [0.0; SHIFTS];
     let mut l = [0.0; SHIFTS];
     // r[s][j] = Σ_{t ≥ start} x(t−s)·raw_j(t), from the window sums of x(τ)·raw_j(τ).
     let mut r = [[0.0; MAX_BASIS]; SHIFTS];
     for s in 0..SHIFTS {
-        q[s] = window(sq, s, &|t| x(t) * x(t));
-        l[s] = window(nb, s, &|t| x(t) * x(t - 1));
+        q[s] = window(n, start, sq, s, |t| x(t) * x(t));
+        l[s] = window(n, start, nb, s, |t| x(t) * x(t - 1));
         let mut w = [0.0; MAX_BASIS];
         for j in 0..nr {
-            w[j] = window(full[j], s, &|t| x(t) * tg.raw[j][t]);
+            w[j] = window(n, start, full[j], s, |t| x(t) * tg.raw[j][t]);
         }
         r[s][0] = w[0];
         for (i, rot) in tg.rotations.iter().enumerate() {

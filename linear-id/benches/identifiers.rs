@@ -53,3 +53,23 @@ fn predict_one_step<const N: usize>(bencher: Bencher, name: &str) {
             .expect("predict")
     });
 }
+
+/// OP's dominant frequency as the detector asks for it (periods of 8 samples to a quarter of
+/// the record) on a sine with noise: the Goertzel grid and the golden refinement
+/// (`linear_id::dominant_frequency`; the lane count of its grid was chosen here).
+#[divan::bench(consts = [1500, 3000])]
+fn dominant_frequency<const N: usize>(bencher: Bencher) {
+    let (u, _) = data(N);
+    let x: Vec<f64> = u
+        .iter()
+        .enumerate()
+        .map(|(t, v)| (t as f64 * 0.05).sin() + 0.1 * v)
+        .collect();
+    bencher.bench_local(|| {
+        black_box(linear_id::dominant_frequency(
+            black_box(&x),
+            8.0,
+            N as f64 / 4.0,
+        ))
+    });
+}
