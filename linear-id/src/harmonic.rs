@@ -359,10 +359,10 @@ fn goertzel_power(r: &[f64], w: f64) -> f64 {
     (s1 * s1 + s2 * s2 - c * s1 * s2).max(0.0)
 }
 
-/// Goertzel's `|Σ r_t e^(iωt)|²` at every frequency of `ws`, [`GOERTZEL_LANES`] side by side in one pass over `r`:
-/// each frequency's recursion is a chain of dependent operations that leaves the core's units
-/// idle, which the other lanes fill. Each lane performs the one-frequency recursion's
-/// operations in its order, so the powers are the same bits (test
+/// Goertzel's `|Σ r_t e^(iωt)|²` at every frequency of `ws`, [`GOERTZEL_LANES`] side by side in
+/// one pass over `r`: each frequency's recursion is a chain of dependent operations that leaves
+/// the core's units idle, which the other lanes fill. Each lane performs the one-frequency
+/// recursion's operations in its order, so the powers are the same bits (test
 /// `goertzel_grid_peaks_where_the_direct_sums_do`).
 fn goertzel_powers(r: &[f64], ws: &[f64]) -> Vec<f64> {
     let mut out = Vec::with_capacity(ws.len());
@@ -374,13 +374,14 @@ fn goertzel_powers(r: &[f64], ws: &[f64]) -> Vec<f64> {
 
 /// Frequencies [`goertzel_powers`] runs side by side: six AVX registers of recursions, each a
 /// chain of dependent operations, keep the core's units busy. Measured per
-/// [`dominant_frequency`] on a 3000-sample record (`cargo bench -p linear-id --bench identifiers dominant_frequency`,
-/// this machine, one run): 16 lanes 234 µs, 20 lanes 199 µs, 24 lanes 174 µs, 28 lanes 467 µs
-/// and 32 lanes 302 µs (their sums no longer fit the sixteen vector registers).
+/// [`dominant_frequency`] on a 3000-sample record (`cargo bench -p linear-id --bench
+/// identifiers dominant_frequency`, this machine, one run): 16 lanes 234 µs, 20 lanes 199 µs,
+/// 24 lanes 174 µs, 28 lanes 467 µs and 32 lanes 302 µs (their sums no longer fit the sixteen
+/// vector registers).
 const GOERTZEL_LANES: usize = 24;
 
 /// One chunk of [`goertzel_powers`]: up to [`GOERTZEL_LANES`] frequencies, one per lane (the
-/// lanes past `ws` run at frequency 0 and are dropped).
+/// lanes past `ws` run with `2 cos ω = 0` and are dropped).
 struct GoertzelLanes<'a> {
     r: &'a [f64],
     ws: &'a [f64],
