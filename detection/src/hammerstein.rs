@@ -565,6 +565,12 @@ pub struct Comparison {
     pub lr_arx: f64,
     /// The S of the best sticky valve one step ahead.
     pub s_arx: f64,
+    /// The share of the output's residual variance (after the nuisance regressors, through
+    /// the noise model) that the free valve explains, `1 − RSS₀/RSS_y`: near 0 when OP's
+    /// moves do not reach PV through a linear valve (a valve that is stuck, or moves only in
+    /// slips), near 1 when they explain it. Not part of the score; kept for calibration
+    /// (`cargo xtask detect-calibrate --cases`, column `hammerstein_free_share`).
+    pub free_share: f64,
     /// The largest S of the grid still in the output-error likelihood region: its best valve
     /// (over J and the two starts) within [`REGION_LR`] of the best model, free or sticky.
     /// Below 1 (% of span, the size that already hurts) the data exclude a harmful stiction
@@ -739,6 +745,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
         reduction: 1.0 - 1.0 / ratio,
         lr_arx: arx_tg.rows() as f64 * (arx0 / arx1.0).max(1.0).ln(),
         s_arx: arx1.1,
+        free_share: (1.0 - oe0 / tg.yy).max(0.0),
     })
 }
 
@@ -895,6 +902,7 @@ impl DetectionTest for Hammerstein {
                 ("S_upper", c.s_upper),
                 ("S_lower", c.s_lower),
                 ("S_above", c.s_above),
+                ("free_share", c.free_share),
             ];
             return Ok(out);
         }
@@ -932,6 +940,7 @@ impl DetectionTest for Hammerstein {
             ("S_above", c.s_above),
             ("rows", c.rows as f64),
             ("rate_filter", rate_filter),
+            ("free_share", c.free_share),
         ];
         Ok(out)
     }

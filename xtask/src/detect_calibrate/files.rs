@@ -18,7 +18,7 @@ pub(super) fn write_cases(
         text.push_str(&format!(",{n},{n}_verdict"));
     }
     text.push_str(
-        ",hammerstein_lr_arx,hammerstein_S,hammerstein_delay,hammerstein_S_upper,hammerstein_J,hammerstein_S_arx,hammerstein_S_lower,stick_slip_window,oracle_lr,pv_straight_share\n",
+        ",hammerstein_lr_arx,hammerstein_S,hammerstein_delay,hammerstein_S_upper,hammerstein_J,hammerstein_S_arx,hammerstein_S_lower,hammerstein_free_share,stick_slip_window,oracle_lr,pv_straight_share\n",
     );
     for (set, cases) in train.iter().chain(valid) {
         for c in cases {
@@ -46,7 +46,16 @@ pub(super) fn write_cases(
                 text.push_str(&format!(",{stat},{verdict}"));
             }
             let h = c.outcomes.iter().find(|o| o.name == "hammerstein");
-            for key in ["lr_arx", "S", "delay", "S_upper", "J", "S_arx", "S_lower"] {
+            for key in [
+                "lr_arx",
+                "S",
+                "delay",
+                "S_upper",
+                "J",
+                "S_arx",
+                "S_lower",
+                "free_share",
+            ] {
                 let v = h
                     .and_then(|o| o.values.iter().find(|(k, _)| *k == key))
                     .map_or(String::new(), |(_, v)| format!("{v:.4}"));
