@@ -568,8 +568,8 @@ pub struct Comparison {
     /// The share of the output's residual variance (after the nuisance regressors, through
     /// the noise model) that the free valve explains, `1 − RSS₀/RSS_y`: near 0 when OP's
     /// moves do not reach PV through a linear valve (a valve that is stuck, or moves only in
-    /// slips), near 1 when they explain it. Not part of the score; kept for calibration
-    /// (`cargo xtask detect-calibrate --cases`, column `hammerstein_free_share`).
+    /// slips), near 1 when they explain it. The test reports it (value `free_share`) where
+    /// the score reads it ([`reads_free_share`]).
     pub free_share: f64,
     /// The largest S of the grid still in the output-error likelihood region: its best valve
     /// (over J and the two starts) within [`REGION_LR`] of the best model, free or sticky.
@@ -582,6 +582,18 @@ pub struct Comparison {
     /// Above the region: the grid's node just above [`Comparison::s_upper`] (itself at the
     /// grid's top).
     pub s_above: f64,
+}
+
+/// Whether the test reports the free valve's explained share ([`Comparison::free_share`],
+/// value `free_share`) on `reg`, which the score reads as evidence against stiction: on a
+/// self-regulating loop, where the output is PV. On the integrating path the output is the
+/// level's rate through its noise filter, which the free valve explains little of whatever the
+/// valve does: read there too, the share lowered the score's AUC on the integrating loops of
+/// the training population's cross-validation (`docs/decisions/2026-11-30-free-share.md`).
+/// Nor is it reported where the test gives no statistic (an optimum on the grid's edge is no
+/// evidence either way).
+pub fn reads_free_share(reg: &Registration<'_>) -> bool {
+    !reg.is_integrating()
 }
 
 /// The sign of the process gain (OP up, PV up: `+1`), from the controller's own answer: a PI
@@ -902,7 +914,6 @@ impl DetectionTest for Hammerstein {
                 ("S_upper", c.s_upper),
                 ("S_lower", c.s_lower),
                 ("S_above", c.s_above),
-                ("free_share", c.free_share),
             ];
             return Ok(out);
         }
@@ -940,8 +951,10 @@ impl DetectionTest for Hammerstein {
             ("S_above", c.s_above),
             ("rows", c.rows as f64),
             ("rate_filter", rate_filter),
-            ("free_share", c.free_share),
         ];
+        if reads_free_share(reg) {
+            out.values.push(("free_share", c.free_share));
+        }
         Ok(out)
     }
 }

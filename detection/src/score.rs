@@ -3,7 +3,9 @@
 //!
 //! The rule is a logistic model, `score = σ(b + Σ wᵢ xᵢ)`, on the few [`FEATURES`] below: each
 //! is one test's statistic, centred so that 0 means "no information" (a test that could not
-//! judge the registration, or does not apply to its loop kind, contributes 0). The
+//! judge the registration, or does not apply to its loop kind, contributes 0); one,
+//! `free_explains`, is evidence in one direction only (a free valve that explains PV speaks
+//! against stiction; one that explains nothing, or a share not read, contributes 0). The
 //! coefficients [`INTERCEPT`] and [`WEIGHTS`] were fitted by `cargo xtask detect-calibrate`
 //! (ridge-penalised logistic regression, [`crate::logistic`]) on a simulated training
 //! population only (`datasets::simulate::population`) and measured on validation populations
@@ -54,7 +56,7 @@ fn per_rows(o: &TestOutcome, lr: f64) -> Option<f64> {
 /// them: a regular oscillation is a condition of the `stiction` verdict (or stick-slip), not
 /// evidence for it — healthy loops oscillate too (external disturbances, tuning), and on the
 /// plant data the sticky valve's records are the irregular ones.
-pub const FEATURES: [Feature; 8] = [
+pub const FEATURES: [Feature; 9] = [
     Feature {
         name: "odd_share",
         test: "horch-xcorr",
@@ -107,20 +109,27 @@ pub const FEATURES: [Feature; 8] = [
                 .map(|lr| ((1.0 + lr).ln() / 100f64.ln() - 0.5).max(0.0))
         },
     },
+    Feature {
+        name: "free_explains",
+        test: "hammerstein",
+        meaning: "− the share of PV's residual variance a free valve explains (self-regulating loops): evidence against stiction only",
+        extract: |o| o.value("free_share").map(|s| -s.clamp(0.0, 1.0)),
+    },
 ];
 
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (the training
 /// population of `datasets::simulate::population`, 960 loops, seed 1, ridge 0.1, every weight
 /// at least 0; no plant registration in the fit).
-pub const INTERCEPT: f64 = 0.4519;
+pub const INTERCEPT: f64 = 0.8660;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]). Each
 /// feature is centred so that a positive value is its test's evidence for stiction, and the
 /// fit keeps every weight at least 0 ([`crate::logistic::fit_nonnegative`]): a feature whose
 /// weight would come out negative reads its test against the test's own physics, and is left
 /// at 0 (on the training population: `d2_kurtosis` and `ngi`; their tests still report their
-/// own verdicts).
-pub const WEIGHTS: [f64; 8] = [
-    0.6508, 0.0000, 4.3079, 0.0000, 0.8003, 0.9896, 4.4719, 1.4824,
+/// own verdicts). `free_explains` is the free valve's explained share negated, so its weight
+/// too is at least 0.
+pub const WEIGHTS: [f64; 9] = [
+    0.2409, 0.0000, 3.9050, 0.0000, 0.5378, 0.9215, 4.8919, 1.4269, 3.0256,
 ];
 
 /// Score at or above which the verdict may be `stiction`: with [`NO_STICTION_AT`], the pair

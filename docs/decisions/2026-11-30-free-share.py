@@ -9,6 +9,11 @@ AUC (mean over three fold seeds) and the validation AUC overall and per decided 
 (validation rows never fitted on), over the loops that can be judged, every sticky loop sticky.
 
 Usage: python3 2026-11-30-free-share.py CASES.csv   (needs numpy, pandas, scipy, scikit-learn)
+
+Since the feature is in the score (`free_explains`), the column is empty on integrating loops
+and on an optimum at the grid's edge, where the score does not read it: the "every record"
+variant needs a cases file written by commit 75a2a60, and the shipped features here then leave
+out `free_explains` (they are the features before it).
 """
 import sys
 

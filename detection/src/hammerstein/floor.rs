@@ -83,6 +83,9 @@ pub struct Floor {
     pub lr_arx: f64,
     /// The test's regression rows (its `rows`).
     pub rows: usize,
+    /// The test's own `free_share` (the free valve's fit is the test's, bit for bit), where
+    /// it reports one ([`super::reads_free_share`]).
+    pub free_share: Option<f64>,
     /// Whether OP's range reaches the grid's largest band, where a best valve makes the test
     /// give no statistic at all (an optimum on the grid's edge).
     pub edge: bool,
@@ -156,6 +159,7 @@ pub fn floor(
         lr: rows as f64 * (oe0 / oe1).max(1.0).ln(),
         lr_arx: arx_tg.rows() as f64 * (arx0 / arx1).max(1.0).ln(),
         rows,
+        free_share: super::reads_free_share(reg).then(|| (1.0 - oe0 / tg.yy).max(0.0)),
         edge: range >= LARGEST_S,
     }))
 }

@@ -4,10 +4,11 @@
 //!
 //! A part contradicts a `stiction` verdict only by saying `no-stiction`, which needs its
 //! score at most [`Model::no_stiction_at`]. Every input of the score but the Hammerstein
-//! test's is computed; the Hammerstein test's two features grow with its likelihood ratios
-//! (weights at least 0), and [`crate::hammerstein::floor`] bounds those from below with the
-//! free valve and the whole record's best valve alone (one pass of the test's lanes instead
-//! of the grid's dozen or more). When the score with the floor's features is above the
+//! test's is computed; the Hammerstein test's two likelihood features grow with its
+//! likelihood ratios (weights at least 0), and [`crate::hammerstein::floor`] bounds those
+//! from below with the free valve and the whole record's best valve alone (one pass of the
+//! test's lanes instead of the grid's dozen or more); its third, the free valve's explained
+//! share, the floor gives exactly (the free valve's fit is the test's own). When the score with the floor's features is above the
 //! threshold, the part cannot say `no-stiction` and its Hammerstein test is not run; else it
 //! is, and the part is judged as [`super::parts`] judges it. The verdict is the one
 //! [`super::settle_on`] gives on [`super::parts`] (tests `the_fast_parts_check_is_the_full_one`
@@ -156,6 +157,8 @@ fn cannot_say_no_stiction(
     };
     let mut floor = TestOutcome::new("hammerstein", Some(f.lr), Verdict::Inconclusive, "");
     floor.values = vec![("lr_arx", f.lr_arx), ("rows", f.rows as f64)];
+    // the test's own share, exact: its feature is the same at the floor as in the test
+    floor.values.extend(f.free_share.map(|s| ("free_share", s)));
     let mut with = tests.to_vec();
     with.push(floor);
     let mut x = features(&with);
