@@ -424,7 +424,8 @@ fn the_rate_filter_undoes_the_difference_of_the_transmitter_noise_only() {
 
 /// [`floor`]: over the free valve and the grid's best valves it is the test's own ratios (the
 /// minimum over a subset that holds the argmin is the minimum), and over any other valve of
-/// the grid at most them; integrating (the filtered rate) and self-regulating alike.
+/// the grid at most them; integrating (the filtered rate) and self-regulating alike. Its
+/// `free_share` is the test's own.
 #[test]
 fn a_floor_from_some_valves_is_at_most_the_test_and_the_best_valve_gives_it() {
     for (sticky, integrating) in [(true, false), (false, false), (true, true)] {
@@ -458,6 +459,14 @@ fn a_floor_from_some_valves_is_at_most_the_test_and_the_best_valve_gives_it() {
         );
         assert_eq!(floor(&reg, &[best]).unwrap().unwrap().lr, lr);
         assert_eq!(f.rows as f64, out.value("rows").unwrap());
+        // the free valve's explained share is the test's own, bit for bit, where the test
+        // reports one (self-regulating loops), from any valves
+        assert_eq!(f.free_share, out.value("free_share"));
+        assert_eq!(f.free_share.is_some(), !integrating);
+        assert_eq!(
+            floor(&reg, &[best]).unwrap().unwrap().free_share,
+            f.free_share
+        );
         assert!(!f.edge, "OP spans 10, below the grid's top");
         let mut below = 0;
         for &s in S_GRID.iter().filter(|&&s| s <= 10.0) {
@@ -593,4 +602,32 @@ fn the_oracle_reads_a_level_through_the_rate_filter_as_the_test_does() {
     assert!(filtered > 2.0 * REGION_LR, "filtered rate: {filtered}");
     // a free valve shows nothing either way
     assert!(oracle_lr_integrating(&pv, &op, &op).unwrap() < 1e-9);
+}
+
+/// The free valve's explained share (`free_share`) on the test's own process: near 1 through
+/// a free valve, well below through a valve that is stuck over most of OP's swing; reported
+/// on a self-regulating loop only (the score reads it there).
+#[test]
+fn the_free_valve_explains_a_free_valves_record_and_not_a_stuck_ones() {
+    let share = |s: f64, j: f64, integrating: bool| {
+        let (_, op) = process(false);
+        let valve = Kano::params().s(s).j(j).check().unwrap();
+        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
+        let e = noise(op.len(), 0.05, 3);
+        let mut y = vec![0.0; op.len()];
+        for t in 1..op.len() {
+            y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + e[t];
+        }
+        let reg = Registration::new(&y, &op, 1.0)
+            .unwrap()
+            .integrating(integrating);
+        Hammerstein.run(&reg).unwrap().value("free_share")
+    };
+    let free = share(0.0, 0.0, false).unwrap();
+    let stuck = share(8.0, 0.0, false).unwrap();
+    println!("free valve {free:.3}, stuck valve {stuck:.3}");
+    // measured: 0.898 and 0.159
+    assert!(free > 0.8, "{free}");
+    assert!(stuck < 0.5 * free, "{stuck} against {free}");
+    assert_eq!(share(0.0, 0.0, true), None);
 }

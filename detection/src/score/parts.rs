@@ -155,12 +155,8 @@ fn cannot_say_no_stiction(
     let Ok(Some(f)) = hammerstein::floor(r, hint) else {
         return false;
     };
-    let mut floor = TestOutcome::new("hammerstein", Some(f.lr), Verdict::Inconclusive, "");
-    floor.values = vec![("lr_arx", f.lr_arx), ("rows", f.rows as f64)];
-    // the test's own share, exact: its feature is the same at the floor as in the test
-    floor.values.extend(f.free_share.map(|s| ("free_share", s)));
     let mut with = tests.to_vec();
-    with.push(floor);
+    with.push(floor_outcome(&f));
     let mut x = features(&with);
     let lift: f64 = hammer_features
         .iter()
@@ -174,4 +170,66 @@ fn cannot_say_no_stiction(
     }
     // a margin far above the rounding of the score's sum
     model.score(&x) > model.no_stiction_at + 1e-9
+}
+
+/// The Hammerstein outcome the score reads at a floor: its likelihood ratios at their floors,
+/// and the test's own explained share (exact: its feature is the same at the floor as in the
+/// test).
+fn floor_outcome(f: &hammerstein::Floor) -> TestOutcome {
+    let mut floor = TestOutcome::new("hammerstein", Some(f.lr), Verdict::Inconclusive, "");
+    floor.values = vec![("lr_arx", f.lr_arx), ("rows", f.rows as f64)];
+    floor.values.extend(f.free_share.map(|s| ("free_share", s)));
+    floor
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{noise, triangle};
+    use stiction_models::{InitialState, Kano, StictionModel};
+
+    /// OP a triangle of span 10 through a Kano valve `(s, j)` into a first-order process with
+    /// noise: `(PV, OP)`.
+    fn simulated_loop(s: f64, j: f64) -> (Vec<f64>, Vec<f64>) {
+        let op: Vec<f64> = triangle(800, 200.0).iter().map(|v| 5.0 * v).collect();
+        let valve = Kano::params().s(s).j(j).check().unwrap();
+        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
+        let e = noise(op.len(), 0.05, 3);
+        let mut pv = vec![0.0; op.len()];
+        for t in 1..op.len() {
+            pv[t] = 0.6 * pv[t - 1] + 0.4 * mv[t - 1] + e[t];
+        }
+        (pv, op)
+    }
+
+    /// Every Hammerstein feature of the score at the floor from the record's best valve is
+    /// the test's own: the likelihood features because that floor is the test's ratios, the
+    /// explained share because the floor carries the test's own.
+    #[test]
+    fn the_floor_outcome_gives_the_tests_own_features() {
+        for (s, j) in [(3.0, 1.0), (0.0, 0.0)] {
+            let (pv, op) = simulated_loop(s, j);
+            let r = Registration::new(&pv, &op, 1.0).unwrap();
+            let out = run_entry(
+                registry().iter().find(|e| e.name == "hammerstein").unwrap(),
+                &r,
+            );
+            let best = (out.value("S").unwrap(), out.value("J").unwrap());
+            let f = hammerstein::floor(&r, &[best]).unwrap().unwrap();
+            let (at_floor, full) = (features(&[floor_outcome(&f)]), features(&[out]));
+            for (i, feature) in FEATURES.iter().enumerate() {
+                if feature.name == "hammerstein_oe" || feature.name == "free_explains" {
+                    assert_eq!(at_floor[i], full[i], "S = {s}: {}", feature.name);
+                }
+            }
+            let free = FEATURES
+                .iter()
+                .position(|f| f.name == "free_explains")
+                .unwrap();
+            assert!(
+                full[free] < 0.0,
+                "S = {s}: the free valve explains some of PV"
+            );
+        }
+    }
 }
