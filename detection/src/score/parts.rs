@@ -8,9 +8,10 @@
 //! likelihood ratios (weights at least 0), and [`crate::hammerstein::floor`] bounds those
 //! from below with the free valve and the whole record's best valve alone (one pass of the
 //! test's lanes instead of the grid's dozen or more); its third, the free valve's explained
-//! share, the floor gives exactly (the free valve's fit is the test's own). When the score with the floor's features is above the
-//! threshold, the part cannot say `no-stiction` and its Hammerstein test is not run; else it
-//! is, and the part is judged as [`super::parts`] judges it. The verdict is the one
+//! share, the floor gives exactly (the free valve's fit is the test's own). When the score
+//! with the floor's features is above the threshold, the part cannot say `no-stiction` and
+//! its Hammerstein test is not run; else it is, and the part is judged as [`super::parts`]
+//! judges it. The verdict is the one
 //! [`super::settle_on`] gives on [`super::parts`] (tests `the_fast_parts_check_is_the_full_one`
 //! in `tests/population.rs`); a part's evidence itself is not reported.
 
