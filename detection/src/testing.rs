@@ -58,3 +58,24 @@ pub(crate) fn wandering(ts: f64, seed: u64) -> Vec<f64> {
     let white = noise(read.len(), 0.3, seed + 1);
     read.iter().zip(&white).map(|(s, w)| s + w).collect()
 }
+
+/// `op` through a Kano valve `(s, j)` (at rest at its default start) into the first-order
+/// process `y(t) = 0.6 y(t−1) + 0.4 MV(t−1) + e(t)`, `e` white of deviation 0.05 (seed 3):
+/// the process output.
+pub(crate) fn kano_first_order(op: &[f64], s: f64, j: f64) -> Vec<f64> {
+    use stiction_models::{InitialState, Kano, StictionModel};
+    let valve = Kano::params()
+        .s(s)
+        .j(j)
+        .check()
+        .expect("a valid Kano valve");
+    let mv = valve
+        .simulate(op, &InitialState::default())
+        .expect("the valve simulates OP");
+    let e = noise(op.len(), 0.05, 3);
+    let mut y = vec![0.0; op.len()];
+    for t in 1..op.len() {
+        y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + e[t];
+    }
+    y
+}

@@ -4,7 +4,7 @@
 
 use super::arx::{arx_all, arx_solve, ARX_START, NA, NB, P};
 use super::*;
-use crate::testing::noise;
+use crate::testing::{kano_first_order, noise};
 use nalgebra::{SMatrix, SVector};
 
 /// Residual sum of squares of `y(t)` on `[y(t−1), …, y(t−NA), u(t−1−d), …, u(t−NB−d), 1]`,
@@ -53,18 +53,8 @@ fn process(sticky: bool) -> (Vec<f64>, Vec<f64>) {
             }
         })
         .collect();
-    let valve = Kano::params()
-        .s(if sticky { 3.0 } else { 0.0 })
-        .j(if sticky { 1.0 } else { 0.0 })
-        .check()
-        .unwrap();
-    let mv = valve.simulate(&op, &InitialState::default()).unwrap();
-    let e = noise(n, 0.05, 3);
-    let mut y = vec![0.0; n];
-    for t in 1..n {
-        y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + e[t];
-    }
-    (y, op)
+    let (s, j) = if sticky { (3.0, 1.0) } else { (0.0, 0.0) };
+    (kano_first_order(&op, s, j), op)
 }
 
 /// The output-error residual of one delay variant, summed directly: the input (delayed by
@@ -611,13 +601,7 @@ fn the_oracle_reads_a_level_through_the_rate_filter_as_the_test_does() {
 fn the_free_valve_explains_a_free_valves_record_and_not_a_stuck_ones() {
     let share = |s: f64, j: f64, integrating: bool| {
         let (_, op) = process(false);
-        let valve = Kano::params().s(s).j(j).check().unwrap();
-        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
-        let e = noise(op.len(), 0.05, 3);
-        let mut y = vec![0.0; op.len()];
-        for t in 1..op.len() {
-            y[t] = 0.6 * y[t - 1] + 0.4 * mv[t - 1] + e[t];
-        }
+        let y = kano_first_order(&op, s, j);
         let reg = Registration::new(&y, &op, 1.0)
             .unwrap()
             .integrating(integrating);

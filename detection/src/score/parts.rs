@@ -186,21 +186,13 @@ fn floor_outcome(f: &hammerstein::Floor) -> TestOutcome {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::{noise, triangle};
-    use stiction_models::{InitialState, Kano, StictionModel};
+    use crate::testing::{kano_first_order, triangle};
 
     /// OP a triangle of span 10 through a Kano valve `(s, j)` into a first-order process with
     /// noise: `(PV, OP)`.
     fn simulated_loop(s: f64, j: f64) -> (Vec<f64>, Vec<f64>) {
         let op: Vec<f64> = triangle(800, 200.0).iter().map(|v| 5.0 * v).collect();
-        let valve = Kano::params().s(s).j(j).check().unwrap();
-        let mv = valve.simulate(&op, &InitialState::default()).unwrap();
-        let e = noise(op.len(), 0.05, 3);
-        let mut pv = vec![0.0; op.len()];
-        for t in 1..op.len() {
-            pv[t] = 0.6 * pv[t - 1] + 0.4 * mv[t - 1] + e[t];
-        }
-        (pv, op)
+        (kano_first_order(&op, s, j), op)
     }
 
     /// Every Hammerstein feature of the score at the floor from the record's best valve is
