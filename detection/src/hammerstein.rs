@@ -571,6 +571,11 @@ pub struct Comparison {
     /// slips), near 1 when they explain it. The test reports it (value `free_share`) where
     /// the score reads it ([`reads_free_share`]).
     pub free_share: f64,
+    /// `N ln(RSS_y / RSS₀)`: the likelihood ratio of the free valve against a valve that
+    /// never moves (its MV constant, which explains none of the output beyond the nuisance
+    /// regressors). Below [`REGION_LR`] a valve stuck over the whole record explains the
+    /// output as well as a free one: PV shows no answer to OP's moves.
+    pub lr_moving: f64,
     /// The largest S of the grid still in the output-error likelihood region: its best valve
     /// (over J and the two starts) within [`REGION_LR`] of the best model, free or sticky.
     /// Below 1 (% of span, the size that already hurts) the data exclude a harmful stiction
@@ -758,6 +763,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
         lr_arx: arx_tg.rows() as f64 * (arx0 / arx1.0).max(1.0).ln(),
         s_arx: arx1.1,
         free_share: (1.0 - oe0 / tg.yy).max(0.0),
+        lr_moving: rows as f64 * (tg.yy / oe0).max(1.0).ln(),
     })
 }
 
@@ -914,6 +920,7 @@ impl DetectionTest for Hammerstein {
                 ("S_upper", c.s_upper),
                 ("S_lower", c.s_lower),
                 ("S_above", c.s_above),
+                ("lr_moving", c.lr_moving),
             ];
             return Ok(out);
         }
@@ -951,6 +958,7 @@ impl DetectionTest for Hammerstein {
             ("S_above", c.s_above),
             ("rows", c.rows as f64),
             ("rate_filter", rate_filter),
+            ("lr_moving", c.lr_moving),
         ];
         if reads_free_share(reg) {
             out.values.push(("free_share", c.free_share));

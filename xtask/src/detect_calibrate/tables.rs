@@ -5,10 +5,14 @@ use super::*;
 
 /// Why a verdict is `inconclusive`, from its reason (the first rule of [`judge`] that made it so).
 fn why_inconclusive(reason: &str) -> String {
-    const RULES: [(&str, &str); 8] = [
+    const RULES: [(&str, &str); 9] = [
         (
             "the two readings disagree",
             "kind tie (the other loop kind's reading says the opposite)",
+        ),
+        (
+            "cannot rule out a stuck valve",
+            "a valve that moves little or not at all fits as well as a free valve",
         ),
         (
             "cannot rule out a stiction band",
