@@ -388,8 +388,9 @@ pub fn compression_caution(verdict: Verdict, pv: Option<datasets::Compression>) 
 /// The caution a `stiction` verdict carries on a PV held between updates every `k` samples
 /// ([`datasets::held`]): between two updates PV repeats itself exactly while OP moves, as PV
 /// does behind a stuck valve. On 60 loops of a simulator written apart from ours, PV held over
-/// 10 samples made 12 of 35 `stiction` verdicts free valves, against 4 of 22 on the live PV
-/// (docs/DETECTION.md, Failures). `None` for any other verdict or a live PV.
+/// 10 samples made 5 of 9 `stiction` verdicts free valves (at the held thresholds of
+/// [`crate::detect::hold_on_held_pv`]), against 1 of 21 on the live PV (docs/DETECTION.md,
+/// Failures). `None` for any other verdict or a live PV.
 pub fn held_caution(verdict: Verdict, held: Option<datasets::held::Held>) -> Option<String> {
     let h = held.filter(|_| verdict == Verdict::Stiction)?;
     Some(format!(

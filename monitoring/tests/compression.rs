@@ -105,23 +105,56 @@ fn only_a_stiction_verdict_on_a_compressed_pv_is_cautioned() {
     assert!(compression_caution(Verdict::Stiction, None).is_none());
 }
 
-/// A PV held between updates every 5 samples (an analyser's cycle) is found, and the
-/// detector's `stiction` on it carries the caution of [`monitoring::answer::held_caution`];
-/// the live PV of the same loop does not.
-#[test]
-fn a_stiction_verdict_on_a_held_pv_carries_a_caution() {
-    let caution = "caution: PV changes only every 5 samples";
-    let live = simulated(None).to_loop_data();
+/// PV of `sim` held between updates every 5 samples (an analyser's cycle).
+fn held_every_5(live: &datasets::LoopData) -> datasets::LoopData {
     let mut held = live.clone();
     let pv: Vec<f64> = live.pv.clone().expect("test data");
     held.pv = Some((0..pv.len()).map(|i| pv[i / 5 * 5]).collect());
-    let (a, plain) = answer_on(&live);
+    held
+}
+
+/// A PV held between updates every 5 samples is found, and the detector's `stiction` on it
+/// carries the caution of [`monitoring::answer::held_caution`] where the score reaches the
+/// held threshold (a valve of S = 8 with little noise); the live PV of the same loop does not.
+/// A sticky valve whose held record scores below that threshold (S = 4, J = 1, the live PV
+/// called `stiction`) is `inconclusive`, with the reason
+/// (`monitoring::detect::hold_on_held_pv`).
+#[test]
+fn a_stiction_verdict_on_a_held_pv_carries_a_caution() {
+    let caution = "caution: PV changes only every 5 samples";
+    let strong = Scenario {
+        valve: Box::new(Kano::params().s(8.0).j(0.0).check().expect("test data")),
+        noise_sigma: 0.1,
+        samples: 2000,
+        ..Scenario::default()
+    }
+    .simulate()
+    .expect("test data")
+    .to_loop_data();
+    let (a, plain) = answer_on(&strong);
     assert!(a.pv_held.is_none(), "{:?}", a.pv_held);
     assert_stiction(&plain, caution, false);
-    let (a, cautioned) = answer_on(&held);
+    let (a, cautioned) = answer_on(&held_every_5(&strong));
     assert_eq!(a.pv_held.map(|h| h.period), Some(5), "{:?}", a.pv_held);
     assert_stiction(&cautioned, caution, true);
     use monitoring::answer::held_caution;
     assert!(held_caution(detection::Verdict::NoStiction, a.pv_held).is_none());
     assert!(held_caution(detection::Verdict::Stiction, None).is_none());
+
+    let live = simulated(None).to_loop_data();
+    let (_, plain) = answer_on(&live);
+    assert_stiction(&plain, caution, false);
+    let held = held_every_5(&live);
+    let a = monitoring::analyse(&held, None, monitoring::Integrating::Auto);
+    let detected = a.detect(&held).detected;
+    assert_eq!(detected.verdict(), detection::Verdict::Inconclusive);
+    let reason = detected.reason();
+    assert!(
+        reason.starts_with("stiction (") && reason.contains("PV changes only every 5 samples"),
+        "{reason}"
+    );
+    assert!(
+        detected.score() < Some(monitoring::detect::HELD_STICTION_AT),
+        "{reason}"
+    );
 }

@@ -48,7 +48,7 @@ mod files;
 mod tables;
 use cv::{coefficients, print_cross_validated};
 use files::{dump_cases, write_cases};
-use tables::{paper_benchmark, reasons, trace_and_oracle};
+use tables::{held_thresholds, kind_table, paper_benchmark, reasons, trace_and_oracle};
 
 const USAGE: &str = "\
 usage: cargo xtask detect-calibrate [--train N] [--train-seed N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE] [--hold K]
@@ -274,65 +274,6 @@ fn decide_kind(pv: &[f64], op: &[f64], level_tag: bool) -> (bool, bool) {
         Some(yes) => (yes, true),
         None => (level_tag, false),
     }
-}
-
-/// How well the record alone tells integrating loops from self-regulating ones.
-fn kind_table(sets: &[(&str, Vec<Case>)]) {
-    println!(
-        "  {:24} {:>4}  {:>18}  {:>22}  {:>22}",
-        "population", "n", "decided by data", "right where decided", "right with tag as tie-break"
-    );
-    let mut all = (0, 0, 0, 0);
-    for (name, cases) in sets.iter().map(|(n, c)| (*n, c)) {
-        let n = cases.len();
-        let decided: Vec<&Case> = cases
-            .iter()
-            .filter(|c| c.kind_from_data.is_some())
-            .collect();
-        let right = decided
-            .iter()
-            .filter(|c| c.kind_from_data == Some(c.kind_integrating))
-            .count();
-        // tie: the level family carries `L` in its tag
-        let right_tag = right + (n - decided.len());
-        println!(
-            "  {name:24} {n:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
-            decided.len(),
-            100.0 * decided.len() as f64 / n.max(1) as f64,
-            100.0 * right as f64 / decided.len().max(1) as f64,
-            decided.len(),
-            100.0 * right_tag as f64 / n.max(1) as f64
-        );
-        all = (
-            all.0 + n,
-            all.1 + decided.len(),
-            all.2 + right,
-            all.3 + right_tag,
-        );
-    }
-    let every = || sets.iter().flat_map(|(_, c)| c.iter());
-    let called = |truth: bool, said: bool| {
-        every()
-            .filter(|c| c.kind_integrating == truth && c.kind_from_data == Some(said))
-            .count()
-    };
-    println!(
-        "  integrating loops called self-regulating by the data: {} of {}; self-regulating called integrating: {} of {}",
-        called(true, false),
-        every().filter(|c| c.kind_integrating).count(),
-        called(false, true),
-        every().filter(|c| !c.kind_integrating).count()
-    );
-    println!(
-        "  {:24} {:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
-        "every validation loop",
-        all.0,
-        all.1,
-        100.0 * all.1 as f64 / all.0.max(1) as f64,
-        100.0 * all.2 as f64 / all.1.max(1) as f64,
-        all.1,
-        100.0 * all.3 as f64 / all.0.max(1) as f64
-    );
 }
 
 /// Figures of one group of loops under one model.
@@ -706,13 +647,17 @@ struct Judged {
     score: f64,
     verdict: Verdict,
     reason: String,
+    /// The verdict before the rule for a PV held between updates
+    /// (`monitoring::detect::hold_on_held_pv`).
+    live: Verdict,
 }
 
 /// Score, verdict and reason of `case` under `model`, as the product gives them: the parts'
 /// rule ([`settle`]) and, when the record does not decide the loop kind on a validation loop
 /// judged as `--integrating auto` judges it, the kind rule of
 /// `monitoring::detect::hold_across_kinds` (a conclusive verdict stands unless the other
-/// kind's reading gives the opposite one).
+/// kind's reading gives the opposite one), then the rule for a PV held between updates
+/// (`monitoring::detect::hold_on_held_pv`).
 fn judge(case: &Case, model: &Model) -> Result<Judged> {
     let reg = case.registration()?;
     let mut d = settle(&reg, model, combine(&reg, case.outcomes.clone(), model));
@@ -734,10 +679,13 @@ fn judge(case: &Case, model: &Model) -> Result<Judged> {
             d.verdict = Verdict::Inconclusive;
         }
     }
+    let live = d.verdict;
+    let d = monitoring::detect::hold_on_held_pv(Some(&case.pv), d);
     Ok(Judged {
         score: d.score,
         verdict: d.verdict,
         reason: d.reason,
+        live,
     })
 }
 
@@ -883,7 +831,13 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     println!("\nthe model in detection/src/score.rs, as it is:");
     table(&valid)?;
 
-    let refs: Vec<&Case> = train.iter().collect();
+    let mut train = vec![("training", train)];
+    if hold > 1 {
+        judge_all(&mut train, &today)?;
+        println!("\nthe training loops with PV held over {hold} samples, the model as it is: each verdict's share right at a stricter score (monitoring::detect::HELD_STICTION_AT, HELD_NO_STICTION_AT):");
+        held_thresholds(&train[0].1)?;
+    }
+    let refs: Vec<&Case> = train[0].1.iter().collect();
     let model = fit(&refs, ridge)?;
     println!(
         "\nfitted on the training population ({} loops, ridge {ridge}):",
@@ -891,7 +845,6 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
     );
     print_model(&model);
     print_cross_validated(&refs, ridge)?;
-    let mut train = vec![("training", train)];
     judge_all(&mut train, &model)?;
     judge_all(&mut valid, &model)?;
     for (what, leave_out) in [

@@ -93,6 +93,49 @@ pub(super) fn reasons(sets: &[(&str, Vec<Case>)]) -> Result<()> {
     Ok(())
 }
 
+/// How often each verdict is right, at the product's thresholds, when it must also reach a
+/// stricter score: `stiction` at a score of `t` or more, `no-stiction` at `t` or less, over the
+/// loops of `cases` that can be judged (the verdicts before the rule for a PV held between
+/// updates). With `--hold K` it shows where `monitoring::detect::HELD_STICTION_AT` and
+/// `HELD_NO_STICTION_AT` come from (the loosest score on the grid at which the verdict is right
+/// at least as often as on the live training loops, over the training loops held over 5 and
+/// over 10 samples pooled).
+pub(super) fn held_thresholds(cases: &[Case]) -> Result<()> {
+    let mut judged = Vec::new();
+    for c in cases.iter().filter(|c| c.judgeable) {
+        let j = c.judged()?;
+        judged.push((j.live, j.score, c.sticky));
+    }
+    let row = |verdict: Verdict, keep: &dyn Fn(f64) -> bool| {
+        let kept: Vec<bool> = judged
+            .iter()
+            .filter(|(v, s, _)| *v == verdict && keep(*s))
+            .map(|(_, _, sticky)| *sticky == (verdict == Verdict::Stiction))
+            .collect();
+        let right = kept.iter().filter(|r| **r).count();
+        (right, kept.len())
+    };
+    println!("  stiction at or above   right            no-stiction at or below   right");
+    for k in 0..10 {
+        let (hi, lo) = (0.5 + 0.05 * k as f64, 0.5 - 0.05 * k as f64);
+        let (r1, n1) = row(Verdict::Stiction, &|s| s >= hi - 1e-9);
+        let (r2, n2) = row(Verdict::NoStiction, &|s| s <= lo + 1e-9);
+        let share = |r: usize, n: usize| {
+            if n == 0 {
+                "-".to_string()
+            } else {
+                format!("{:.1} %", 100.0 * r as f64 / n as f64)
+            }
+        };
+        println!(
+            "  {hi:>20.2}   {:>7} of {n1:>4}   {lo:>23.2}   {:>7} of {n2:>4}",
+            share(r1, n1),
+            share(r2, n2)
+        );
+    }
+    Ok(())
+}
+
 /// The no-trace label (from the free twin) against the oracle (the true valve position
 /// against OP through the Hammerstein model): how many sticky validation loops each flags and
 /// how they overlap.
@@ -240,4 +283,63 @@ pub(super) fn paper_benchmark(model: &Model) -> Result<()> {
         all.len()
     );
     Ok(())
+}
+
+/// How well the record alone tells integrating loops from self-regulating ones.
+pub(super) fn kind_table(sets: &[(&str, Vec<Case>)]) {
+    println!(
+        "  {:24} {:>4}  {:>18}  {:>22}  {:>22}",
+        "population", "n", "decided by data", "right where decided", "right with tag as tie-break"
+    );
+    let mut all = (0, 0, 0, 0);
+    for (name, cases) in sets.iter().map(|(n, c)| (*n, c)) {
+        let n = cases.len();
+        let decided: Vec<&Case> = cases
+            .iter()
+            .filter(|c| c.kind_from_data.is_some())
+            .collect();
+        let right = decided
+            .iter()
+            .filter(|c| c.kind_from_data == Some(c.kind_integrating))
+            .count();
+        // tie: the level family carries `L` in its tag
+        let right_tag = right + (n - decided.len());
+        println!(
+            "  {name:24} {n:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
+            decided.len(),
+            100.0 * decided.len() as f64 / n.max(1) as f64,
+            100.0 * right as f64 / decided.len().max(1) as f64,
+            decided.len(),
+            100.0 * right_tag as f64 / n.max(1) as f64
+        );
+        all = (
+            all.0 + n,
+            all.1 + decided.len(),
+            all.2 + right,
+            all.3 + right_tag,
+        );
+    }
+    let every = || sets.iter().flat_map(|(_, c)| c.iter());
+    let called = |truth: bool, said: bool| {
+        every()
+            .filter(|c| c.kind_integrating == truth && c.kind_from_data == Some(said))
+            .count()
+    };
+    println!(
+        "  integrating loops called self-regulating by the data: {} of {}; self-regulating called integrating: {} of {}",
+        called(true, false),
+        every().filter(|c| c.kind_integrating).count(),
+        called(false, true),
+        every().filter(|c| !c.kind_integrating).count()
+    );
+    println!(
+        "  {:24} {:>4}  {:>12} ({:>3.0} %)  {:>14.1} % of {:>3}  {:>20.1} %",
+        "every validation loop",
+        all.0,
+        all.1,
+        100.0 * all.1 as f64 / all.0.max(1) as f64,
+        100.0 * all.2 as f64 / all.1.max(1) as f64,
+        all.1,
+        100.0 * all.3 as f64 / all.0.max(1) as f64
+    );
 }
