@@ -75,7 +75,9 @@ usage: cargo xtask detect-calibrate [--train N] [--train-seed N] [--valid N] [--
                segments when the reader calls it compressed (to see which loops a change moves)
   --hold K     every loop's PV held over K samples (at each sample the value of the last
                multiple of K, as an analyser or a historian's step retrieval logs it), the
-               training population too: how much a held PV costs the detector";
+               training population too: how much a held PV costs the detector, and each
+               verdict's share right on the training loops at stricter scores (where
+               monitoring::detect::HELD_STICTION_AT and HELD_NO_STICTION_AT come from)";
 
 /// One labelled registration.
 #[derive(Clone)]
