@@ -573,8 +573,9 @@ pub struct Comparison {
     pub free_share: f64,
     /// `N ln(RSS_y / RSS₀)`: the likelihood ratio of the free valve against a valve that
     /// never moves (its MV constant, which explains none of the output beyond the nuisance
-    /// regressors). Below [`REGION_LR`] a valve stuck over the whole record explains the
-    /// output as well as a free one: PV shows no answer to OP's moves.
+    /// regressors). Below [`crate::score::MOVING_LR`] (χ²₃, the free valve's gain, lag and
+    /// delay) a valve stuck over the whole record explains the output as well as a free one:
+    /// PV shows no answer to OP's moves, and the verdict refuses `no-stiction`.
     pub lr_moving: f64,
     /// The largest S of the grid still in the output-error likelihood region: its best valve
     /// (over J and the two starts) within [`REGION_LR`] of the best model, free or sticky.

@@ -347,7 +347,6 @@ fn decide(e: Evidence, model: &Model) -> Detection {
     let stick_slip = says("stick-slip");
     let hammer_test = tests.iter().find(|t| t.name == "hammerstein");
     let s_upper = hammer_test.and_then(|t| t.value("S_upper"));
-    // A valve that never moves over the record explains PV as well as a free one.
     // A valve that never moves, or moves least (the widest band OP's range allows), explains
     // PV as well as a free one: PV shows no answer to OP's moves that a stuck valve would not.
     let stuck_fits = hammer_test.is_some_and(|t| {
