@@ -349,13 +349,13 @@ fn decide(e: Evidence, model: &Model) -> Detection {
     let s_upper = hammer_test.and_then(|t| t.value("S_upper"));
     // A valve that never moves, or moves least (the widest band OP's range allows), explains
     // PV as well as a free one: PV shows no answer to OP's moves that a stuck valve would not.
-    let stuck_fits = hammer_test.is_some_and(|t| {
-        let widest = t
-            .value("S_upper")
-            .zip(t.value("S_above"))
-            .is_some_and(|(upper, above)| upper > 0.0 && above <= upper);
-        widest || t.value("lr_moving").is_some_and(|lr| lr < MOVING_LR)
-    });
+    let widest = s_upper
+        .zip(hammer_test.and_then(|t| t.value("S_above")))
+        .is_some_and(|(upper, above)| upper > 0.0 && above <= upper);
+    let stuck_fits = widest
+        || hammer_test
+            .and_then(|t| t.value("lr_moving"))
+            .is_some_and(|lr| lr < MOVING_LR);
     let hammer = says("hammerstein");
     let judged = tests.iter().any(|t| t.statistic.is_some());
     let (lo, hi) = (model.no_stiction_at, model.stiction_at);

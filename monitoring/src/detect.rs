@@ -155,12 +155,15 @@ pub fn detect_loop(d: &LoopData, integrating: bool) -> Detected {
 /// the kind, holds only under both kinds ([`hold_across_kinds`]).
 pub fn detect_decided(d: &LoopData, kind: KindDecision) -> Detected {
     match try_detect(d, kind.integrating) {
-        Ok(det) => Detected::Ran(hold_on_held_pv(
-            d.pv.as_deref(),
-            hold_across_kinds(d, kind, det),
-        )),
+        Ok(det) => Detected::Ran(held_and_kinds(d, kind, det)),
         Err(e) => Detected::Failed(e),
     }
+}
+
+/// The rules every command's verdict on the record `d` passes after the detector's own: the
+/// kind tie ([`hold_across_kinds`]), then the held-PV thresholds ([`hold_on_held_pv`]).
+fn held_and_kinds(d: &LoopData, kind: KindDecision, det: Detection) -> Detection {
+    hold_on_held_pv(d.pv.as_deref(), hold_across_kinds(d, kind, det))
 }
 
 /// The detection `det` of the record `d` under the kind `kind` decided, with the decision's
@@ -223,10 +226,7 @@ pub struct DetectionView {
 pub fn detect_view(d: &LoopData, kind: KindDecision) -> DetectionView {
     match registration(d, kind.integrating) {
         Ok(reg) => {
-            let det = hold_on_held_pv(
-                d.pv.as_deref(),
-                hold_across_kinds(d, kind, detection::detect(&reg)),
-            );
+            let det = held_and_kinds(d, kind, detection::detect(&reg));
             DetectionView {
                 detected: Detected::Ran(det),
                 figures: Ok(figures_of(&reg)),
