@@ -216,13 +216,22 @@ fn test(rest: &[String]) -> Result<()> {
             .args(["test", "--workspace", "--exclude", "stiction-python"])
             .args(rest),
     )?;
-    // The short fuzz run (about a minute; `cargo xtask fuzz --minutes N` for a long one).
+    // The short fuzz run (about a minute; `cargo xtask fuzz --minutes N` for a long one). It
+    // runs xtask built in the test profile (optimised, with overflow checks and debug
+    // assertions), which reuses the crates the tests just compiled (the features are unified,
+    // xtask/Cargo.toml); a release build would compile the workspace once more.
     phase(
         5,
         5,
-        "a one-minute fuzz run (release build of xtask; `cargo xtask fuzz --minutes N` for more)",
+        "a one-minute fuzz run (xtask in the test profile; `cargo xtask fuzz --minutes N` for more)",
     );
-    fuzz_release(&["--minutes".to_string(), "1".to_string()])?;
+    in_profile(
+        "test",
+        "fuzz",
+        "XTASK_FUZZ_NO_RELEASE",
+        &["--minutes".to_string(), "1".to_string()],
+        fuzz::fuzz,
+    )?;
     eprintln!(
         "xtask test: all phases passed in {:.0} s (from xtask's start; building xtask itself, before it, is not counted)",
         started.elapsed().as_secs_f64()
@@ -245,8 +254,9 @@ fn tidy_rules() -> Result<()> {
             broken.len()
         );
     }
-    unify::check(&root).context("one build for the CLI and the Python extension")?;
-    eprintln!("xtask tidy: the sources, the layer order and ARCHITECTURE.md's size keep the rules; the CLI and the Python extension share every compiled crate");
+    unify::check(&root)
+        .context("one build for the CLI, the Python extension, xtask and the tests")?;
+    eprintln!("xtask tidy: the sources, the layer order and ARCHITECTURE.md's size keep the rules; the CLI, the Python extension, xtask and the tests share every compiled crate (report's png aside)");
     Ok(())
 }
 
@@ -265,22 +275,38 @@ fn in_release(
     run: fn(&[String]) -> Result<()>,
 ) -> Result<()> {
     if cfg!(debug_assertions) && std::env::var_os(no_release_env).is_none() {
-        return status(
-            cargo()
-                .env(no_release_env, "1")
-                .args([
-                    "run",
-                    "--quiet",
-                    "--release",
-                    "--package",
-                    "xtask",
-                    "--",
-                    task,
-                ])
-                .args(rest),
-        );
+        return in_profile("release", task, no_release_env, rest, run);
     }
     run(rest)
+}
+
+/// Run `task` in xtask built in the cargo `profile` (`release`, or `test`: optimised, with
+/// debug assertions), unless `no_release_env` is set: then here (the re-run itself).
+fn in_profile(
+    profile: &str,
+    task: &str,
+    no_release_env: &str,
+    rest: &[String],
+    run: fn(&[String]) -> Result<()>,
+) -> Result<()> {
+    if std::env::var_os(no_release_env).is_some() {
+        return run(rest);
+    }
+    status(
+        cargo()
+            .env(no_release_env, "1")
+            .args([
+                "run",
+                "--quiet",
+                "--profile",
+                profile,
+                "--package",
+                "xtask",
+                "--",
+                task,
+            ])
+            .args(rest),
+    )
 }
 
 /// The property tests' seed in `cargo xtask test` (see there).
