@@ -265,9 +265,10 @@ fn fuzz_release(rest: &[String]) -> Result<()> {
     in_release("fuzz", "XTASK_FUZZ_NO_RELEASE", rest, fuzz::fuzz)
 }
 
-/// Run `task` here when this xtask is an optimised build (or `no_release_env` is set),
+/// Run `task` here when this xtask is a release build (or `no_release_env` is set),
 /// otherwise re-run xtask itself in the release profile with that variable set: the
-/// compute-bound tasks would run the workspace crates unoptimised in `cargo xtask`'s build.
+/// compute-bound tasks (their figures are release-build figures) would run with debug
+/// assertions and overflow checks in `cargo xtask`'s build (the dev profile).
 fn in_release(
     task: &str,
     no_release_env: &str,
