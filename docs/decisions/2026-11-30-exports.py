@@ -1,7 +1,8 @@
 """Verdict flips between `stiction` and `no-stiction` under exports the parts' rule does not cover.
 
 Every second row from the second, every third row, the means of each two rows from the second
-and (records with regular time stamps) the record interpolated to half its interval, each
+and (records with regular time stamps) the record interpolated to half its interval and
+resampled (linear interpolation) to 0.75, 1.5 and 2.5 times its interval, each
 judged by `stiction detect --json` against the whole record's verdict; on the labelled plant
 registrations of ../shared/data/plant and the simulated loops of
 `cargo xtask detect-calibrate --no-plant --dump DUMP_DIR`. Needs numpy and pandas, and a
@@ -51,6 +52,12 @@ def variants(df):
             x = np.arange(len(df)); xi = np.arange(0, len(df) - 1 + 1e-9, 0.5)
             it = pd.DataFrame({c: np.interp(xi, x, df[c].values) for c in num})
             out['interpolated to half the interval'] = it[df.columns.intersection(it.columns)]
+            for f in (0.75, 1.5, 2.5):
+                ti = np.arange(df[t].values[0], df[t].values[-1] + 1e-9, dt[0] * f)
+                rs = pd.DataFrame({c: np.interp(ti, df[t].values, df[c].values) for c in num})
+                if 'MODE' in rs:
+                    rs['MODE'] = np.round(rs['MODE'])
+                out[f'resampled to {f} times the interval'] = rs[df.columns.intersection(rs.columns)]
     return out
 flips = {}; runs = {}
 for path in plant + sims:
