@@ -17,6 +17,9 @@
 //!   whose OP barely moves counts as wrong: it cannot be judged), the share of sticky and free
 //!   loops left inconclusive, and how many of the loops that cannot be judged got
 //!   `inconclusive`.
+//! * **The ceiling**: per population and loop kind, what an observer who knows everything of a
+//!   loop but its noise and disturbances can see ([`known_model_lr`]): its AUC, its sticky
+//!   loops that show nothing, and the score's AUC beside it ([`tables::ceiling`]).
 //! * **Loop kind**: the training population is fitted with each loop's own kind (known, like
 //!   its label); the validation populations are judged as `--integrating auto` judges a
 //!   record (decided by [`detection::kind::evidence`], a level's tag letter `L` breaking a
@@ -32,7 +35,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use datasets::simulate::population::{Family, Label, PopulationSpec};
+use datasets::simulate::population::{known_model_lr, Family, Label, PopulationSpec};
 use datasets::simulate::{Disturbance, PlantPreset, PlantSpec, Scenario};
 use detection::hammerstein::{oracle_lr, oracle_lr_integrating, REGION_LR};
 use detection::score::{
@@ -48,7 +51,7 @@ mod files;
 mod tables;
 use cv::{coefficients, print_cross_validated};
 use files::{dump_cases, write_cases};
-use tables::{held_thresholds, kind_table, paper_benchmark, reasons, trace_and_oracle};
+use tables::{ceiling, held_thresholds, kind_table, paper_benchmark, reasons, trace_and_oracle};
 
 const USAGE: &str = "\
 usage: cargo xtask detect-calibrate [--train N] [--train-seed N] [--valid N] [--ridge L] [--plant DIR] [--no-plant] [--integrating auto|truth] [--paper] [--dump DIR] [--cases FILE] [--hold K]
@@ -114,6 +117,10 @@ struct Case {
     /// Simulated sticky loops: how much better the true valve position explains the valve's
     /// proxy than OP does ([`detection::hammerstein::oracle_lr`]).
     oracle: Option<f64>,
+    /// Simulated loops: the log-likelihood ratio of the loop's own valve against a free one
+    /// for an observer who knows the plant, the noise's colour and the valve
+    /// ([`datasets::simulate::population::known_model_lr`]; 0 for a free valve).
+    known_model: Option<f64>,
 }
 
 impl Case {
@@ -142,6 +149,12 @@ struct Set {
     name: &'static str,
     spec: PopulationSpec,
 }
+
+/// Order of the AR model through which [`known_model_lr`] reads the disturbances: of 2, 8, 20,
+/// 40 and 80, the one whose ceiling AUC over the validation populations (400 loops each) was
+/// highest, overall and on the integrating loops (docs/decisions/2026-11-30-known-model-ceiling.md):
+/// an oracle is read at its best.
+const KNOWN_MODEL_ORDER: usize = 40;
 
 const TRAIN_FAMILIES: [Family; 3] = [Family::Flow, Family::Pressure, Family::Level];
 const TRAIN_TS: [f64; 2] = [2.0, 30.0];
@@ -244,6 +257,7 @@ fn population(set: &Set, n: usize, auto: bool, hold: usize) -> Result<(Vec<Case>
                 detection::kind::evidence(&l.sim.pv, &l.sim.op).and_then(|e| e.integrating);
             Case {
                 oracle,
+                known_model: known_model_lr(&l.sim, KNOWN_MODEL_ORDER),
                 what: format!("{} #{i}: {}", set.name, l.what),
                 sticky: matches!(l.label, Label::Sticky | Label::NoTrace),
                 no_trace: l.label == Label::NoTrace,
@@ -518,6 +532,7 @@ fn plant_cases(dir: &Path) -> Result<(Vec<Case>, Vec<String>)> {
             outcomes: Vec::new(),
             x: Vec::new(),
             oracle: None,
+            known_model: None,
             kind_from_data: None,
             no_trace: false,
             trace_lr: None,
@@ -875,6 +890,7 @@ pub fn detect_calibrate(rest: &[String]) -> Result<()> {
         reasons(sets)?;
     }
     trace_and_oracle(&valid);
+    ceiling(&valid)?;
 
     oracle_and_tests(&valid)?;
     if paper {

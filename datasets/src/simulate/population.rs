@@ -801,6 +801,9 @@ pub fn trace(sim: &SimulatedLoop, historian_var: (f64, f64)) -> Result<Trace, Da
     })
 }
 
+mod known_model;
+pub use known_model::known_model_lr;
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests;

@@ -195,6 +195,122 @@ pub(super) fn trace_and_oracle(valid: &[(&str, Vec<Case>)]) {
     }
 }
 
+/// The fewest `inconclusive` verdicts, as a share of `v`, at which two thresholds on the score
+/// are right on at least `share` of the conclusive (`score < lo`: `no-stiction`, `score >= hi`:
+/// `stiction`); `None` when no pair is. And the best right share with one threshold (none
+/// `inconclusive`).
+fn frontier(v: &[(f64, bool)], share: f64) -> (Option<f64>, f64) {
+    let mut v = v.to_vec();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n = v.len();
+    // the boundaries between distinct scores (and both ends)
+    let cuts: Vec<usize> = (0..=n)
+        .filter(|&i| i == 0 || i == n || v[i - 1].0 < v[i].0)
+        .collect();
+    // free loops below each cut, sticky loops from it on
+    let mut free_below = vec![0usize; n + 1];
+    for i in 0..n {
+        free_below[i + 1] = free_below[i] + usize::from(!v[i].1);
+    }
+    let sticky = v.iter().filter(|x| x.1).count();
+    let sticky_from = |j: usize| sticky - (j - free_below[j]);
+    let (mut least, mut single) = (None::<f64>, 0.0f64);
+    for (a, &i) in cuts.iter().enumerate() {
+        for &j in &cuts[a..] {
+            let conclusive = i + n - j;
+            if conclusive == 0 {
+                continue;
+            }
+            let right = (free_below[i] + sticky_from(j)) as f64 / conclusive as f64;
+            if i == j {
+                single = single.max(right);
+            }
+            if right >= share {
+                let out = (j - i) as f64 / n.max(1) as f64;
+                least = Some(least.map_or(out, |l| l.min(out)));
+            }
+        }
+    }
+    (least, single)
+}
+
+/// What the data can show at best: per population and loop kind, the AUC of the observer that
+/// knows everything but the noise ([`known_model_lr`]), its sticky loops that show nothing
+/// (ratio below χ²₁(95 %)), how often it is right with one threshold and how many
+/// `inconclusive` it needs to be right on 95 % of the conclusive; beside it the shipped
+/// score's AUC on the same loops, and on the loops the observer sees.
+pub(super) fn ceiling(valid: &[(&str, Vec<Case>)]) -> Result<()> {
+    println!(
+        "
+what the data can show at best: an observer who knows the plant, the noise's colour, the valve and its parameters, not the noise (known_model_lr, AR order {KNOWN_MODEL_ORDER}); loops that can be judged:"
+    );
+    println!(
+        "| population | loops | sticky / free | its AUC | sticky, ratio < {} | right, one threshold | inconclusive for 95 % right | the score's AUC | the score's AUC where it sees |",
+        datasets::simulate::population::NO_TRACE_LR
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let all: Vec<&Case> = valid.iter().flat_map(|(_, c)| c.iter()).collect();
+    let mut groups: Vec<(String, Vec<&Case>)> = Vec::new();
+    for (name, cases) in valid {
+        for (kind, integrating) in [("self-regulating", false), ("integrating", true)] {
+            let g: Vec<&Case> = cases
+                .iter()
+                .filter(|c| c.kind_integrating == integrating)
+                .collect();
+            groups.push((format!("{name} | {kind}"), g));
+        }
+    }
+    for (kind, integrating) in [
+        ("self-regulating", Some(false)),
+        ("integrating", Some(true)),
+        ("all", None),
+    ] {
+        let g: Vec<&Case> = all
+            .iter()
+            .copied()
+            .filter(|c| integrating.is_none_or(|i| c.kind_integrating == i))
+            .collect();
+        groups.push((format!("**every validation loop** | {kind}"), g));
+    }
+    for (name, g) in groups {
+        let g: Vec<&Case> = g
+            .into_iter()
+            .filter(|c| c.judgeable && c.known_model.is_some())
+            .collect();
+        if g.is_empty() {
+            continue;
+        }
+        let lr = |c: &Case| c.known_model.unwrap_or(0.0);
+        let known: Vec<(f64, bool)> = g.iter().map(|c| (lr(c), c.sticky)).collect();
+        let hidden = g
+            .iter()
+            .filter(|c| c.sticky && lr(c) < datasets::simulate::population::NO_TRACE_LR)
+            .count();
+        let sticky = g.iter().filter(|c| c.sticky).count();
+        let (least, single) = frontier(&known, 0.95);
+        let mut score = Vec::new();
+        let mut seen = Vec::new();
+        for c in &g {
+            let s = c.judged()?.score;
+            score.push((s, c.sticky));
+            if !c.sticky || lr(c) >= datasets::simulate::population::NO_TRACE_LR {
+                seen.push((s, c.sticky));
+            }
+        }
+        println!(
+            "| {name} | {} / {} | {} | {hidden} of {sticky} | {:.1} % | {} | {} | {} |",
+            sticky,
+            g.len() - sticky,
+            fmt_auc(auc(&known)),
+            100.0 * single,
+            least.map_or("never".to_string(), |l| format!("{:.1} %", 100.0 * l)),
+            fmt_auc(auc(&score)),
+            fmt_auc(auc(&seen)),
+        );
+    }
+    Ok(())
+}
+
 /// The valves of [`paper_benchmark`]: `(S, J)`.
 const PAPER_VALVES: [(f64, f64); 4] = [(0.0, 0.0), (1.0, 0.5), (3.0, 1.0), (9.0, 3.0)];
 /// Seeds per cell of [`paper_benchmark`].
@@ -228,6 +344,7 @@ fn paper_case(preset: PlantPreset, a: f64, s: f64, j: f64, seed: u64) -> Result<
         judgeable: true,
         kind_integrating: false,
         oracle: None,
+        known_model: None,
         kind_from_data: None,
         sp: Some(sim.sp),
         pv: sim.pv,
@@ -342,4 +459,29 @@ pub(super) fn kind_table(sets: &[(&str, Vec<Case>)]) {
         all.1,
         100.0 * all.3 as f64 / all.0.max(1) as f64
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::frontier;
+
+    #[test]
+    fn the_frontier_counts_the_inconclusive_it_needs() {
+        // separated: one threshold is right on everything
+        let apart = [(0.0, false), (0.0, false), (5.0, true), (9.0, true)];
+        assert_eq!(frontier(&apart, 0.95), (Some(0.0), 1.0));
+        // one sticky loop scores as the free ones do: one threshold is right on 4 of 5 at
+        // best, and 95 % needs the tied three left out (the sticky one cannot be told apart)
+        let tied = [
+            (0.0, false),
+            (0.0, false),
+            (0.0, true),
+            (5.0, true),
+            (9.0, true),
+        ];
+        assert_eq!(frontier(&tied, 0.95), (Some(0.6), 0.8));
+        // no pair reaches it when every sticky loop scores below every free one
+        let backwards = [(1.0, true), (2.0, false)];
+        assert_eq!(frontier(&backwards, 0.95), (None, 0.5));
+    }
 }

@@ -1,4 +1,4 @@
-use super::super::{Controller, Setpoint};
+use super::super::{Controller, Plant, Setpoint};
 use super::*;
 
 #[test]
@@ -200,4 +200,35 @@ fn fixed_settings_are_kept_and_a_quiet_op_cannot_be_judged() {
             l.what
         );
     }
+}
+
+#[test]
+fn the_known_model_sees_a_limit_cycle_and_a_free_valve_replays_as_op() {
+    // the paper's S = 9, J = 3 valve, cycling: its own valve explains PV far better than a
+    // free one through the same plant
+    let cycling = loop_with(9.0, 3.0, 0.1, 0.5, true);
+    let lr = known_model_lr(&cycling, 20).unwrap();
+    assert!(lr > 100.0, "{lr}");
+    // a free valve replays as OP itself: the two hypotheses are one
+    let free = loop_with(0.0, 0.0, 0.1, 0.5, true);
+    assert_eq!(known_model_lr(&free, 20), Some(0.0));
+    // a valve that follows OP's swings of tens of % almost as a free one does shows little
+    let dithered = loop_with(0.5, 0.2, 2.0, 2.0, false);
+    let lr = known_model_lr(&dithered, 20).unwrap();
+    assert!(lr < NO_TRACE_LR, "{lr}");
+    // too short for the noise model
+    let mut short = free.clone();
+    for v in [&mut short.pv, &mut short.op, &mut short.mv] {
+        v.truncate(80);
+    }
+    assert_eq!(known_model_lr(&short, 20), None);
+}
+
+#[test]
+fn a_noise_model_without_a_stable_inverse_is_left_to_the_ar_model() {
+    assert!(known_model::minimum_phase(&[1.0, -0.9]));
+    assert!(known_model::minimum_phase(&[1.0, -1.4, 0.55, -0.06]));
+    // the paper's C has roots outside the unit circle
+    assert!(!known_model::minimum_phase(&Plant::paper().c));
+    assert!(!known_model::minimum_phase(&[1.0, -1.0]));
 }
