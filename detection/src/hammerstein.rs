@@ -652,7 +652,9 @@ struct Setup {
 
 impl Setup {
     /// `None` when the record is too short or OP's range is below twice the smallest S.
-    fn new(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Setup> {
+    /// `integrating`: `y` is a level's rate, and the noise model is that path's
+    /// ([`noise::noise_order`]).
+    fn new(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64], integrating: bool) -> Option<Setup> {
         let n = y.len().min(op.len()).min(pv.len());
         let (y, pv, op) = (&y[..n], &pv[..n], &op[..n]);
         let start = MAX_DELAY + 2;
@@ -680,7 +682,7 @@ impl Setup {
         let lag2 = second_lag(&tg, &u0);
         // the noise model from the free valve through that lag, then every fit on the
         // whitened output, from the row where the model's lags are inside the record
-        let phi = noise_model(&tg, &input(&u0, &[], lag2));
+        let phi = noise_model(&tg, &input(&u0, &[], lag2), noise::noise_order(integrating));
         let start = start + phi.len();
         let mut tg = Target::new(&whiten(&y, &phi), start, omegas);
         tg.sign = sign;
@@ -699,8 +701,15 @@ impl Setup {
 /// Compare the best sticky Kano valve of the grid with a free valve: the output-error models
 /// on `y` (PV, or ΔPV for an integrating loop), the one-step ARX models on PV itself (`pv`, an
 /// ARX represents an integrator), both against `op` (all aligned). `None` when OP's range is
-/// below twice the smallest S or a residual vanishes.
-pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comparison> {
+/// below twice the smallest S or a residual vanishes. `integrating`: `y` is a level's rate,
+/// whitened by that path's noise model (of order 40 where the record allows).
+pub fn compare(
+    y: &[f64],
+    pv: &[f64],
+    op: &[f64],
+    omegas: &[f64],
+    integrating: bool,
+) -> Option<Comparison> {
     let Setup {
         tg,
         z,
@@ -709,7 +718,7 @@ pub fn compare(y: &[f64], pv: &[f64], op: &[f64], omegas: &[f64]) -> Option<Comp
         rows,
         phi,
         lag2,
-    } = Setup::new(y, pv, op, omegas)?;
+    } = Setup::new(y, pv, op, omegas, integrating)?;
     let arx_tg = ArxTarget::new(&z, tg.start);
     let arx0 = best_arx(&arx_tg, &input(&u0, &phi, lag2));
     let (fits, mut profile) = valve_fits(&tg, &arx_tg, &u0, range, &phi, lag2, true)?.0;
@@ -891,7 +900,7 @@ impl DetectionTest for Hammerstein {
             omegas,
             rate_filter,
         } = inputs(reg)?;
-        let Some(c) = compare(&y, pv, op, &omegas) else {
+        let Some(c) = compare(&y, pv, op, &omegas, reg.is_integrating()) else {
             return Ok(TestOutcome::new(
                 "hammerstein",
                 None,

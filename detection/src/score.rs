@@ -120,7 +120,7 @@ pub const FEATURES: [Feature; 9] = [
 /// The calibrated intercept: printed by `cargo xtask detect-calibrate` (the training
 /// population of `datasets::simulate::population`, 960 loops, seed 1, ridge 0.1, every weight
 /// at least 0; no plant registration in the fit).
-pub const INTERCEPT: f64 = 0.8660;
+pub const INTERCEPT: f64 = 0.9252;
 /// The calibrated weights, one per entry of [`FEATURES`] (same fit as [`INTERCEPT`]). Each
 /// feature is centred so that a positive value is its test's evidence for stiction, and the
 /// fit keeps every weight at least 0 ([`crate::logistic::fit_nonnegative`]): a feature whose
@@ -129,7 +129,7 @@ pub const INTERCEPT: f64 = 0.8660;
 /// own verdicts). `free_explains` is the free valve's explained share negated, so its weight
 /// too is at least 0.
 pub const WEIGHTS: [f64; 9] = [
-    0.2409, 0.0000, 3.9050, 0.0000, 0.5378, 0.9215, 4.8919, 1.4269, 3.0256,
+    0.2725, 0.0000, 3.7961, 0.0000, 0.5592, 0.9381, 5.1095, 1.2235, 3.0681,
 ];
 
 /// Score at or above which the verdict may be `stiction`: with [`NO_STICTION_AT`], the pair

@@ -97,7 +97,7 @@ pub struct DetectionRecord {
 /// ([`hold_on_held_pv`]); chosen with [`HELD_NO_STICTION_AT`] by `cargo xtask
 /// detect-calibrate --hold K`: over the training loops with PV held over 5 and over 10 samples
 /// (pooled), the loosest score on a 0.05 grid at which each verdict is right at least as
-/// often as the verdicts on the live training loops (90.9 %), so that a verdict on a held PV
+/// often as the verdicts on the live training loops (90.6 %), so that a verdict on a held PV
 /// means what it means on a live one (`docs/decisions/2026-11-30-held-thresholds.md`).
 pub const HELD_STICTION_AT: f64 = 0.85;
 /// Score at or below which a `no-stiction` verdict stands on a PV held between updates (as

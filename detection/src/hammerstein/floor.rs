@@ -117,7 +117,7 @@ pub fn floor(
         rows,
         phi,
         lag2,
-    }) = Setup::new(&y, pv, op, &omegas)
+    }) = Setup::new(&y, pv, op, &omegas, reg.is_integrating())
     else {
         return Ok(None);
     };

@@ -1,7 +1,7 @@
 //! What the true valve position shows through the test's own model: the oracle of the
 //! simulated populations ([`oracle_lr`], [`oracle_lr_integrating`]).
 
-use super::noise::{input, noise_model, second_lag, whiten};
+use super::noise::{input, noise_model, noise_order, second_lag, whiten};
 use super::rate::rate_noise_filter;
 use super::{best_oe_many, mean, Target, MAX_DELAY};
 
@@ -14,6 +14,11 @@ use super::{best_oe_many, mean, Target, MAX_DELAY};
 /// dithered by OP's noise, or held still by a constant load). `None` when a residual vanishes
 /// or the record is too short.
 pub fn oracle_lr(y: &[f64], op: &[f64], mv: &[f64]) -> Option<f64> {
+    oracle_lr_kind(y, op, mv, false)
+}
+
+/// [`oracle_lr`] through the noise model of a loop of that kind (`noise::noise_order`).
+fn oracle_lr_kind(y: &[f64], op: &[f64], mv: &[f64], integrating: bool) -> Option<f64> {
     let n = y.len().min(op.len()).min(mv.len());
     let start = MAX_DELAY + 2;
     if n < start + 20 {
@@ -28,7 +33,7 @@ pub fn oracle_lr(y: &[f64], op: &[f64], mv: &[f64]) -> Option<f64> {
     // them
     let raw = Target::new(&y, start, &[]);
     let lag2 = second_lag(&raw, &u);
-    let phi = noise_model(&raw, &input(&u, &[], lag2));
+    let phi = noise_model(&raw, &input(&u, &[], lag2), noise_order(integrating));
     let start = start + phi.len();
     let tg = Target::new(&whiten(&y, &phi), start, &[]);
     let fits = best_oe_many(&tg, &[&input(&u, &phi, lag2), &input(&m, &phi, lag2)]);
@@ -49,5 +54,5 @@ pub fn oracle_lr_integrating(pv: &[f64], op: &[f64], mv: &[f64]) -> Option<f64> 
     }
     let rate: Vec<f64> = pv[..n].windows(2).map(|w| w[1] - w[0]).collect();
     let (filtered, _) = rate_noise_filter(&rate, &op[1..n], &[]);
-    oracle_lr(&filtered, &op[1..n], &mv[1..n])
+    oracle_lr_kind(&filtered, &op[1..n], &mv[1..n], true)
 }

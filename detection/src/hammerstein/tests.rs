@@ -235,11 +235,11 @@ fn the_dominant_frequency_is_the_sine_in_the_noise() {
 #[test]
 fn a_sticky_valve_is_found_and_a_free_one_is_not() {
     let (y, op) = process(true);
-    let c = compare(&y, &y, &op, &[]).unwrap();
+    let c = compare(&y, &y, &op, &[], false).unwrap();
     assert!(c.lr > STICTION_LR, "{c:?}");
     assert!((c.s - 3.0).abs() <= 1.0, "{c:?}");
     let (y, op) = process(false);
-    let c = compare(&y, &y, &op, &[]).unwrap();
+    let c = compare(&y, &y, &op, &[], false).unwrap();
     assert!(c.lr < FREE_LR, "{c:?}");
 }
 
@@ -499,10 +499,26 @@ fn the_noise_model_is_the_disturbance_s_ar_model() {
     let y = centered(&(0..n).map(|t| x[t] + d[t]).collect::<Vec<_>>());
     let u0 = centered(&op);
     let tg = Target::new(&y, MAX_DELAY + 2, &[]);
-    let phi = super::noise::noise_model(&tg, &u0);
+    let phi = super::noise::noise_model(&tg, &u0, super::noise::noise_order(false));
     assert_eq!(phi.len(), 8);
     assert!((phi[0] - 0.9).abs() < 0.05, "{phi:?}");
     assert!(phi[1..].iter().all(|v| v.abs() < 0.08), "{phi:?}");
+    // the integrating path's longer model: the same pole, the rest near 0
+    let long = super::noise::noise_model(&tg, &u0, super::noise::noise_order(true));
+    assert_eq!(long.len(), 40);
+    assert!((long[0] - 0.9).abs() < 0.05, "{long:?}");
+    assert!(long[1..].iter().all(|v| v.abs() < 0.08), "{long:?}");
+    // on a short record at most one coefficient per five rows, never below 8 (and none where
+    // five rows per coefficient of 8 are not there)
+    for (rows, order) in [(150, 30), (60, 12), (40, 8), (35, 0)] {
+        let short = Target::new(&y[..MAX_DELAY + 2 + rows], MAX_DELAY + 2, &[]);
+        let phi = super::noise::noise_model(
+            &short,
+            &u0[..MAX_DELAY + 2 + rows],
+            super::noise::noise_order(true),
+        );
+        assert_eq!(phi.len(), order, "{rows} rows");
+    }
     // in place, from the last sample back, as the forward definition
     let w = super::noise::whiten(&y, &phi);
     for t in 0..n {
@@ -554,11 +570,11 @@ fn a_second_lag_is_the_process_s_and_no_deadband_takes_its_place() {
         let mut tg = Target::new(&y, MAX_DELAY + 2, &[]);
         tg.sign = 1.0;
         assert_eq!(second_lag(&tg, &u0), 0.9, "seed {seed}");
-        let c = compare(&pv, &pv, &op, &[]).unwrap();
+        let c = compare(&pv, &pv, &op, &[], false).unwrap();
         assert!(c.lr < FREE_LR && c.lr_arx < FREE_LR, "seed {seed}: {c:?}");
         // a sticky valve on the same process is still found
         let (pv, op) = two_lag_loop((2.0, 1.0), seed);
-        let c = compare(&pv, &pv, &op, &[]).unwrap();
+        let c = compare(&pv, &pv, &op, &[], false).unwrap();
         assert!(
             c.lr > STICTION_LR && c.lr_arx > STICTION_LR_ARX,
             "seed {seed}: {c:?}"

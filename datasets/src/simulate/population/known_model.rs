@@ -70,26 +70,29 @@ pub fn known_model_lr(sim: &SimulatedLoop, order: usize) -> Option<f64> {
     (sticky.is_finite() && sticky > 0.0 && free > 0.0).then(|| rows * (free / sticky).ln())
 }
 
-/// The plant's deterministic output `q^-d B/A u` from rest at the first sample.
-fn plant_output(plant: &Plant, u: &[f64]) -> Vec<f64> {
-    let mut y = vec![0.0; u.len()];
-    for k in 0..u.len() {
-        let past: f64 = plant
-            .a
+/// `x` through `q^-delay num / den` from rest (`den` monic).
+fn filter(num: &[f64], delay: usize, den: &[f64], x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; x.len()];
+    for k in 0..x.len() {
+        let input: f64 = num
+            .iter()
+            .enumerate()
+            .filter_map(|(i, b)| k.checked_sub(i + delay).map(|j| b * x[j]))
+            .sum();
+        let past: f64 = den
             .iter()
             .enumerate()
             .skip(1)
             .filter_map(|(i, a)| k.checked_sub(i).map(|j| a * y[j]))
             .sum();
-        let input: f64 = plant
-            .b
-            .iter()
-            .enumerate()
-            .filter_map(|(i, b)| k.checked_sub(i + plant.delay).map(|j| b * u[j]))
-            .sum();
         y[k] = input - past;
     }
     y
+}
+
+/// The plant's deterministic output `q^-d B/A u` from rest at the first sample.
+fn plant_output(plant: &Plant, u: &[f64]) -> Vec<f64> {
+    filter(&plant.b, plant.delay, &plant.a, u)
 }
 
 /// Whether every root of the monic polynomial `c` (in powers of `q⁻¹`) lies inside the unit
@@ -118,23 +121,7 @@ fn noise_inverse(plant: &Plant, s: &[f64]) -> Vec<f64> {
     } else {
         &[1.0]
     };
-    let mut v = vec![0.0; s.len()];
-    for k in 0..s.len() {
-        let ma: f64 = plant
-            .a
-            .iter()
-            .enumerate()
-            .filter_map(|(i, a)| k.checked_sub(i).map(|j| a * s[j]))
-            .sum();
-        let ar: f64 = c
-            .iter()
-            .enumerate()
-            .skip(1)
-            .filter_map(|(i, c)| k.checked_sub(i).map(|j| c * v[j]))
-            .sum();
-        v[k] = ma - ar;
-    }
-    v
+    filter(&plant.a, 0, c, s)
 }
 
 /// The residual sum of squares of `y − x` (its mean out) through an AR(`order`) model fitted
