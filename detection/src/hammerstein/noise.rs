@@ -249,8 +249,12 @@ pub(super) fn noise_model(tg: &Target, u0: &[f64], order: usize) -> Vec<f64> {
 fn ar_fit(r: &[f64], order: usize) -> Vec<f64> {
     let mut g = nalgebra::DMatrix::<f64>::zeros(order, order);
     let mut b = nalgebra::DVector::<f64>::zeros(order);
+    // one buffer for the lagged values, refilled row by row (no allocation per row)
+    let mut past = nalgebra::DVector::<f64>::zeros(order);
     for t in order..r.len() {
-        let past = nalgebra::DVector::<f64>::from_fn(order, |i, _| r[t - 1 - i]);
+        for (i, p) in past.iter_mut().enumerate() {
+            *p = r[t - 1 - i];
+        }
         g.ger(1.0, &past, &past, 1.0);
         b.axpy(r[t], &past, 1.0);
     }
