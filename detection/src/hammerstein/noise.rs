@@ -227,22 +227,7 @@ pub(super) fn noise_model(tg: &Target, u0: &[f64], order: usize) -> Vec<f64> {
             ry.iter().zip(&x).map(|(y, v)| y - k * v).collect()
         }
     };
-    if order != NOISE_ORDER {
-        return ar_fit(&r, order);
-    }
-    let mut g = nalgebra::SMatrix::<f64, NOISE_ORDER, NOISE_ORDER>::zeros();
-    let mut b = nalgebra::SVector::<f64, NOISE_ORDER>::zeros();
-    for t in NOISE_ORDER..r.len() {
-        let past = nalgebra::SVector::<f64, NOISE_ORDER>::from_fn(|i, _| r[t - 1 - i]);
-        g.ger(1.0, &past, &past, 1.0);
-        b.axpy(r[t], &past, 1.0);
-    }
-    let ridge = 1e-9 * g.trace().max(f64::MIN_POSITIVE);
-    g += nalgebra::SMatrix::<f64, NOISE_ORDER, NOISE_ORDER>::identity() * ridge;
-    g.cholesky()
-        .map(|c| c.solve(&b).iter().copied().collect())
-        .filter(|phi: &Vec<f64>| phi.iter().all(|v| v.is_finite()))
-        .unwrap_or_default()
+    ar_fit(&r, order)
 }
 
 /// The AR(`order`) model of `r` by least squares (ridge 1e-9 of the Gram matrix's trace).
